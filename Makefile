@@ -1,0 +1,41 @@
+# Two commands for a fresh Debian 12 machine (see README.md):
+#   make demo   install everything, then run the default scene
+#   make test   install everything, then run the tests serial and under mpirun -n 2
+# Re-running either is fast: each install step is skipped when nothing changed.
+
+APT_PACKAGES := python3-dolfinx python3-gmsh python3-meshio python3-matplotlib python3-scipy \
+                python3-pytest python3-venv python3-setuptools openmpi-bin
+VENV   := .venv
+PY     := $(VENV)/bin/python
+SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+# OpenMPI refuses to start as root unless told; CI and containers run as root.
+MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 mpirun
+PYTEST_ARGS ?=
+
+.PHONY: demo test install system-packages clean
+
+demo: install
+	$(VENV)/bin/fem-bounce run
+
+test: install
+	$(PY) -m pytest -q $(PYTEST_ARGS)
+	$(MPIRUN) -n 2 $(PY) tests/mpirun_pytest.py -q -m mpi $(PYTEST_ARGS)
+
+install: $(VENV)/.installed
+
+system-packages: .apt-stamp
+.apt-stamp:
+	@dpkg -s $(APT_PACKAGES) >/dev/null 2>&1 || { \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $(APT_PACKAGES); }
+	@touch $@
+
+# dolfinx and petsc4py import only under Debian's /usr/bin/python3, so the
+# virtual environment is made from it and sees the system packages.
+$(VENV)/.installed: .apt-stamp pyproject.toml
+	@[ -x $(PY) ] || /usr/bin/python3 -m venv --system-site-packages $(VENV)
+	$(PY) -m pip install -q --no-build-isolation --no-deps -e .
+	@touch $@
+
+clean:
+	rm -rf $(VENV) .apt-stamp *.egg-info
