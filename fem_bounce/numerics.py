@@ -1,0 +1,53 @@
+"""Numerical settings per model: the `[numerics.<model>]` tables of a scene.
+
+Only numbers live here (no solver code), so a scene can be loaded and checked
+without importing dolfinx.  Lengths given "per diameter" scale with the sphere.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+def _setting(default, lo, hi, unit=""):
+    return field(default=default, metadata={"range": (lo, hi, False, False), "unit": unit})
+
+
+@dataclass(frozen=True)
+class OdeNumerics:
+    rtol: float = _setting(1e-5, 1e-12, 1e-2)
+    atol: float = _setting(1e-8, 1e-16, 1e-3)  # on gap [m], velocity [m/s] and history states
+    history_modes_per_decade: int = _setting(3, 1, 10)
+    output_interval: float = _setting(0.0, 0.0, 1.0, "s")  # trajectory rows; 0: every step
+
+
+@dataclass(frozen=True)
+class FdNumerics:
+    cells_per_diameter: float = _setting(16.0, 2.0, 400.0)
+    cfl: float = _setting(0.4, 0.01, 5.0)  # dt = cfl * cell size / speed scale
+    interface_width: float = _setting(1.5, 0.25, 10.0)  # smoothing width of the indicator, in fine cells
+    far_field: float = _setting(10.0, 2.0, 100.0)  # unbounded domain: radius and headroom, in diameters
+    coarse_cells_per_diameter: float = _setting(1.0, 0.05, 400.0)  # far from the sphere's path
+    output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
+    checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
+
+
+@dataclass(frozen=True)
+class IbNumerics:
+    cells_per_diameter: float = _setting(32.0, 4.0, 400.0)
+    levels: int = _setting(3, 1, 8)  # nested grids, each twice as coarse
+    cfl: float = _setting(0.4, 0.01, 5.0)
+    far_field: float = _setting(4.0, 1.0, 100.0)  # finest grid extent beyond the path, in diameters
+    output_every: int = _setting(0, 0, 10**9)
+
+
+@dataclass(frozen=True)
+class AleNumerics:
+    cells_per_diameter: float = _setting(16.0, 2.0, 400.0)
+    cfl: float = _setting(0.4, 0.01, 5.0)
+    far_field: float = _setting(10.0, 2.0, 100.0)
+    min_quality: float = _setting(0.2, 0.0, 1.0)  # remesh below this element quality
+    min_gap_cells: float = _setting(2.0, 0.5, 100.0)  # cells kept across the gap near contact
+    output_every: int = _setting(0, 0, 10**9)
+
+
+

@@ -1,0 +1,435 @@
+"""What is simulated: a scene is everything a run needs, in SI units.
+
+A scene is a tree of frozen dataclasses loaded from TOML (a shipped preset or a
+user's file), checked on load, and written back resolved beside every result.
+Each field declares its allowed range once (`_positive`, `_between`, `_choice`),
+so the error for a bad value names the field and the range.  Dimensionless
+groups (Re, St, density ratio) are derived here and never typed in twice.
+
+Conventions: z points away from the wall, velocity is positive upward, the gap
+`h` is the distance from the sphere's lowest point to the wall and
+`delta = h / D` (paper section 4).
+"""
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import tomllib
+import typing
+import warnings
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from . import numerics
+
+AXISYMMETRIC_RE_LIMIT = 250.0  # paper section 2.1: axisymmetric flow below Re ~ 210-250
+
+
+class SceneError(ValueError):
+    """A scene value is missing, unknown or out of range; the message names the key."""
+
+
+# -- declarative field ranges ------------------------------------------------------------
+
+
+def _positive(default: Any = dataclasses.MISSING, unit: str = "") -> Any:
+    return field(default=default, metadata={"range": (0.0, None, True, False), "unit": unit})
+
+
+def _between(lo, hi, default: Any = dataclasses.MISSING, unit: str = "", open_ends=False) -> Any:
+    return field(default=default, metadata={"range": (lo, hi, open_ends, open_ends), "unit": unit})
+
+
+def _choice(*options: str) -> Any:
+    return field(default=options[0], metadata={"choices": options})
+
+
+def _allowed(lo, hi, lo_open, hi_open) -> str:
+    if hi is None:
+        return f"{'>' if lo_open else '>='} {lo:g}"
+    return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+
+
+def _check_fields(obj: Any, prefix: str) -> None:
+    """Check every declared range of a dataclass tree; raise SceneError naming the key."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        key = f"{prefix}{f.name}"
+        if dataclasses.is_dataclass(value):
+            _check_fields(value, key + ".")
+            continue
+        if "choices" in f.metadata and value not in f.metadata["choices"]:
+            allowed = ", ".join(repr(c) for c in f.metadata["choices"])
+            raise SceneError(f"{key} = {value!r} is not one of {allowed}")
+        if "range" in f.metadata and value is not None:
+            lo, hi, lo_open, hi_open = f.metadata["range"]
+            unit = (" " + f.metadata["unit"]) if f.metadata.get("unit") else ""
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise SceneError(f"{key} = {value!r} must be a finite number")
+            below = value <= lo if lo_open else value < lo
+            above = hi is not None and (value >= hi if hi_open else value > hi)
+            if below or above:
+                raise SceneError(
+                    f"{key} = {value!r}{unit} is out of range: allowed {_allowed(lo, hi, lo_open, hi_open)}{unit}"
+                )
+
+
+# -- the scene -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Sphere:
+    diameter: float = _positive(unit="m")
+    density: float = _positive(unit="kg/m3")
+    youngs_modulus: float = _positive(unit="Pa")
+    poisson_ratio: float = _between(0.0, 0.5, open_ends=True)
+
+    @property
+    def radius(self) -> float:
+        return 0.5 * self.diameter
+
+    @property
+    def volume(self) -> float:
+        return math.pi * self.diameter**3 / 6.0
+
+    @property
+    def mass(self) -> float:
+        return self.density * self.volume
+
+
+@dataclass(frozen=True)
+class Liquid:
+    density: float = _positive(unit="kg/m3")
+    viscosity: float = _positive(unit="Pa s")
+
+    @property
+    def kinematic_viscosity(self) -> float:
+        return self.viscosity / self.density
+
+
+@dataclass(frozen=True)
+class Wall:
+    youngs_modulus: float = _positive(unit="Pa")
+    poisson_ratio: float = _between(0.0, 0.5, open_ends=True)
+
+
+@dataclass(frozen=True)
+class Container:
+    """The axisymmetric domain's walls; both None means unbounded (slip far field)."""
+
+    radius: float | None = _positive(None, unit="m")
+    height: float | None = _positive(None, unit="m")
+
+    @property
+    def unbounded(self) -> bool:
+        return self.radius is None
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The paper's contact model (section 4) and the choices physics.md section 3 leaves open."""
+
+    delta_sl: float = _positive(0.2)
+    delta_ss: float = _positive(0.017)
+    dry_restitution: float = _between(0.0, 1.0, 0.97)
+    wall_drag: str = _choice("brenner", "simple")
+    inertial_factor: str = _choice("schiller-naumann", "none")
+    added_mass: str = _choice("first-image", "exact")
+    history: str = _choice("mei-adrian", "off")
+    history_wall_factor: str = _choice("one", "drag-scaled")
+    history_c1: float = _positive(2.0)
+    history_c2: float = _between(0.0, 10.0, 0.105)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """free: falls and bounces.  fixed: held at the initial gap, its surface moving at
+    `velocity` (a quasi-steady approach) in a stream of `stream_velocity` entering
+    through z = 0.  prescribed: moves with `velocity`, or along the (t, velocity) CSV
+    `series` when one is given."""
+
+    mode: str = _choice("free", "fixed", "prescribed")
+    velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s")
+    stream_velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s")
+    series: str = ""
+
+
+@dataclass(frozen=True)
+class Run:
+    end_time: float = _positive(1.0, unit="s")
+    bounces: int = _between(0, 1000, 0)  # stop at the apex after this many impacts; 0: no limit
+
+
+@dataclass(frozen=True)
+class Reference:
+    """Measured values to compare with, where the scene has them."""
+
+    impact_speed: float | None = _positive(None, unit="m/s")  # first impact, 2 ms mean
+    re_first: float | None = _positive(None)
+    re_second: float | None = _positive(None)
+    peak_speed: float | None = _positive(None, unit="m/s")
+    velocity_curve: str = ""  # name of a packaged CSV (t_s, u_m_per_s)
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class Numerics:
+    ode: numerics.OdeNumerics = field(default_factory=numerics.OdeNumerics)
+    fd: numerics.FdNumerics = field(default_factory=numerics.FdNumerics)
+    ib: numerics.IbNumerics = field(default_factory=numerics.IbNumerics)
+    ale: numerics.AleNumerics = field(default_factory=numerics.AleNumerics)
+
+
+@dataclass(frozen=True)
+class Scene:
+    sphere: Sphere
+    liquid: Liquid
+    wall: Wall
+    initial_gap: float = _positive(unit="m")
+    gravity: float = _between(0.0, 1000.0, 9.81, unit="m/s2")
+    name: str = "scene"
+    description: str = ""
+    container: Container = field(default_factory=Container)
+    contact: Contact = field(default_factory=Contact)
+    motion: Motion = field(default_factory=Motion)
+    run: Run = field(default_factory=Run)
+    reference: Reference = field(default_factory=Reference)
+    numerics: Numerics = field(default_factory=Numerics)
+
+    # -- derived quantities (never typed in) --
+    @property
+    def density_ratio(self) -> float:
+        return self.sphere.density / self.liquid.density
+
+    @property
+    def displaced_mass(self) -> float:
+        """m_l: the mass of liquid the sphere displaces [kg]."""
+        return self.liquid.density * self.sphere.volume
+
+    @property
+    def time_unit(self) -> float:
+        """sqrt(D/g), the paper's time unit [s]."""
+        return math.sqrt(self.sphere.diameter / self.gravity)
+
+    @property
+    def velocity_unit(self) -> float:
+        """sqrt(g D), the paper's velocity unit [m/s]."""
+        return math.sqrt(self.gravity * self.sphere.diameter)
+
+    def reynolds(self, speed: float) -> float:
+        return self.liquid.density * self.sphere.diameter * abs(speed) / self.liquid.viscosity
+
+    def stokes(self, speed: float) -> float:
+        """St = (1/9) (rho_p / rho_l) Re (paper section 1)."""
+        return self.density_ratio * self.reynolds(speed) / 9.0
+
+    def terminal_speed(self) -> float:
+        """Unbounded settling speed with Schiller-Naumann drag [m/s]."""
+        weight = abs(self.sphere.mass - self.displaced_mass) * self.gravity
+        drag_unit = 3.0 * math.pi * self.liquid.viscosity * self.sphere.diameter
+        speed = weight / drag_unit
+        for _ in range(100):  # fixed point on the inertial factor; converges in a few
+            speed = weight / (drag_unit * (1.0 + 0.15 * self.reynolds(speed) ** 0.687))
+        return speed
+
+    def estimated_impact_speed(self) -> float:
+        """Upper estimate: inviscid fall over the initial gap, capped by the terminal speed."""
+        m_eff = self.sphere.mass + 0.5 * self.displaced_mass
+        accel = abs(self.sphere.mass - self.displaced_mass) * self.gravity / m_eff
+        return min(math.sqrt(2.0 * accel * self.initial_gap), self.terminal_speed())
+
+    def validate(self) -> "Scene":
+        """Check every range and the relations between fields; return self."""
+        _check_fields(self, "")
+        c = self.contact
+        if c.delta_ss >= c.delta_sl:
+            raise SceneError(
+                f"contact.delta_ss = {c.delta_ss:g} must be smaller than contact.delta_sl = {c.delta_sl:g}"
+            )
+        box = self.container
+        if (box.radius is None) != (box.height is None):
+            raise SceneError("container needs both radius and height, or neither (unbounded)")
+        if box.radius is not None:
+            if box.radius <= self.sphere.radius:
+                raise SceneError(f"container.radius = {box.radius:g} m must exceed the sphere radius")
+            if box.height <= self.initial_gap + self.sphere.diameter:
+                raise SceneError(
+                    f"container.height = {box.height:g} m must exceed initial_gap + diameter "
+                    f"= {self.initial_gap + self.sphere.diameter:g} m"
+                )
+        if self.motion.mode == "prescribed" and self.motion.series:
+            if not Path(self.motion.series).is_file():
+                raise SceneError(f"motion.series = {self.motion.series!r}: no such file")
+        speed = max(abs(self.motion.velocity), abs(self.motion.stream_velocity))
+        re_max = self.reynolds(self.estimated_impact_speed() if self.motion.mode == "free" else speed)
+        if re_max > AXISYMMETRIC_RE_LIMIT:
+            warnings.warn(
+                f"scene {self.name!r}: estimated Re = {re_max:.0f} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
+                "where the flow stops being axisymmetric (paper section 2.1)",
+                stacklevel=2,
+            )
+        return self
+
+    def replace(self, **changes: Any) -> "Scene":
+        """A copy with dotted keys changed, e.g. replace(**{"sphere.density": 8000.0})."""
+        return from_dict(_set_dotted(to_dict(self), changes), name=self.name)
+
+
+# -- TOML in and out -------------------------------------------------------------------
+
+
+def _build(cls, data: dict, prefix: str):
+    if not isinstance(data, dict):
+        raise SceneError(f"{prefix.rstrip('.')} must be a table")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    hints = typing.get_type_hints(cls)
+    kwargs = {}
+    for key, value in data.items():
+        if key not in fields:
+            near = difflib.get_close_matches(key, list(fields), n=1)
+            hint = f"; did you mean {prefix}{near[0]}?" if near else f"; known: {', '.join(fields)}"
+            raise SceneError(f"unknown key {prefix}{key}{hint}")
+        if dataclasses.is_dataclass(hints[key]):
+            kwargs[key] = _build(hints[key], value, f"{prefix}{key}.")
+        else:
+            kwargs[key] = _coerce(value, hints[key], prefix + key)
+    for name, f in fields.items():
+        if name not in kwargs and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            raise SceneError(f"missing key {prefix}{name}")
+    return cls(**kwargs)
+
+
+def _coerce(value: Any, expected: Any, key: str) -> Any:
+    """TOML writes 1 for 1.0 and users write 8000 for 8000.0: accept both, reject the rest."""
+    allowed = typing.get_args(expected) or (expected,)
+    if isinstance(value, bool) or not isinstance(value, allowed):
+        if float in allowed and isinstance(value, int) and not isinstance(value, bool):
+            return float(value)
+        if int in allowed and isinstance(value, float) and value.is_integer():
+            return int(value)
+        kind = "a string" if str in allowed else "a number"
+        raise SceneError(f"{key} = {value!r} must be {kind}")
+    return value
+
+
+def from_dict(data: dict, name: str | None = None) -> Scene:
+    """Build and validate a scene from nested dicts (TOML tables)."""
+    data = dict(data)
+    if data.get("container") == "unbounded":
+        data["container"] = {}
+    if name is not None and "name" not in data:
+        data["name"] = name
+    return _build(Scene, data, "").validate()
+
+
+def to_dict(scene: Scene) -> dict:
+    """Nested dicts with None values left out; the inverse of from_dict."""
+    def strip(obj):
+        if isinstance(obj, dict):
+            return {k: strip(v) for k, v in obj.items() if v is not None}
+        return obj
+    return strip(dataclasses.asdict(scene))
+
+
+def dumps(scene: Scene) -> str:
+    """The scene as TOML that loads back to an equal scene."""
+    data = to_dict(scene)
+    first = ["name", "description", "initial_gap", "gravity"]
+    data = {**{k: data.pop(k) for k in first}, **data}
+    lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
+    if scene.container.unbounded:
+        lines.append('container = "unbounded"')
+        data.pop("container")
+
+    def table(path: str, sub: dict):
+        scalars = [(k, v) for k, v in sub.items() if not isinstance(v, dict)]
+        if scalars:
+            lines.append(f"\n[{path}]")
+            lines.extend(f"{k} = {_toml_value(v)}" for k, v in scalars)
+        for k, v in sub.items():
+            if isinstance(v, dict):
+                table(f"{path}.{k}", v)
+
+    for key, value in data.items():
+        if isinstance(value, dict):
+            table(key, value)
+    return "\n".join(lines) + "\n"
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and value != 0.0 and not 1e-4 <= abs(value) < 1e5:
+        return min((f"{value:.{p}e}" for p in range(17) if float(f"{value:.{p}e}") == value), key=len)
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    raise TypeError(f"cannot write {value!r} to TOML")
+
+
+def _set_dotted(data: dict, changes: dict[str, Any]) -> dict:
+    for dotted, value in changes.items():
+        node = data
+        *parents, leaf = dotted.split(".")
+        for part in parents:
+            if part == "container" and node.get(part) == "unbounded":
+                node[part] = {}
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise SceneError(f"{dotted}: {part} is not a table")
+        node[leaf] = value
+    return data
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """'sphere.density=8000' -> ('sphere.density', 8000); values parse as TOML, else as strings."""
+    key, sep, raw = text.partition("=")
+    if not sep or not key.strip():
+        raise SceneError(f"--set {text!r}: expected key=value, e.g. sphere.density=8000")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()
+    return key.strip(), value
+
+
+# -- presets and files ---------------------------------------------------------------------
+
+
+def preset_names() -> list[str]:
+    files = resources.files("fem_bounce") / "presets"
+    return sorted(p.name[:-5] for p in files.iterdir() if p.name.endswith(".toml"))
+
+
+def preset_text(name: str) -> str:
+    path = resources.files("fem_bounce") / "presets" / f"{name}.toml"
+    if not path.is_file():
+        near = difflib.get_close_matches(name, preset_names(), n=1)
+        hint = f"; did you mean {near[0]}?" if near else "; see `fem-bounce scenes`"
+        raise SceneError(f"unknown scene {name!r}: not a preset nor a file{hint}")
+    return path.read_text()
+
+
+def load(source: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
+    """A scene from a preset name or a TOML file, with dotted-key overrides applied."""
+    path = Path(source)
+    if path.suffix == ".toml" or path.is_file():
+        if not path.is_file():
+            raise SceneError(f"scene file {str(path)!r} does not exist")
+        text, default_name = path.read_text(), path.stem
+    else:
+        text, default_name = preset_text(str(source)), str(source)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(f"{source}: not valid TOML ({err})") from None
+    data.setdefault("name", default_name)
+    if overrides:
+        data = _set_dotted(data, overrides)
+    return from_dict(data)
+
+
