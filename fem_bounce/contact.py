@@ -1,0 +1,75 @@
+"""The paper's contact model (Li, Hunt & Colonius 2011, section 4), shared by every solver.
+
+- Liquid-solid blend (eq. 4.5-4.6): f_sl = H f_thr + (1 - H) f_sim,
+  H(delta) = 1 / (1 + exp(10 (delta / delta_sl - 1))).
+- Elastic force (eq. 4.7-4.9): f_ss = e_d W_o F(delta / delta_ss), with the Hertz
+  peak force W_o = (4/3) a^2 E* (5 pi rho_p V_I^2 / (4 E*))^(3/5) fixed at the
+  impact speed V_I recorded when the gap first falls to delta_ss, and
+  F(x) = (exp(-x) - exp(-1)) / (1 - exp(-1)) on [0, 1], zero beyond.
+
+With W_o fixed during one contact, f_ss depends on position only: it stores and
+returns energy, and all dissipation comes from the liquid (physics.md 2.2).
+"""
+from __future__ import annotations
+
+import math
+
+from .scene import Scene
+from .theory import TheoryForces
+
+_E_INV = math.exp(-1.0)
+
+
+def blend(delta: float, delta_sl: float) -> float:
+    """H(delta / delta_sl): 1 at contact, 1/2 at delta_sl, 0 far away."""
+    x = 10.0 * (delta / delta_sl - 1.0)
+    return 0.0 if x > 700.0 else 1.0 / (1.0 + math.exp(x))
+
+
+def elastic_shape(x: float) -> float:
+    """F(x) of eq. 4.9; continued past x < 0 (penetration) by the same exponential."""
+    return 0.0 if x >= 1.0 else (math.exp(-x) - _E_INV) / (1.0 - _E_INV)
+
+
+def reduced_modulus(e1: float, nu1: float, e2: float, nu2: float) -> float:
+    """E* = [(1 - nu1^2)/E1 + (1 - nu2^2)/E2]^-1 [Pa]."""
+    return 1.0 / ((1.0 - nu1**2) / e1 + (1.0 - nu2**2) / e2)
+
+
+class ContactModel:
+    """One scene's contact model: the blend, the elastic force and the theory forces."""
+
+    def __init__(self, scene: Scene):
+        c = scene.contact
+        self.delta_sl = c.delta_sl
+        self.delta_ss = c.delta_ss
+        self.dry_restitution = c.dry_restitution
+        self.diameter = scene.sphere.diameter
+        self.sphere_density = scene.sphere.density
+        self.radius = scene.sphere.radius
+        self.e_star = reduced_modulus(
+            scene.sphere.youngs_modulus, scene.sphere.poisson_ratio, scene.wall.youngs_modulus, scene.wall.poisson_ratio
+        )
+        self.theory = TheoryForces(scene)
+
+    @property
+    def contact_gap(self) -> float:
+        """delta_ss D: where the elastic force starts [m]."""
+        return self.delta_ss * self.diameter
+
+    @property
+    def blend_gap(self) -> float:
+        """delta_sl D: where f_thr and f_sim carry equal weight [m]."""
+        return self.delta_sl * self.diameter
+
+    def blend(self, gap: float) -> float:
+        return blend(gap / self.diameter, self.delta_sl)
+
+    def hertz_force(self, impact_speed: float) -> float:
+        """W_o (eq. 4.7) [N]."""
+        strain = 5.0 * math.pi * self.sphere_density * impact_speed**2 / (4.0 * self.e_star)
+        return 4.0 / 3.0 * self.radius**2 * self.e_star * strain**0.6
+
+    def elastic(self, gap: float, hertz_force: float) -> float:
+        """f_ss = e_d W_o F(delta / delta_ss), pushing away from the wall [N]."""
+        return self.dry_restitution * hertz_force * elastic_shape(gap / self.contact_gap)
