@@ -1,0 +1,427 @@
+"""The sphere's equation of motion (paper eq. 4.10), advanced with PETSc TS.
+
+    m_p dV/dt = f_sl + f_ss - (m_p - m_l) g,    f_sl = H f_thr + (1 - H) f_sim,
+
+with V positive away from the wall.  f_thr contains the added mass
+-C_M(delta) m_l dV/dt and the history force, which depends on dV/dt through
+exponential modes z_i' = dV/dt - z_i / T_i (theory.history_modes).  A resolved
+model hands in its force for the coming fluid step linearised in the sphere's
+acceleration, f_sim = explicit - added_mass dV/dt (FluidForce), so the coupling
+is implicit and stays stable for light spheres.  Everything is written as one
+implicit system G(t, y, y') = 0, y = [h, V, z_1..z_n], for an adaptive
+Rosenbrock-W integrator (TSROSW) whose steps sub-cycle inside a fluid step: the
+elastic contact lasts microseconds, a fluid step a millisecond.
+
+TS events locate the gap crossing delta_ss (W_o is fixed there from the
+crossing speed), the minimum gap (impact) and the apex after a rebound; a small
+state machine turns them into Impact and Rebound records.
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from petsc4py import PETSc
+
+from .contact import ContactModel
+from .scene import Scene, SceneError
+
+IMPACT_WINDOW = 2e-3  # s: the paper's impact speed is the mean over the 2 ms before the minimum gap
+
+
+@dataclass(frozen=True)
+class FluidForce:
+    """A resolved model's force on the sphere over one fluid step [N, kg]:
+    f_sim = explicit - added_mass * dV/dt."""
+
+    explicit: float
+    added_mass: float = 0.0
+
+
+@dataclass
+class Impact:
+    time: float  # of the minimum gap [s]
+    impact_speed: float  # mean speed over the 2 ms before the minimum gap [m/s]
+    peak_speed: float  # largest approach speed since the previous apex [m/s]
+    contact_speed: float  # speed when the gap fell to delta_ss (sets W_o) [m/s]
+    Re: float  # from impact_speed
+    St: float  # from impact_speed
+    min_gap: float  # [m]
+
+
+@dataclass
+class Rebound:
+    """What follows an impact.  `restitution` compares like with like as a camera sees it:
+    rebound_speed (mean over the 2 ms after the minimum gap) / impact_speed (mean over the
+    2 ms before it, as the paper's Table 2).  `peak_restitution` is the ratio of the peak
+    speeds, after leaving contact and on approach (physics.md section 5)."""
+
+    restitution: float  # 0: no rebound
+    rebound_speed: float  # mean over the 2 ms after the minimum gap [m/s], >= 0
+    peak_rebound_speed: float  # largest speed away from the wall after the impact [m/s]
+    peak_restitution: float
+    apex_gap: float | None  # [m]; None when the sphere never left contact
+    apex_time: float | None  # [s]
+
+
+class PenetrationError(RuntimeError):
+    """The sphere reached the wall (gap <= 0): the contact model was overwhelmed."""
+
+
+class SphereIntegrator:
+    """Advances one sphere; the same object serves the ODE, fd, ib and ale models."""
+
+    def __init__(self, scene: Scene, contact: ContactModel | None = None, resolved: bool = False,
+                 stop_after_impacts: int = 0):
+        if scene.initial_gap <= scene.contact.delta_ss * scene.sphere.diameter:
+            raise SceneError("initial_gap must exceed contact.delta_ss * sphere.diameter (start outside contact)")
+        self.scene = scene
+        self.contact = contact or ContactModel(scene)
+        self.theory = self.contact.theory
+        self.resolved = resolved  # f_sim comes from a flow solver (else f_sim = f_thr)
+        self.mode = scene.motion.mode
+        self.sphere_mass = scene.sphere.mass
+        self.weight = (scene.sphere.mass - scene.displaced_mass) * scene.gravity  # net, toward the wall
+        self.diameter = scene.sphere.diameter
+        self._prescribed = _prescribed_velocity(scene)
+        self.fluid = FluidForce(0.0, 0.0)
+        self.observers: list[Callable[[dict], None]] = []
+        self.impacts: list[Impact] = []
+        self.rebounds: list[Rebound] = []
+        self.done = False  # the scene's bounce limit (or stop_after_impacts) was reached
+        self.stop_after_impacts = stop_after_impacts
+        self._stop_at = math.inf
+        self.steps = 0
+        # contact and bounce state machine
+        self.in_contact = False
+        self.hertz_force = 0.0  # W_o of the current contact [N]
+        self._contact_speed = 0.0
+        self._phase = "approach"  # or "rebound"
+        self._entered_contact = False  # during this approach
+        self._left_contact = False  # since the last impact
+        self._peak_speed = 0.0
+        self._rebound_speed = 0.0
+        self._log_t: list[float] = []
+        self._log_h: list[float] = []
+        self._log_v: list[float] = []
+        self._build_ts()
+
+    # -- the implicit system ------------------------------------------------------------
+    @property
+    def n(self) -> int:
+        return 2 + self.theory.n_history
+
+    def _build_ts(self) -> None:
+        n = self.n
+        self.y = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
+        v0 = self._prescribed(0.0)[0] if self.mode != "free" else 0.0
+        self.y.setArray(np.r_[self.scene.initial_gap, v0, np.zeros(n - 2)])
+        self._jac = PETSc.Mat().createDense([n, n], comm=PETSc.COMM_SELF)
+        self._jac.setUp()
+        ts = PETSc.TS().create(comm=PETSc.COMM_SELF)
+        ts.setOptionsPrefix("sphere_")
+        ts.setType(PETSc.TS.Type.ROSW)
+        ts.setIFunction(self._ifunction, None)
+        ts.setIJacobian(self._ijacobian, self._jac)
+        opts = self.scene.numerics.ode
+        # Without f_ss lubrication stops the sphere ~1e-11 m from the wall: the gap's absolute
+        # tolerance is 1e-6 of the others so the relative one governs down there.
+        atol = self.y.duplicate()
+        atol.set(opts.atol)
+        atol.setValue(0, 1e-6 * opts.atol)
+        ts.setTolerances(rtol=opts.rtol, atol=atol)
+        ts.setTime(0.0)
+        ts.setTimeStep(1e-3 * self.scene.time_unit)
+        ts.setMaxSteps(2**31 - 1)
+        ts.setMaxSNESFailures(-1)
+        ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+        _default_option("sphere_ts_adapt_dt_max", 0.02 * self.scene.time_unit)
+        # After an event PETSc 3.18 resumes with the rest of the interrupted step, unchecked by the
+        # error control; inside the stiff contact that lost 0.5 % of the energy.  Restart tiny instead.
+        _default_option("sphere_ts_event_post_event_step", 1e-7 * self.scene.time_unit)
+        ts.getSNES().getKSP().setType("preonly")
+        ts.getSNES().getKSP().getPC().setType("lu")
+        if self.mode == "free":
+            ts.setEventHandler([0, 0, -1], [False, False, True], self._indicators, self._post_event)
+            ts.setEventTolerances(1e-9)  # dimensionless; 1e-12 made PETSc 3.18 take dt = 0 steps
+        ts.setPostStep(self._post_step)
+        ts.setFromOptions()
+        self.ts = ts
+
+    def _terms(self, h: float, v: float, z: np.ndarray) -> dict:
+        """Every force term that does not need dV/dt [N], and C_M m_l [kg]."""
+        th = self.theory
+        return dict(
+            blend=self.contact.blend(h) if self.resolved else 1.0,
+            c_m=th.added_mass(h)[0],
+            drag=th.drag(h, v),
+            history=th.history(h, v, z),
+            am_velocity=th.added_mass_velocity_term(h, v),
+            elastic=self.contact.elastic(h, self.hertz_force) if self.in_contact else 0.0,
+        )
+
+    def _balance(self, t: float, h: float, v: float, z: np.ndarray) -> tuple[float, float]:
+        """(M, R): the equation of motion reads M dV/dt = R."""
+        if self.mode != "free":
+            return 1.0, self._prescribed(t)[1]
+        f = self._terms(h, v, z)
+        blend = f["blend"]
+        fluid = self.fluid if self.resolved else FluidForce(0.0)
+        mass = self.sphere_mass + blend * f["c_m"] + (1.0 - blend) * fluid.added_mass
+        rhs = blend * (f["drag"] + f["history"] + f["am_velocity"]) + (1.0 - blend) * fluid.explicit
+        return mass, rhs + f["elastic"] - self.weight
+
+    def _ifunction(self, ts, t, y, ydot, f) -> None:
+        h, v, *z = y.array_r
+        hdot, vdot, *zdot = ydot.array_r
+        z, zdot = np.asarray(z), np.asarray(zdot)
+        mass, rhs = self._balance(t, h, v, z)
+        out = np.empty(self.n)
+        out[0] = hdot - (0.0 if self.mode == "fixed" else v)
+        out[1] = mass * vdot - rhs
+        out[2:] = zdot - vdot + z / self.theory.history_times[: len(z)]
+        f.setArray(out)
+
+    def _ijacobian(self, ts, t, y, ydot, a, A, P) -> bool:
+        h, v, *z = y.array_r
+        z = np.asarray(z)
+        vdot = ydot.array_r[1]
+        n = self.n
+        jac = np.zeros((n, n))
+        jac[0, 0] = a
+        jac[0, 1] = 0.0 if self.mode == "fixed" else -1.0
+
+        def g1(hh, vv, zz):
+            mass, rhs = self._balance(t, hh, vv, zz)
+            return mass * vdot - rhs
+
+        base = g1(h, v, z)
+        mass, _ = self._balance(t, h, v, z)
+        dh = 1e-7 * max(abs(h), self.diameter * 1e-3)
+        dv = 1e-7 * max(abs(v), 1e-3)
+        jac[1, 0] = (g1(h + dh, v, z) - base) / dh
+        jac[1, 1] = (g1(h, v + dv, z) - base) / dv + a * mass
+        if n > 2:
+            if self.mode == "free":
+                blend = self.contact.blend(h) if self.resolved else 1.0
+                jac[1, 2:] = blend * self.theory.history_coefficients(h, v)
+            jac[2:, 1] = -a
+            jac[2:, 2:] = np.diag(a + 1.0 / self.theory.history_times)
+        P.setValues(range(n), range(n), jac.ravel())
+        P.assemble()
+        if A != P:
+            A.assemble()
+        return True
+
+    # -- events and records ---------------------------------------------------------------
+    def _indicators(self, ts, t, y, values) -> None:
+        h, v = y.array_r[:2]
+        values[0] = (h - self.contact.contact_gap) / self.diameter
+        values[1] = v / self.scene.velocity_unit
+        values[2] = h / self.diameter
+
+    def _post_event(self, ts, events, t, y, forward) -> None:
+        h, v = y.array_r[:2]
+        for event in events:
+            if event == 0:
+                self._contact_crossing(h, v)
+            elif event == 1:
+                self._turning_point(t, h)
+            else:
+                raise PenetrationError(f"the sphere reached the wall at t = {t:.6g} s (gap {h:.3g} m)")
+
+    def _contact_crossing(self, h: float, v: float) -> None:
+        if not self.in_contact and v < 0.0:
+            self.in_contact = True
+            self._entered_contact = True
+            self._contact_speed = -v
+            self.hertz_force = self.contact.hertz_force(-v)
+        elif self.in_contact and v > 0.0:
+            self.in_contact = False
+            self._left_contact = True
+
+    def _turning_point(self, t: float, h: float) -> None:
+        """A sign change of V: the minimum gap of an impact, or the apex of a rebound.
+        PETSc may report one crossing more than once; the phases make that harmless."""
+        if self._phase == "approach" and self._entered_contact:
+            impact_speed = self._mean_speed_before(t)
+            self.impacts.append(Impact(
+                time=t, impact_speed=impact_speed, peak_speed=self._peak_speed, contact_speed=self._contact_speed,
+                Re=self.scene.reynolds(impact_speed), St=self.scene.stokes(impact_speed), min_gap=h,
+            ))
+            self._phase, self._left_contact, self._rebound_speed = "rebound", False, 0.0
+            if self.stop_after_impacts and len(self.impacts) >= self.stop_after_impacts:
+                self._stop_at = t
+        elif self._phase == "rebound" and self._left_contact:
+            self.rebounds.append(self._rebound(apex_gap=h, apex_time=t))
+            self._phase, self._entered_contact, self._peak_speed = "approach", False, 0.0
+            bounces = self.scene.run.bounces
+            if bounces and len(self.rebounds) >= bounces:
+                self._stop_at = self.impacts[-1].time + IMPACT_WINDOW  # complete the rebound's 2 ms window
+
+    def _rebound(self, apex_gap: float | None, apex_time: float | None) -> Rebound:
+        impact = self.impacts[-1]
+        return Rebound(restitution=0.0, rebound_speed=0.0, peak_rebound_speed=self._rebound_speed,
+                       peak_restitution=self._rebound_speed / impact.peak_speed, apex_gap=apex_gap,
+                       apex_time=apex_time)
+
+    def _gap_at(self, t: float) -> float:
+        return _hermite(self._log_t, self._log_h, self._log_v, t)
+
+    def _mean_speed_before(self, t: float) -> float:
+        """(h(t - 2 ms) - h(t)) / 2 ms from the step log (cubic Hermite between steps)."""
+        t0 = max(t - IMPACT_WINDOW, self._log_t[0])
+        return (self._gap_at(t0) - self._gap_at(t)) / max(t - t0, 1e-300)
+
+    def _post_step(self, ts) -> None:
+        t = ts.getTime()
+        h, v, *z = ts.getSolution().array_r
+        self.steps += 1
+        self._log_t.append(t)
+        self._log_h.append(h)
+        self._log_v.append(v)
+        if self._phase == "approach":
+            self._peak_speed = max(self._peak_speed, -v)
+        else:
+            self._rebound_speed = max(self._rebound_speed, v)
+        if self.observers:
+            row = self.row(t, h, v, np.asarray(z))
+            for observer in self.observers:
+                observer(row)
+        if t >= self._stop_at:
+            self.done = True
+        if self.done:
+            ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
+
+    def row(self, t: float, h: float, v: float, z: np.ndarray) -> dict:
+        """Gap, velocity, acceleration and every force term at one instant [SI].
+        Under fixed or prescribed motion the forces are those along the imposed path."""
+        mass, rhs = self._balance(t, h, v, z)
+        accel = rhs / mass
+        f = self._terms(h, v, z)
+        added_mass = -f["c_m"] * accel + f["am_velocity"]
+        theory = f["drag"] + f["history"] + added_mass
+        sim = self.fluid.explicit - self.fluid.added_mass * accel if self.resolved else theory
+        blend = f["blend"]
+        return dict(t=t, gap=h, velocity=v, acceleration=accel, f_drag=f["drag"], f_history=f["history"],
+                    f_added_mass=added_mass, f_theory=theory, f_sim=sim, blend=blend,
+                    f_liquid=blend * theory + (1.0 - blend) * sim, f_elastic=f["elastic"])
+
+    # -- driving it -----------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return self.ts.getTime()
+
+    @property
+    def gap(self) -> float:
+        return float(self.y.array_r[0])
+
+    @property
+    def velocity(self) -> float:
+        return float(self.y.array_r[1])
+
+    def current_row(self) -> dict:
+        h, v, *z = self.y.array_r
+        return self.row(self.time, h, v, np.asarray(z))
+
+    def advance(self, t_end: float, fluid: FluidForce | None = None) -> None:
+        """Integrate to t_end (or until the bounce limit), with f_sim linearised as `fluid`."""
+        if fluid is not None:
+            self.fluid = fluid
+        if self.done or t_end <= self.time:
+            return
+        if self.steps == 0:
+            self._post_step_initial()
+        self.ts.setMaxTime(t_end)
+        self.ts.solve(self.y)
+        h = self.gap
+        if not math.isfinite(h) or not math.isfinite(self.velocity):
+            raise FloatingPointError(f"the sphere state became {h}, {self.velocity} at t = {self.time:.6g} s")
+
+    def _post_step_initial(self) -> None:
+        """Log and report the initial state as the first row."""
+        h, v, *z = self.y.array_r
+        self._log_t.append(0.0)
+        self._log_h.append(h)
+        self._log_v.append(v)
+        for observer in self.observers:
+            observer(self.row(0.0, h, v, np.asarray(z)))
+
+    def finish(self) -> None:
+        """Close the records: 2 ms rebound means, and restitution 0 for an impact that never left contact."""
+        if len(self.rebounds) < len(self.impacts) and not self._left_contact:
+            self.rebounds.append(self._rebound(None, None))
+        for impact, rebound in zip(self.impacts, self.rebounds):
+            if rebound.apex_gap is None:
+                continue
+            t1 = min(impact.time + IMPACT_WINDOW, self._log_t[-1])
+            speed = max((self._gap_at(t1) - impact.min_gap) / max(t1 - impact.time, 1e-300), 0.0)
+            rebound.rebound_speed = speed
+            rebound.restitution = speed / impact.impact_speed
+
+    # -- checkpoints ----------------------------------------------------------------------------
+    def state_dict(self) -> dict:
+        names = ["in_contact", "hertz_force", "_contact_speed", "_phase", "_entered_contact", "_left_contact",
+                 "_peak_speed", "_rebound_speed", "_stop_at", "done", "steps"]
+        return dict(
+            time=self.time, y=self.y.array_r.tolist(), step_size=self.ts.getTimeStep(),
+            machine={k: getattr(self, k) for k in names},
+            log=[self._log_t, self._log_h, self._log_v],
+            impacts=[dataclasses.asdict(i) for i in self.impacts],
+            rebounds=[dataclasses.asdict(r) for r in self.rebounds],
+        )
+
+    def load_state_dict(self, state: dict) -> None:
+        self.ts.setTime(state["time"])
+        self.ts.setTimeStep(state["step_size"])
+        self.y.setArray(state["y"])
+        for key, value in state["machine"].items():
+            setattr(self, key, value)
+        self._log_t, self._log_h, self._log_v = (list(x) for x in state["log"])
+        self.impacts = [Impact(**i) for i in state["impacts"]]
+        self.rebounds = [Rebound(**r) for r in state["rebounds"]]
+
+
+def _default_option(name: str, value) -> None:
+    """Set a PETSc option unless the user already gave it on the command line."""
+    options = PETSc.Options()
+    if not options.hasName(name):
+        options[name] = value
+
+
+def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> float:
+    """Gap at time t, cubic Hermite between logged steps (h and dh/dt = V are both known)."""
+    k = int(np.clip(np.searchsorted(ts, t) - 1, 0, len(ts) - 2)) if len(ts) > 1 else 0
+    if len(ts) == 1:
+        return hs[0]
+    t0, t1 = ts[k], ts[k + 1]
+    dt = t1 - t0
+    if dt <= 0.0:
+        return hs[k + 1]
+    s = (t - t0) / dt
+    h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
+    return h00 * hs[k] + h10 * dt * vs[k] + h01 * hs[k + 1] + h11 * dt * vs[k + 1]
+
+
+def _prescribed_velocity(scene: Scene) -> Callable[[float], tuple[float, float]]:
+    """t -> (V, dV/dt) for fixed and prescribed motion."""
+    motion = scene.motion
+    if motion.mode != "prescribed" or not motion.series:
+        return lambda t: (motion.velocity, 0.0)
+    from scipy.interpolate import CubicSpline
+
+    with open(motion.series, newline="") as stream:
+        rows = [r for r in csv.DictReader(line for line in stream if not line.startswith("#"))]
+    try:
+        times = np.array([float(r["t"]) for r in rows])
+        velocity = np.array([float(r["velocity"]) for r in rows])
+    except (KeyError, ValueError) as err:
+        raise SceneError(f"motion.series {motion.series!r}: needs numeric columns 't' and 'velocity' ({err})")
+    keep = np.r_[True, np.diff(times) > 0.0]
+    spline = CubicSpline(times[keep], velocity[keep])
+    derivative = spline.derivative()
+    return lambda t: (float(spline(t)), float(derivative(t)))
