@@ -1,0 +1,146 @@
+"""The `fem-bounce` command.
+
+    fem-bounce run [SCENE] [--model M] [--set key=value ...] [--out DIR] [--force] [--restart DIR]
+    fem-bounce scenes                  list the shipped scenes
+    fem-bounce scenes show NAME        print a scene as TOML (it runs unchanged as a scene file)
+    fem-bounce restitution [...]       coefficient of restitution against impact Stokes number
+
+Only this module and the demos touch MPI.COMM_WORLD.  Errors a user can cause
+print one line naming the field and exit with status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+import warnings
+from pathlib import Path
+
+from . import models, output
+from . import scene as scenes
+
+DEFAULT_SCENE = "li2011-case3"
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="fem-bounce", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="simulate one scene with one model")
+    run.add_argument("scene", nargs="?", default=None, help=f"preset name or TOML file (default {DEFAULT_SCENE})")
+    run.add_argument("--model", default=None, help=f"one of {', '.join(models.MODELS)} (default: the best available)")
+    run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scene value, e.g. --set sphere.density=8000 (repeatable)")
+    run.add_argument("--out", type=Path, default=None, help="run directory (default runs/SCENE-MODEL[-N])")
+    run.add_argument("--force", action="store_true", help="replace an existing run directory")
+    run.add_argument("--restart", type=Path, default=None, metavar="DIR",
+                     help="continue the killed run in DIR from its last checkpoint")
+    run.add_argument("--quiet", action="store_true", help="no progress line")
+
+    show = sub.add_parser("scenes", help="list the shipped scenes, or show one as TOML")
+    show.add_argument("action", nargs="?", choices=["list", "show"], default="list")
+    show.add_argument("name", nargs="?")
+
+    rest = sub.add_parser("restitution", help="sweep impact Stokes number; draw e(St) (ODE model)")
+    rest.add_argument("--points", type=int, default=40, help="number of Stokes numbers, log-spaced (default 40)")
+    rest.add_argument("--st-min", type=float, default=1.0)
+    rest.add_argument("--st-max", type=float, default=1000.0)
+    rest.add_argument("--out", type=Path, default=Path("results/restitution"), help="directory for CSV and PNG")
+    rest.add_argument("--force", action="store_true", help="replace an existing output directory")
+    return parser
+
+
+def _scene_from_args(source: str | None, overrides: list[str]) -> scenes.Scene:
+    changes = dict(scenes.parse_override(text) for text in overrides)
+    return scenes.load(source or DEFAULT_SCENE, changes)
+
+
+def _cmd_run(args) -> int:
+    from mpi4py import MPI
+
+    from .run import simulate
+
+    comm = MPI.COMM_WORLD
+    if args.restart is not None:
+        if args.scene or args.overrides:
+            raise scenes.SceneError("--restart takes the scene from DIR/scene.toml; drop SCENE and --set")
+        scene = scenes.load(args.restart / "scene.toml")
+        model = _restart_model(args.restart, args.model)
+        out = args.restart
+    else:
+        scene = _scene_from_args(args.scene, args.overrides)
+        model = args.model or models.default()
+        models.get(model)  # fail early on an unknown or missing model
+        out = args.out
+        if out is None:
+            base = Path("runs") / f"{scene.name}-{model}"
+            out = comm.bcast(output.unused_directory(base) if comm.rank == 0 else None, root=0)
+    command = shlex.join(["fem-bounce", *sys.argv[1:]])
+    if comm.rank == 0:
+        print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
+    summary = simulate(scene, model, comm, out, force=args.force, restart=args.restart is not None,
+                       command=command, progress=not args.quiet)
+    if comm.rank == 0:
+        _print_records(summary)
+    return 0
+
+
+def _restart_model(run_dir: Path, requested: str | None) -> str:
+    marker = run_dir / "checkpoint" / "model.txt"
+    if not marker.is_file():
+        raise output.OutputError(f"{run_dir} has no checkpoint to restart from")
+    model = marker.read_text().strip()
+    if requested and requested != model:
+        raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
+    return model
+
+
+def _print_records(summary: dict) -> None:
+    print(f"{summary['status']} in {summary['wall_time_s']:.2f} s, {summary['steps']} steps")
+    for k, (impact, rebound) in enumerate(zip(summary["impacts"], summary["rebounds"] + [None] * 99), 1):
+        line = (f"impact {k}: t = {impact['time']:.4f} s  V_i = {impact['impact_speed']:.4f} m/s  "
+                f"Re = {impact['Re']:.1f}  St = {impact['St']:.1f}  min gap/D = "
+                f"{impact['min_gap'] / summary['scene']['sphere']['diameter']:.4f}")
+        if rebound is not None:
+            line += f"  e = {rebound['restitution']:.3f}"
+            if rebound["apex_gap"] is not None:
+                line += f"  apex gap = {rebound['apex_gap'] * 1e3:.3f} mm"
+        print(line)
+
+
+def _cmd_scenes(args) -> int:
+    if args.action == "show":
+        if not args.name:
+            raise scenes.SceneError("scenes show needs a NAME (see `fem-bounce scenes`)")
+        print(scenes.dumps(scenes.load(args.name)), end="")
+        return 0
+    for name in scenes.preset_names():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            print(f"{name:34s} {scenes.load(name).description}")
+    return 0
+
+
+def _cmd_restitution(args) -> int:
+    from . import restitution
+
+    if args.points < 2 or not 0 < args.st_min < args.st_max:
+        raise scenes.SceneError("restitution: need --points >= 2 and 0 < --st-min < --st-max")
+    output.prepare_directory(args.out, force=args.force)
+    results = restitution.sweep(restitution.log_targets(args.st_min, args.st_max, args.points))
+    restitution.write(results, args.out)
+    print(f"{len(results)} runs -> {args.out}/restitution.csv, {args.out}/restitution.png")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution}[args.command]
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = lambda message, *a, **k: print(f"fem-bounce: warning: {message}", file=sys.stderr)
+        try:
+            return command(args)
+        except (scenes.SceneError, models.ModelError, output.OutputError) as err:
+            print(f"fem-bounce: error: {err}", file=sys.stderr)
+            return 2
