@@ -1,0 +1,75 @@
+"""The command line: outputs, the file contract, and one clear line for each user error."""
+import json
+
+import pytest
+from mpi4py import MPI
+
+from fem_bounce import cli, plots
+
+CONTRACT_SUMMARY = {"scene", "model", "impacts", "rebounds", "wall_time_s", "steps", "ranks", "versions", "command"}
+
+
+@pytest.mark.mpi
+def test_run_writes_the_contracted_files(shared_tmp):
+    out = shared_tmp / "case3"
+    assert cli.main(["run", "li2011-case3", "--model", "ode", "--out", str(out), "--quiet",
+                     "--set", "run.bounces=2"]) == 0
+    MPI.COMM_WORLD.barrier()
+    assert {p.name for p in out.iterdir()} >= {"scene.toml", "trajectory.csv", "summary.json", "trajectory.png",
+                                                "velocity_gap.png"}
+    summary = json.loads((out / "summary.json").read_text())
+    assert CONTRACT_SUMMARY <= set(summary)
+    assert summary["ranks"] == MPI.COMM_WORLD.size and summary["model"] == "ode"
+    assert len(summary["impacts"]) == 2 and len(summary["rebounds"]) == 2
+    assert {"time", "impact_speed", "peak_speed", "Re", "St", "min_gap"} <= set(summary["impacts"][0])
+    assert {"restitution", "rebound_speed", "apex_gap", "apex_time"} <= set(summary["rebounds"][0])
+    trajectory = plots.read_trajectory(out)
+    assert trajectory["gap"][0] == 0.0152 and trajectory["t"][-1] == pytest.approx(summary["final"]["time"])
+    # the resolved scene runs again unchanged
+    again = shared_tmp / "again"
+    assert cli.main(["run", str(out / "scene.toml"), "--model", "ode", "--out", str(again), "--quiet"]) == 0
+    MPI.COMM_WORLD.barrier()
+    assert json.loads((again / "summary.json").read_text())["impacts"] == summary["impacts"]
+
+
+def test_existing_directory_is_never_silently_replaced(tmp_path, capsys):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "keep.txt").write_text("precious")
+    assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(out), "--quiet"]) == 2
+    assert "exists and is not empty; pass --force" in capsys.readouterr().err
+    assert (out / "keep.txt").read_text() == "precious"
+    assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(out), "--quiet", "--force"]) == 0
+    assert not (out / "keep.txt").exists()
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["run", "--model", "ode", "--set", "sphere.densty=3"], "unknown key sphere.densty; did you mean sphere.density?"),
+    (["run", "--model", "ode", "--set", "liquid.viscosity=-1"], "liquid.viscosity = -1.0 Pa s is out of range: allowed > 0 Pa s"),
+    (["run", "--model", "ode", "--set", "initial_gap=0"], "initial_gap = 0.0 m is out of range: allowed > 0 m"),
+    (["run", "--model", "ode", "--set", "contact.delta_ss=0.3"], "must be smaller than contact.delta_sl"),
+    (["run", "--model", "xyz"], "unknown model 'xyz': choose one of ode, fd, ib, ale"),
+    (["run", "li2011-case33", "--model", "ode"], "did you mean li2011-case3?"),
+    (["run", "--model", "ode", "--set", "nonsense"], "expected key=value"),
+    (["scenes", "show"], "scenes show needs a NAME"),
+])
+def test_user_errors_exit_2_with_one_line(argv, message, capsys):
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("fem-bounce: error: ") and message in err[0]
+
+
+def test_scene_dump_runs_unchanged_as_a_scene_file(tmp_path, capsys):
+    assert cli.main(["scenes", "show", "tencate2002-e4"]) == 0
+    path = tmp_path / "e4.toml"
+    path.write_text(capsys.readouterr().out)
+    out = tmp_path / "e4"
+    assert cli.main(["run", str(path), "--model", "ode", "--out", str(out), "--quiet", "--set", "run.end_time=0.3"]) == 0
+    assert json.loads((out / "summary.json").read_text())["scene"]["name"] == "tencate2002-e4"
+
+
+def test_scenes_lists_the_presets(capsys):
+    assert cli.main(["scenes"]) == 0
+    listing = capsys.readouterr().out
+    for name in ("li2011-case1", "li2011-case7", "li2011-table3-steel-85", "tencate2002-e4"):
+        assert name in listing

@@ -1,0 +1,66 @@
+"""Near-wall theory forces against physics.md section 3 and the published tables."""
+import math
+
+import numpy as np
+import pytest
+
+from fem_bounce import reference, theory
+
+
+@pytest.mark.parametrize("row", reference.table("brenner1961_wall_drag"), ids=lambda r: f"delta={r['delta']}")
+def test_brenner_series_and_table_match_published_values(row):
+    assert theory.brenner_series(row["delta"]) == pytest.approx(row["lambda_brenner"], rel=1e-4)
+    assert theory.brenner_lambda(row["delta"]) == pytest.approx(row["lambda_brenner"], rel=1e-4)
+
+
+def test_lubrication_asymptote_takes_over_near_contact():
+    # physics.md: below h/a = 1e-3 the Cox-Brenner asymptote agrees to 1e-4
+    for delta in (1e-4, 2e-4, 4e-4):
+        assert theory.brenner_series(delta) == pytest.approx(theory.lubrication_lambda(delta), rel=1e-4)
+    # and the table hands over to it continuously
+    edge = theory._TABLE_MIN
+    assert theory.brenner_lambda(edge * (1 + 1e-12)) == pytest.approx(theory.lubrication_lambda(edge), rel=1e-6)
+
+
+def test_far_field_drag_tends_to_stokes():
+    assert theory.brenner_lambda(1e4) == pytest.approx(1.0, abs=1e-3)
+    assert theory.simple_lambda(0.5) == 2.0
+
+
+def test_added_mass_limits():
+    w_far, _ = theory.first_image_w(1e6)
+    w_touch, _ = theory.first_image_w(0.0)
+    assert 0.5 * (1 + 3 * w_far) == pytest.approx(0.5)
+    assert 0.5 * (1 + 3 * w_touch) == pytest.approx(0.6875)  # 1/2 + 3/16
+    assert 0.5 * (1 + 3 * theory.exact_w(0.0)[0]) == pytest.approx(0.803, abs=5e-4)  # physics.md: -> 0.80
+
+
+@pytest.mark.parametrize("delta,c_m", [(0.005, 0.7749), (0.01, 0.7565), (0.025, 0.7177), (0.05, 0.6756),
+                                       (0.1, 0.6248), (0.25, 0.5587), (0.5, 0.5239), (1.0, 0.5070)])
+def test_exact_added_mass_matches_physics_table(delta, c_m):
+    assert 0.5 * (1 + 3 * theory.exact_w(delta)[0]) == pytest.approx(c_m, abs=1e-4)
+
+
+@pytest.mark.parametrize("w", [theory.first_image_w, theory.exact_w])
+def test_added_mass_derivative_is_consistent(w):
+    for delta in (0.01, 0.1, 1.0):
+        step = 1e-6 * delta
+        numeric = (w(delta + step)[0] - w(delta - step)[0]) / (2 * step)
+        assert w(delta)[1] == pytest.approx(numeric, rel=1e-6)
+
+
+def test_history_kernel_has_the_basset_limit_and_long_time_decay():
+    sigma = np.array([1e-10, 1e-9])
+    basset = 1.0 / np.sqrt(4 * np.pi * sigma)  # a / sqrt(pi nu s) in units of tau_d
+    assert theory.mei_adrian_kernel(sigma, 50.0) == pytest.approx(basset, rel=1e-3)
+    assert theory.mei_adrian_kernel(sigma, 0.0) == pytest.approx(basset, rel=1e-12)
+    late = theory.mei_adrian_kernel(np.array([1e2, 2e2]), 50.0)
+    assert late[0] / late[1] == pytest.approx(4.0, rel=0.02)  # s^-2
+
+
+@pytest.mark.parametrize("reynolds", [0.0, 3.0, 42.0, 150.0, 700.0])
+def test_exponential_fit_follows_the_kernel(reynolds):
+    theta, weights = theory.history_modes()
+    sigma = np.geomspace(*theory.HISTORY_SPAN, 500)
+    fit = np.exp(-sigma[:, None] / theta[None, :]) @ theory.history_weights(weights, reynolds)
+    assert np.max(np.abs(fit / theory.mei_adrian_kernel(sigma, reynolds) - 1)) < 5e-3
