@@ -73,6 +73,11 @@ def test_no_rebound_without_the_elastic_force():
 def test_contact_forces_a_rebound():
     integrator, rows = run(scene.load("li2011-case3", {"run.bounces": 1}))
     assert len(integrator.impacts) == 1 and integrator.rebounds[0].apex_gap > 0.1 * 0.0095
+    # the first apex (0.38 D) lies above delta_sl = 0.2: the gap passes it going in, then going out
+    crossings = integrator.blend_crossings
+    assert [c["direction"] for c in crossings] == ["in", "out"]
+    crossing_gap = np.interp(crossings[0]["time"], rows["t"], rows["gap"])
+    assert crossing_gap == pytest.approx(0.2 * 0.0095, rel=1e-4)
     # the elastic force acts only inside delta_ss and pushes away from the wall
     inside = rows["gap"] < 0.017 * 0.0095
     assert rows["f_elastic"][inside].min() >= 0.0 and rows["f_elastic"][~inside].max() == 0.0
