@@ -16,6 +16,7 @@ from fem_bounce.sphere import SphereIntegrator
 VARIANTS = [
     ("defaults", {}),
     ("wall_drag = simple", {"contact.wall_drag": "simple"}),
+    ("inertial_factor = additive", {"contact.inertial_factor": "additive"}),
     ("inertial_factor = none", {"contact.inertial_factor": "none"}),
     ("added_mass = exact", {"contact.added_mass": "exact"}),
     ("history = off", {"contact.history": "off"}),

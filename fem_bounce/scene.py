@@ -136,7 +136,7 @@ class Contact:
     delta_ss: float = _positive(0.017)
     dry_restitution: float = _between(0.0, 1.0, 0.97)
     wall_drag: str = _choice("brenner", "simple")
-    inertial_factor: str = _choice("schiller-naumann", "none")
+    inertial_factor: str = _choice("schiller-naumann", "additive", "none")
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")

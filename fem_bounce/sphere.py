@@ -398,11 +398,16 @@ class SphereIntegrator:
         self.blend_crossings = list(state["blend_crossings"])
 
 
+_OPTIONS_SET_HERE: set[str] = set()
+
+
 def _default_option(name: str, value) -> None:
-    """Set a PETSc option unless the user already gave it on the command line."""
+    """Set a PETSc option unless the user gave it; a value set here is renewed for each scene
+    (the options database outlives one integrator: a study runs many scenes in one process)."""
     options = PETSc.Options()
-    if not options.hasName(name):
+    if name in _OPTIONS_SET_HERE or not options.hasName(name):
         options[name] = value
+        _OPTIONS_SET_HERE.add(name)
 
 
 def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> float:

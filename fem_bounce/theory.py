@@ -6,7 +6,11 @@ choice is named by a scene key of `[contact]` so its effect can be measured:
 
 - `wall_drag`: lambda(delta) = Brenner (1961) exact series ("brenner"), or
   1 + 1/(2 delta) ("simple").
-- `inertial_factor`: Schiller & Naumann (1933) 1 + 0.15 Re^0.687, or "none".
+- `inertial_factor`: Schiller & Naumann (1933) phi(Re) = 1 + 0.15 Re^0.687 multiplying lambda
+  ("schiller-naumann"), or added to it, lambda(delta) + phi(Re) - 1 ("additive": the wall's excess
+  over Stokes drag is lubrication, viscous at gap Reynolds numbers rho V h / mu -> 0, where inertia
+  corrects it only at O(Re_gap) (Cox & Brenner 1967), so only the far-field part carries the inertial
+  correction), or "none".
 - `added_mass`: the wall excess W of C_M = (1 + 3 W) / 2, first image
   W = 1 / (8 (1 + 2 delta)^3), or the exact image sum ("exact").
 - `history`: the Mei & Adrian (1992) kernel, or "off";
@@ -175,7 +179,9 @@ class TheoryForces:
         self.displaced_mass = scene.displaced_mass
         self._re_per_speed = scene.reynolds(1.0)
         self._lambda = {"brenner": brenner_lambda, "simple": simple_lambda}[c.wall_drag]
-        self._inertia = {"schiller-naumann": schiller_naumann, "none": lambda re: 1.0}[c.inertial_factor]
+        self._inertia = {"schiller-naumann": schiller_naumann, "additive": schiller_naumann,
+                         "none": lambda re: 1.0}[c.inertial_factor]
+        self._additive = c.inertial_factor == "additive"
         self._w = {"first-image": first_image_w, "exact": exact_w}[c.added_mass]
         self.history_on = c.history == "mei-adrian"
         self._drag_scaled_history = c.history_wall_factor == "drag-scaled"
@@ -191,9 +197,10 @@ class TheoryForces:
         return self._re_per_speed * abs(velocity)
 
     def drag(self, gap: float, velocity: float) -> float:
-        """f_D = -6 pi mu a V lambda(delta) phi(Re) [N]."""
-        delta = gap / self.diameter
-        return -self.stokes_drag * velocity * self._lambda(delta) * self._inertia(self.reynolds(velocity))
+        """f_D = -6 pi mu a V lambda(delta) phi(Re), or with lambda + phi - 1 when additive [N]."""
+        wall, inertia = self._lambda(gap / self.diameter), self._inertia(self.reynolds(velocity))
+        factor = wall + inertia - 1.0 if self._additive else wall * inertia
+        return -self.stokes_drag * velocity * factor
 
     def added_mass(self, gap: float) -> tuple[float, float]:
         """(C_M m_l [kg], dC_M/dh m_l [kg/m]), C_M = (1 + 3 W) / 2.

@@ -147,3 +147,13 @@ def test_far_from_the_wall_the_sphere_reaches_the_terminal_speed():
     integrator.advance(sc.run.end_time)
     assert -integrator.velocity == pytest.approx(sc.terminal_speed(), rel=0.01)
     assert -integrator.velocity < sc.terminal_speed()  # approached from below
+
+
+def test_step_limit_follows_each_scene_in_one_process():
+    """The PETSc options set by one integrator must not leak into the next scene's."""
+    from petsc4py import PETSc
+
+    SphereIntegrator(scene.load("tencate2002-e4"))
+    SphereIntegrator(scene.load("li2011-case3"))
+    limit = PETSc.Options().getReal("sphere_ts_adapt_dt_max")
+    assert limit == pytest.approx(0.02 * scene.load("li2011-case3").time_unit)

@@ -64,3 +64,22 @@ def test_exponential_fit_follows_the_kernel(reynolds):
     sigma = np.geomspace(*theory.HISTORY_SPAN, 500)
     fit = np.exp(-sigma[:, None] / theta[None, :]) @ theory.history_weights(weights, reynolds)
     assert np.max(np.abs(fit / theory.mei_adrian_kernel(sigma, reynolds) - 1)) < 5e-3
+
+
+def test_inertial_factor_choices():
+    from fem_bounce import scene
+
+    base = scene.load("li2011-case3")
+    gap, speed = 0.05 * 0.0095, -0.3
+    reynolds = base.reynolds(speed)
+    stokes = 6 * math.pi * 0.0502 * 0.00475 * 0.3
+    wall = theory.brenner_lambda(0.05)
+    forces = {choice: theory.TheoryForces(base.replace(**{"contact.inertial_factor": choice})).drag(gap, speed)
+              for choice in ("schiller-naumann", "additive", "none")}
+    assert forces["none"] == pytest.approx(stokes * wall)
+    assert forces["schiller-naumann"] == pytest.approx(stokes * wall * theory.schiller_naumann(reynolds))
+    assert forces["additive"] == pytest.approx(stokes * (wall + theory.schiller_naumann(reynolds) - 1))
+    # far from the wall (delta ~ 1e4) both inertial choices give the usual drag: they differ by (lambda-1)(phi-1)
+    far = {c: theory.TheoryForces(base.replace(**{"contact.inertial_factor": c})).drag(100.0, speed)
+           for c in ("schiller-naumann", "additive")}
+    assert far["additive"] == pytest.approx(far["schiller-naumann"], rel=1e-3)
