@@ -75,7 +75,9 @@ class FlowSolver:
         self.w_bottom = np.full(g.nr, u_in)
         self.w_top = np.full(g.nr, u_in)
         self.q_boundary = self._boundary_velocity(self.w_top)
-        self.q = self.q_boundary.copy()  # the uniform stream (or rest)
+        if self.inflow:  # start from the uniform stream, psi = U r^2 / 2
+            self.psi = np.broadcast_to(0.5 * u_in * g.R[1:-1, None] ** 2, (g.nr - 1, g.nz - 1)).ravel().copy()
+        self.q = self.curl @ self.psi + self.q_boundary
         self.forcing = np.zeros(g.n_velocity)  # E^T f of the last step
         self.last_rhs = np.zeros(g.n_velocity)
         self._conv_old: np.ndarray | None = None
