@@ -37,7 +37,7 @@ class IbNumerics:
 
     cells_per_diameter: float = _setting(32.0, 4.0, 400.0)  # fine uniform spacing h = D / this
     cfl: float = _setting(0.4, 0.01, 2.0)  # dt = cfl * h / speed scale (the expected impact speed)
-    max_cfl: float = _setting(0.8, 0.05, 5.0)  # measured CFL above this halves dt (refactorises)
+    max_cfl: float = _setting(1.0, 0.05, 5.0)  # measured CFL above this halves dt (refactorises)
     viscous_cfl: float = _setting(5.0, 0.1, 1e6)  # and dt <= viscous_cfl * h^2 / nu
     far_field: float = _setting(15.0, 1.0, 200.0)  # unbounded: slip boundary this far beyond the fine region
     growth: float = _setting(1.05, 1.0, 1.5)  # cell size ratio outside the fine region

@@ -178,7 +178,7 @@ class ImmersedBoundaryModel:
                 stats["max_cfl"] = max(stats["max_cfl"], cfl)
                 if not np.isfinite(cfl):
                     raise RunDiverged(f"t = {t:.5g} s: the flow became NaN")
-                calm_steps = 0 if cfl > 0.4 * opts.max_cfl else calm_steps + 1
+                calm_steps = 0 if cfl > 0.5 * opts.max_cfl else calm_steps + 1
                 new_dt = None
                 if cfl > opts.max_cfl:
                     new_dt = 0.5 * solver.dt
