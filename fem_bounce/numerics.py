@@ -47,6 +47,9 @@ class IbNumerics:
     retraction: float = _setting(0.0, 0.0, 1.0)  # points on radius a - retraction * h (Breugem 2012)
     wall_exclusion: float = _setting(0.5, 0.0, 3.0)  # points nearer the wall than this (cells) are released
     force_tolerance: float = _setting(1e-6, 1e-12, 1e-2)  # rms slip left by CG, relative to the speed scale
+    # implicit: the flow's response to the new sphere velocity goes to the integrator (stable for any
+    # density ratio); explicit: the flow follows the old velocity (as the paper's RK2; for comparison)
+    coupling: str = field(default="implicit", metadata={"choices": ("implicit", "explicit")})
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
 
 
