@@ -97,129 +97,116 @@ class ImmersedBoundaryModel:
             raise RunDiverged("the ib model writes no checkpoints: rerun without --restart")
         scene, opts, grid = self.scene, self.opts, self.grid
         solver = FlowSolver(self.ops, scene.liquid.kinematic_viscosity, self.dt)
-        to_newton = 2.0 * math.pi * scene.liquid.density  # kinematic ring forces / 2 pi -> N
-        mode = scene.motion.mode
-        n_pts = self.surface.n_points
-        forces = np.zeros(2 * n_pts)  # warm starts for CG, all points (released ones hold 0)
-        unit_forces = np.zeros(2 * n_pts)
-        tol = opts.force_tolerance * self.speed_scale
+        stats = StepStatistics(calm_limit=0.5 * opts.max_cfl)
+        preconditioner = ForcePreconditioner(grid.h)
+        warm = WarmStarts(self.surface.n_points)
         writer = None
         if out_dir is not None and opts.output_every and self.comm.rank == 0:
             writer = SnapshotWriter(out_dir, grid.R, grid.Z)
-        stats = {"iterations": 0, "solves": 0, "max_iterations": 0, "max_cfl": 0.0, "refactorisations": 0,
-                 "max_slip": 0.0}
         drag_history: list[tuple[float, float]] = []
-        preconditioner = ForcePreconditioner(grid.h)
-        r_all, z_offsets = self.surface.positions(0.0)
-        z_offsets = z_offsets - self.surface.radius
-
-        def EC_at(z_centre):
-            return (interpolation_matrix(grid, r_all, z_centre + z_offsets) @ solver.curl).tocsr()
-
-        calm_steps = 0  # steps since the CFL number was last high: the step may grow back
         end = scene.run.end_time
-        v_old = integrator.velocity
-        steps = 0
         start = time.perf_counter()
         try:
             if writer is not None:
                 self._snapshot(writer, solver, integrator.time)
             while integrator.time < end * (1.0 - 1e-12) and not integrator.done:
-                t, v, gap, dt = integrator.time, integrator.velocity, integrator.gap, solver.dt
-                gap_next = gap if mode == "fixed" else gap + dt * (1.5 * v - 0.5 * v_old)
-                r_pts, z_pts = self.surface.positions(gap_next)
-                self._check_inside(r_pts, z_pts, t)
-                active = self.surface.active(gap_next)
-                sel = np.concatenate([active, active])
-                n_act = int(active.sum())
-                E = interpolation_matrix(grid, r_pts[active], z_pts[active])
-                EC = (E @ solver.curl).tocsr()
-                prediction = solver.predict()
-                v_ref = scene.motion.velocity if mode == "fixed" else v
-                target = np.concatenate([np.zeros(n_act), np.full(n_act, v_ref)]) - E @ prediction.q
-                S_table, keys = preconditioner.build(solver, gap_next + self.surface.radius, EC_at)
-                factor = sla.cho_factor(S_table[np.ix_(sel, sel)])
-                apply = lambda res: sla.cho_solve(factor, res)  # noqa: E731
-                try:
-                    base = solver.solve_forces(EC, target, forces[sel], tol, apply)
-                    unit = None
-                    if mode != "fixed" and opts.coupling == "implicit":
-                        unit = solver.solve_forces(EC, np.concatenate([np.zeros(n_act), np.ones(n_act)]),
-                                                   unit_forces[sel], opts.force_tolerance, apply)
-                except ForceSolveError as err:
-                    raise RunDiverged(f"t = {t:.5g} s: {err}") from err
-                if max(base.iterations, unit.iterations if unit else 0) > preconditioner.stale_after:
-                    preconditioner.mark_stale(keys)
-                force_base = -to_newton * base.forces[n_act:].sum()
-                if mode == "fixed":
-                    fluid = FluidForce(explicit=force_base, added_mass=0.0)
-                elif unit is None:  # explicit coupling: only the rigid interior liquid is implicit
-                    fluid = FluidForce(explicit=force_base, added_mass=-scene.displaced_mass)
-                else:
-                    added = to_newton * unit.forces[n_act:].sum() * dt - scene.displaced_mass
-                    fluid = FluidForce(explicit=force_base, added_mass=added)
-                try:
-                    integrator.advance(t + dt, fluid)
-                except PETSc.Error as err:  # NaN from an unstable coupling, seen first by TS
-                    raise RunDiverged(f"t = {t:.5g} s: the sphere integrator failed "
-                                      f"(PETSc error {err.ierr}): the coupling went unstable") from err
-                change = integrator.velocity - v_ref
-                f_step, psi_step = base.forces, base.psi
-                if unit is not None:
-                    f_step = base.forces + change * unit.forces
-                    psi_step = base.psi + change * unit.psi
-                    unit_forces[:] = 0.0
-                    unit_forces[sel] = unit.forces
-                forces[:] = 0.0
-                forces[sel] = f_step
-                solver.accept(prediction, psi_step, E.T @ f_step)
-                steps += 1
-                v_old = v
-                for sol in (base, unit):
-                    if sol is not None:
-                        stats["iterations"] += sol.iterations
-                        stats["solves"] += 1
-                        stats["max_iterations"] = max(stats["max_iterations"], sol.iterations)
-                stats["max_slip"] = max(stats["max_slip"], base.slip)
+                fluid = self._step(integrator, solver, preconditioner, warm, stats)
                 drag_history.append((integrator.time, fluid.explicit))
-                if not (np.isfinite(integrator.velocity) and np.all(np.isfinite(solver.q[:10]))):
-                    raise RunDiverged(f"t = {t:.5g} s: the flow or the sphere became NaN")
-                cfl = solver.cfl()
-                stats["max_cfl"] = max(stats["max_cfl"], cfl)
-                if not np.isfinite(cfl):
-                    raise RunDiverged(f"t = {t:.5g} s: the flow became NaN")
-                calm_steps = 0 if cfl > 0.5 * opts.max_cfl else calm_steps + 1
-                new_dt = None
-                if cfl > opts.max_cfl:
-                    new_dt = 0.5 * solver.dt
-                elif calm_steps >= 50 and solver.dt < self.dt:
-                    new_dt = min(2.0 * solver.dt, self.dt)  # the fast moment (an impact) has passed
-                if new_dt is not None:
-                    solver.set_time_step(new_dt)
-                    preconditioner.clear()
-                    calm_steps = 0
-                    stats["refactorisations"] += 1
-                progress(integrator.time, steps, integrator.gap, integrator.velocity)
-                if writer is not None and steps % opts.output_every == 0:
+                self._adapt_time_step(solver, preconditioner, stats)
+                progress(integrator.time, stats.steps, integrator.gap, integrator.velocity)
+                if writer is not None and stats.steps % opts.output_every == 0:
                     self._snapshot(writer, solver, integrator.time)
         finally:
             if writer is not None:
                 writer.close()
             solver.destroy()
-        wall = time.perf_counter() - start
-        extra = {
-            "dt": self.dt, "final_dt": solver.dt, "speed_scale": self.speed_scale,
-            "cg_iterations_mean": stats["iterations"] / max(stats["solves"], 1),
-            "cg_iterations_max": stats["max_iterations"], "max_cfl": stats["max_cfl"],
-            "refactorisations": stats["refactorisations"], "max_rms_slip": stats["max_slip"],
-            "seconds_per_step": wall / max(steps, 1), "grid": grid.describe(),
-            "lagrangian_points": n_pts, "snapshots": writer.count if writer is not None else 0,
-            "force_tables_assembled": preconditioner.assembled,
-        }
-        extra.update(self._drag_summary(drag_history))
-        sizes = {"unknowns": grid.n_psi, "cells": grid.n_cells, "fine_cells_per_diameter": self.opts.cells_per_diameter,
-                 "lagrangian_points": n_pts}
-        return {"steps": steps, "sizes": sizes, "extra": {"ib": extra}}
+        extra = {"dt": self.dt, "final_dt": solver.dt, "speed_scale": self.speed_scale,
+                 **stats.summary(time.perf_counter() - start), "grid": grid.describe(),
+                 "lagrangian_points": self.surface.n_points, "snapshots": writer.count if writer is not None else 0,
+                 "force_tables_assembled": preconditioner.assembled, **self._drag_summary(drag_history)}
+        sizes = {"unknowns": grid.n_psi, "cells": grid.n_cells, "fine_cells_per_diameter": opts.cells_per_diameter,
+                 "lagrangian_points": self.surface.n_points}
+        return {"steps": stats.steps, "sizes": sizes, "extra": {"ib": extra}}
+
+    def _step(self, integrator, solver: FlowSolver, preconditioner: ForcePreconditioner, warm: "WarmStarts",
+              stats: "StepStatistics") -> FluidForce:
+        """One fluid step coupled to the sphere (steps 1-5 of the module docstring)."""
+        scene, opts, grid = self.scene, self.opts, self.grid
+        mode = scene.motion.mode
+        t, v, gap, dt = integrator.time, integrator.velocity, integrator.gap, solver.dt
+        # 1. the points where the sphere will be
+        gap_next = gap if mode == "fixed" else gap + dt * (1.5 * v - 0.5 * warm.v_old)
+        r_pts, z_pts = self.surface.positions(gap_next)
+        self._check_inside(r_pts, z_pts, t)
+        active = self.surface.active(gap_next)
+        n_act = int(active.sum())
+        E = interpolation_matrix(grid, r_pts[active], z_pts[active])
+        EC = (E @ solver.curl).tocsr()
+        # 2. the flow without immersed forces; 3. the forces for V_n and for a unit velocity
+        prediction = solver.predict()
+        v_ref = scene.motion.velocity if mode == "fixed" else v
+        zeros, ones = np.zeros(n_act), np.ones(n_act)
+        S, keys = preconditioner.build(solver, gap_next + self.surface.radius, self._force_rows(solver))
+        sel = np.concatenate([active, active])
+        factor = sla.cho_factor(S[np.ix_(sel, sel)])
+        apply = lambda res: sla.cho_solve(factor, res)  # noqa: E731
+        try:
+            base = solver.solve_forces(EC, np.concatenate([zeros, v_ref * ones]) - E @ prediction.q,
+                                       warm.base[sel], opts.force_tolerance * self.speed_scale, apply)
+            unit = None
+            if mode != "fixed" and opts.coupling == "implicit":
+                unit = solver.solve_forces(EC, np.concatenate([zeros, ones]), warm.unit[sel], opts.force_tolerance,
+                                           apply)
+        except ForceSolveError as err:
+            raise RunDiverged(f"t = {t:.5g} s: {err}") from err
+        if max(base.iterations, unit.iterations if unit else 0) > preconditioner.stale_after:
+            preconditioner.mark_stale(keys)
+        # 4. the resolved force, linearised in the sphere's acceleration; the integrator's step
+        to_newton = 2.0 * math.pi * scene.liquid.density  # kinematic ring forces / 2 pi -> N
+        explicit = -to_newton * base.forces[n_act:].sum()
+        if mode == "fixed":
+            fluid = FluidForce(explicit=explicit, added_mass=0.0)
+        elif unit is None:  # explicit coupling: only the rigid interior liquid is implicit
+            fluid = FluidForce(explicit=explicit, added_mass=-scene.displaced_mass)
+        else:
+            added = to_newton * unit.forces[n_act:].sum() * dt - scene.displaced_mass
+            fluid = FluidForce(explicit=explicit, added_mass=added)
+        try:
+            integrator.advance(t + dt, fluid)
+        except PETSc.Error as err:  # NaN from an unstable coupling, seen first by TS
+            raise RunDiverged(f"t = {t:.5g} s: the sphere integrator failed "
+                              f"(PETSc error {err.ierr}): the coupling went unstable") from err
+        # 5. the flow for the velocity the sphere actually reached
+        change = integrator.velocity - v_ref
+        forces, psi = base.forces, base.psi
+        if unit is not None:
+            forces, psi = base.forces + change * unit.forces, base.psi + change * unit.psi
+        solver.accept(prediction, psi, E.T @ forces)
+        warm.store(sel, forces, unit.forces if unit is not None else None, v)
+        stats.record(base, unit, solver.cfl())
+        if not (np.isfinite(integrator.velocity) and np.all(np.isfinite(solver.q))):
+            raise RunDiverged(f"t = {t:.5g} s: the flow or the sphere became NaN")
+        return fluid
+
+    def _force_rows(self, solver: FlowSolver):
+        """z_centre -> E C for all points of a sphere centred at z_centre (for the force tables)."""
+        r_all, z_all = self.surface.positions(-self.surface.radius)  # centred at z = 0
+        return lambda z_centre: (interpolation_matrix(self.grid, r_all, z_centre + z_all) @ solver.curl).tocsr()
+
+    def _adapt_time_step(self, solver: FlowSolver, preconditioner: ForcePreconditioner,
+                         stats: "StepStatistics") -> None:
+        """Halve dt when the CFL number exceeds max_cfl (an impact squeezes liquid out of the gap);
+        double it back, up to the nominal dt, after 50 calm steps.  Either refactorises K."""
+        limit = self.opts.max_cfl
+        new_dt = None
+        if stats.cfl > limit:
+            new_dt = 0.5 * solver.dt
+        elif stats.calm_steps >= 50 and solver.dt < self.dt:
+            new_dt = min(2.0 * solver.dt, self.dt)
+        if new_dt is not None:
+            solver.set_time_step(new_dt)
+            preconditioner.clear()
+            stats.refactorised()
 
     def _drag_summary(self, history: list[tuple[float, float]]) -> dict:
         """For a fixed sphere in a stream: the drag coefficient over the last tenth of the run,
@@ -241,3 +228,51 @@ class ImmersedBoundaryModel:
         ur, wz = ops.nodal_velocity(u, w)
         pressure = ops.nodal_from_cells(solver.pressure()) * self.scene.liquid.density
         writer.write(t, ur, wz, pressure, ops.vorticity(u, w))
+
+
+class WarmStarts:
+    """The last step's forces (all points; released ones hold zero) start the next CG solves."""
+
+    def __init__(self, n_points: int):
+        self.base = np.zeros(2 * n_points)
+        self.unit = np.zeros(2 * n_points)
+        self.v_old = 0.0  # the sphere velocity a step ago, for the position predictor [m/s]
+
+    def store(self, sel: np.ndarray, forces: np.ndarray, unit: np.ndarray | None, velocity: float) -> None:
+        self.base[:] = 0.0
+        self.base[sel] = forces
+        if unit is not None:
+            self.unit[:] = 0.0
+            self.unit[sel] = unit
+        self.v_old = velocity
+
+
+class StepStatistics:
+    """What the run reports about its own numerics."""
+
+    def __init__(self, calm_limit: float):
+        self.calm_limit = calm_limit  # a CFL number below this counts as calm
+        self.steps = self.iterations = self.solves = self.max_iterations = self.refactorisations = 0
+        self.max_cfl = self.max_slip = self.cfl = 0.0
+        self.calm_steps = 0  # steps since the CFL number was last above calm_limit
+
+    def record(self, base, unit, cfl: float) -> None:
+        self.steps += 1
+        for sol in (base, unit):
+            if sol is not None:
+                self.iterations += sol.iterations
+                self.solves += 1
+                self.max_iterations = max(self.max_iterations, sol.iterations)
+        self.max_slip = max(self.max_slip, base.slip)
+        self.cfl = cfl
+        self.max_cfl = max(self.max_cfl, cfl)
+        self.calm_steps = self.calm_steps + 1 if cfl <= self.calm_limit else 0
+
+    def refactorised(self) -> None:
+        self.refactorisations += 1
+        self.calm_steps = 0
+
+    def summary(self, wall_time: float) -> dict:
+        return {"cg_iterations_mean": self.iterations / max(self.solves, 1), "cg_iterations_max": self.max_iterations,
+                "max_cfl": self.max_cfl, "refactorisations": self.refactorisations, "max_rms_slip": self.max_slip,
+                "seconds_per_step": wall_time / max(self.steps, 1)}
