@@ -5,7 +5,7 @@
     .venv/bin/python benchmarks/ib_validation.py --cells 48 drag # another resolution
 
 Checks (targets from physics.md section 5 and the issue):
-  drag        fixed sphere, Re 100 and 200: Cd against 1.087 and 0.77 (3 %)
+  drag        fixed sphere, Re 100 and 200: Cd against 1.087 and 0.77 (3 %); recirculation length
   tencate     ten Cate E4: peak speed against 0.1226 m/s (3 %), rms deviation from the curve
   case3       Li case 3: first impact speed against 0.393 m/s (5 %), Re_II against 55 (10 %),
               at least two rebounds; also with contact.inertial_factor = none (sensitivity)
@@ -81,10 +81,13 @@ def rel(value, target):
 
 def check_drag(cells):
     out = {}
-    for re_number, target in ((100, 1.087), (200, 0.77)):
+    for re_number, target, wake in ((100, 1.087, 0.87), (200, 0.77, 1.46)):
         s = run(f"sphere-drag-re{re_number}", {"numerics.ib.cells_per_diameter": cells})
         cd = s["ib"]["drag_coefficient"]
+        length = s["ib"].get("recirculation_length_over_D")
         out[f"Re{re_number}"] = {"Cd": round(cd, 4), "target": target, "error": rel(cd, target),
+                                 "recirculation_length_over_D": length and round(length, 3),
+                                 "recirculation_target": wake,
                                  "met_3pct": abs(rel(cd, target)) <= 0.03, "drift": s["ib"]["drag_coefficient_drift"],
                                  "wall_time_s": round(s["wall_time_s"], 1), "unknowns": s["sizes"]["unknowns"]}
     return out

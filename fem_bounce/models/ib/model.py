@@ -116,6 +116,7 @@ class ImmersedBoundaryModel:
                 progress(integrator.time, stats.steps, integrator.gap, integrator.velocity)
                 if writer is not None and stats.steps % opts.output_every == 0:
                     self._snapshot(writer, solver, integrator.time)
+            wake = self._recirculation_length(solver)
         finally:
             if writer is not None:
                 writer.close()
@@ -123,7 +124,7 @@ class ImmersedBoundaryModel:
         extra = {"dt": self.dt, "final_dt": solver.dt, "speed_scale": self.speed_scale,
                  **stats.summary(time.perf_counter() - start), "grid": grid.describe(),
                  "lagrangian_points": self.surface.n_points, "snapshots": writer.count if writer is not None else 0,
-                 "force_tables_assembled": preconditioner.assembled, **self._drag_summary(drag_history)}
+                 "force_tables_assembled": preconditioner.assembled, **self._drag_summary(drag_history), **wake}
         sizes = {"unknowns": grid.n_psi, "cells": grid.n_cells, "fine_cells_per_diameter": opts.cells_per_diameter,
                  "lagrangian_points": self.surface.n_points}
         return {"steps": stats.steps, "sizes": sizes, "extra": {"ib": extra}}
@@ -221,6 +222,24 @@ class ImmersedBoundaryModel:
         last, before = t > t[-1] - 0.1 * t[-1], (t > t[-1] - 0.2 * t[-1]) & (t <= t[-1] - 0.1 * t[-1])
         return {"drag_coefficient": float(cd[last].mean()),
                 "drag_coefficient_drift": float(cd[last].mean() - cd[before].mean())}
+
+    def _recirculation_length(self, solver: FlowSolver) -> dict:
+        """For a fixed sphere in an upward stream: the length of the reversed flow on the axis
+        behind it, over D (Johnson & Patel 1999: 0.87 at Re 100, 1.46 at Re 200)."""
+        scene, grid = self.scene, self.grid
+        if scene.motion.mode != "fixed" or scene.motion.stream_velocity <= 0.0:
+            return {}
+        _, w = solver.full_velocity()
+        axis = w[0, :]  # at r = h / 2
+        top = scene.initial_gap + scene.sphere.diameter
+        behind = np.nonzero(grid.Z > top + 0.5 * grid.h)[0]  # past the diffuse surface
+        reverse = behind[axis[behind] < 0.0]
+        if len(reverse) == 0 or grid.Z[reverse[0]] > top + 2.0 * grid.h:
+            return {"recirculation_length_over_D": 0.0}
+        j = reverse[np.argmax(np.diff(np.r_[reverse, reverse[-1] + 2]) > 1)]  # end of the first run
+        z0, z1, w0, w1 = grid.Z[j], grid.Z[j + 1], axis[j], axis[j + 1]
+        end = z0 - w0 * (z1 - z0) / (w1 - w0)
+        return {"recirculation_length_over_D": float((end - top) / scene.sphere.diameter)}
 
     def _snapshot(self, writer: SnapshotWriter, solver: FlowSolver, t: float) -> None:
         ops = self.ops
