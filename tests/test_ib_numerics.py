@@ -210,3 +210,40 @@ def test_pressure_recovery_balances_the_momentum_equation(stepped):
     p = flow.pressure().ravel()
     residual = flow.A @ flow.q - flow.last_rhs - flow.forcing
     assert np.abs(ops.divergence.T @ p - residual).max() < 1e-8 * np.abs(residual).max()
+
+
+def test_graded_axis_is_uniform_inside_and_grows_smoothly_outside():
+    nodes = grid.graded_axis(0.3, 0.9, 0.05, 0.0, 5.0, 1.08)
+    widths = np.diff(nodes)
+    assert nodes[0] == 0.0 and nodes[-1] == 5.0
+    fine = (nodes[:-1] >= 0.3 - 1e-12) & (nodes[1:] <= 0.9 + 1e-12)
+    assert widths[fine] == pytest.approx(np.full(fine.sum(), 0.05))
+    ratios = widths[1:] / widths[:-1]
+    assert ratios.max() < 1.08 * 1.0001 and ratios.min() > 1.0 / (1.08 * 1.0001)
+
+
+def test_scene_grids_cover_the_path_and_respect_the_container():
+    from fem_bounce import scene
+    from fem_bounce.models.ib import domain
+
+    case3 = scene.load("li2011-case3")
+    g = domain.build_grid(case3)
+    assert g.boundaries == grid.Boundaries(grid.WALL, grid.SLIP, grid.SLIP)
+    assert g.fine_z[0] == 0.0 and g.fine_z[1] >= case3.initial_gap + 0.0095
+    assert g.R[-1] >= 15 * 0.0095 and g.h == pytest.approx(0.0095 / 32)
+    box = domain.build_grid(scene.load("tencate2002-e4"))
+    assert (box.boundaries.top, box.boundaries.outer) == (grid.WALL, grid.WALL)
+    assert box.R[-1] == pytest.approx(0.0564) and box.Z[-1] == pytest.approx(0.16)
+    stream = domain.build_grid(scene.load("sphere-drag-re100"))
+    assert stream.boundaries.bottom == grid.INFLOW and stream.boundaries.inflow_velocity == 0.1
+
+
+def test_a_uniform_stream_stays_uniform_through_inflow_and_outflow():
+    g = grid.make_grid(0.00125, 0.01, (0.07, 0.1), 0.05, 0.15, 1.05,
+                       grid.Boundaries(grid.INFLOW, grid.OUTFLOW, grid.SLIP, inflow_velocity=0.1))
+    flow = solver.FlowSolver(operators.AxisymmetricOperators(g), viscosity=1e-5, dt=0.002)
+    for _ in range(10):
+        flow.accept(flow.predict(), np.zeros(g.n_psi), np.zeros(g.n_velocity))
+    u, w = flow.full_velocity()
+    assert np.abs(w - 0.1).max() < 1e-12 and np.abs(u).max() < 1e-12
+    flow.destroy()
