@@ -17,9 +17,10 @@ PYTEST_ARGS ?=
 demo: install
 	$(VENV)/bin/fem-bounce run
 
+# The MPI subset first, so that the last line CI reads is the whole serial suite's summary.
 test: install
+	$(MPIRUN) -n 2 $(PY) tests/mpirun_pytest.py -q --color=no -m mpi $(PYTEST_ARGS)
 	$(PY) -m pytest -q $(PYTEST_ARGS)
-	$(MPIRUN) -n 2 $(PY) tests/mpirun_pytest.py -q -m mpi $(PYTEST_ARGS)
 
 install: $(VENV)/.installed
 

@@ -3,7 +3,8 @@
     fem-bounce run [SCENE] [--model M] [--set key=value ...] [--out DIR] [--force] [--restart DIR]
     fem-bounce scenes                  list the shipped scenes
     fem-bounce scenes show NAME        print a scene as TOML (it runs unchanged as a scene file)
-    fem-bounce restitution [...]       coefficient of restitution against impact Stokes number
+    fem-bounce restitution [...]       coefficient of restitution against impact Stokes number (ODE)
+    fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
     fem-bounce compare [SCENE] --models ode,ib,...   several models on one scene: one figure, one table
 
 Only this module and the demos touch MPI.COMM_WORLD.  Errors a user can cause
@@ -37,6 +38,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--restart", type=Path, default=None, metavar="DIR",
                      help="continue the killed run in DIR from its last checkpoint")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    run.add_argument("--accuracy", default=None, metavar="PERCENT",
+                     help="pick the cheapest model and resolution that the recorded study says reaches this "
+                          "error on the scene's quantities (1%%, 5%% or 10%%)")
 
     cmp_ = sub.add_parser("compare", help="run several models on one scene; one figure and one table")
     cmp_.add_argument("scene", nargs="?", default=None, help=f"preset name or TOML file (default {DEFAULT_SCENE})")
@@ -57,6 +61,31 @@ def _parser() -> argparse.ArgumentParser:
     rest.add_argument("--st-max", type=float, default=1000.0)
     rest.add_argument("--out", type=Path, default=Path("results/restitution"), help="directory for CSV and PNG")
     rest.add_argument("--force", action="store_true", help="replace an existing output directory")
+    study = sub.add_parser("study", help="studies that run many simulations (cached, resumable)")
+    kinds = study.add_subparsers(dest="kind", required=True)
+    conv = kinds.add_parser("convergence", help="resolution and time-step ladders, observed orders")
+    conv.add_argument("scene")
+    conv.add_argument("--model", required=True)
+    conv.add_argument("--levels", default=None, help="comma-separated resolutions (default: the model's ladder)")
+    conv.add_argument("--cfls", default=None, help="comma-separated CFL numbers for the time-step ladder")
+    speed = kinds.add_parser("speed-accuracy", help="wall time against error for several models")
+    speed.add_argument("scene")
+    speed.add_argument("--models", default="ode", help="comma-separated, e.g. ode,fd,ib")
+    speed.add_argument("--record", action="store_true",
+                       help="store the recommendations in the package for `run --accuracy`")
+    stab = kinds.add_parser("stability", help="density ratio, time step, contact resolution and delta_sl sweeps")
+    stab.add_argument("scene", nargs="?", default=DEFAULT_SCENE)
+    stab.add_argument("--model", required=True)
+    stab.add_argument("--sweeps", default=None, help="comma-separated subset of density_ratio,cfl,cells_per_gap,delta_sl")
+    rest_study = kinds.add_parser("restitution", help="e against St over the Table 3 sets (paper Fig. 13-14)")
+    rest_study.add_argument("--model", required=True)
+    rest_study.add_argument("--points", type=int, default=12)
+    figs = kinds.add_parser("figures", help="the paper's Fig. 9-12 from a model")
+    figs.add_argument("--model", required=True)
+    for kind in (conv, speed, stab, rest_study, figs):
+        kind.add_argument("--out", type=Path, default=None, help="study directory (default results/study-...)")
+        kind.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                          help="override a value of every scene the study runs")
     return parser
 
 
@@ -80,6 +109,8 @@ def _cmd_run(args) -> int:
     else:
         scene = _scene_from_args(args.scene, args.overrides)
         model = args.model or models.default()
+        if args.accuracy is not None:
+            scene, model = _scene_for_accuracy(scene, args.accuracy, args.model)
         models.get(model)  # fail early on an unknown or missing model
         out = args.out
         if out is None:
@@ -122,6 +153,28 @@ def _cmd_compare(args) -> int:
         print(compare.format_table(rows))
         print(f"-> {out}/comparison.csv, {out}/comparison.png")
     return 0 if all(r["status"] == "completed" for r in rows if r["model"] != "measured") else 1
+
+
+def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | None):
+    from .studies import speed_accuracy
+
+    level = accuracy.strip().rstrip("%")
+    recorded = speed_accuracy.recorded()
+    if scene.name not in recorded:
+        known = ", ".join(sorted(recorded)) or "none yet"
+        raise scenes.SceneError(f"--accuracy: no recorded speed-accuracy study for {scene.name!r} (recorded: {known})")
+    choices = recorded[scene.name]
+    key = f"{level}%"
+    if key not in choices:
+        raise scenes.SceneError(f"--accuracy {accuracy}: choose one of {', '.join(choices)}")
+    pick = choices[key]
+    if pick is None:
+        raise scenes.SceneError(f"--accuracy {accuracy}: no recorded setting reaches it for {scene.name}")
+    if requested and requested != pick["model"]:
+        raise models.ModelError(f"--accuracy {accuracy} picks the {pick['model']} model, not {requested}")
+    print(f"fem-bounce: --accuracy {key}: {pick['model']} with {pick['setting']} "
+          f"(recorded error {pick['error']:.2%} on {', '.join(pick['quantities'])})", file=sys.stderr)
+    return scene.replace(**pick["setting"]), pick["model"]
 
 
 def _restart_model(run_dir: Path, requested: str | None) -> str:
@@ -172,10 +225,44 @@ def _cmd_restitution(args) -> int:
     return 0
 
 
+def _cmd_study(args) -> int:
+    from mpi4py import MPI
+
+    from . import studies
+
+    comm = MPI.COMM_WORLD
+    changes = dict(scenes.parse_override(text) for text in args.overrides)
+    model_names = (args.models if args.kind == "speed-accuracy" else args.model).split(",")
+    for name in model_names:
+        models.get(name)
+    scene_name = getattr(args, "scene", None)
+    out = args.out or Path("results") / "-".join(["study", args.kind, *([scene_name] if scene_name else []),
+                                                   *model_names])
+    numbers = lambda text: tuple(float(x) for x in text.split(",")) if text else None  # noqa: E731
+    if args.kind == "convergence":
+        studies.convergence.run(scenes.load(args.scene, changes), args.model, comm, out, numbers(args.levels),
+                                numbers(args.cfls))
+    elif args.kind == "speed-accuracy":
+        result = studies.speed_accuracy.run(scenes.load(args.scene, changes), model_names, comm, out)
+        if args.record and comm.rank == 0:
+            studies.speed_accuracy.record(result, Path(__file__).parent / "data")
+    elif args.kind == "stability":
+        chosen = args.sweeps.split(",") if args.sweeps else None
+        sweeps = {k: v for k, v in studies.stability.SWEEPS.items() if chosen is None or k in chosen}
+        studies.stability.run(scenes.load(args.scene, {"run.bounces": 1, **changes}), args.model, comm, out, sweeps)
+    elif args.kind == "restitution":
+        studies.restitution.run(args.model, comm, out, args.points)
+    else:
+        studies.figures.run(args.model, comm, out, overrides=changes)
+    if comm.rank == 0:
+        print(f"study written to {out}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
-               "compare": _cmd_compare}[args.command]
+               "study": _cmd_study, "compare": _cmd_compare}[args.command]
     with warnings.catch_warnings():
         warnings.simplefilter("always")
         warnings.showwarning = lambda message, *a, **k: print(f"fem-bounce: warning: {message}", file=sys.stderr)

@@ -35,7 +35,7 @@ class FdNumerics:
 class IbNumerics:
     """Immersed-boundary model (fem_bounce.models.ib).  Lengths in sphere diameters or fine cells."""
 
-    cells_per_diameter: float = _setting(32.0, 4.0, 400.0)  # fine uniform spacing h = D / this
+    cells_per_diameter: float = _setting(32.0, 2.0, 400.0)  # fine uniform spacing h = D / this
     cfl: float = _setting(0.4, 0.01, 2.0)  # dt = cfl * h / speed scale (the expected impact speed)
     max_cfl: float = _setting(1.0, 0.05, 5.0)  # measured CFL above this halves dt (refactorises)
     viscous_cfl: float = _setting(5.0, 0.1, 1e6)  # and dt <= viscous_cfl * h^2 / nu

@@ -98,6 +98,7 @@ def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: 
         "status": status,
         "impacts": [dataclasses.asdict(i) for i in integrator.impacts],
         "rebounds": [dataclasses.asdict(r) for r in integrator.rebounds],
+        "blend_crossings": integrator.blend_crossings,
         "wall_time_s": wall_time,
         "steps": steps,
         "sphere_steps": integrator.steps,

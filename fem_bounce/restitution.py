@@ -36,15 +36,20 @@ def log_targets(st_min: float, st_max: float, points: int) -> np.ndarray:
     return np.geomspace(st_min, st_max, points)
 
 
-def first_bounce(scene: scenes.Scene, gap: float, rebound: bool = True) -> dict:
-    """ODE model from `gap` to the apex after the first impact (or to the impact only)."""
+def bounce_scene(scene: scenes.Scene, gap: float) -> scenes.Scene:
+    """`scene` from `gap`, run to the apex after the first impact, with time enough to fall
+    at a tenth of the terminal speed."""
+    end = 10.0 * gap / scene.terminal_speed() + 20.0 * scene.time_unit
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # Re warnings are the caller's business here
-        # long enough to fall at a tenth of the terminal speed and bounce once
-        end = 10.0 * gap / scene.terminal_speed() + 20.0 * scene.time_unit
-        trial = scene.replace(**{"initial_gap": gap, "run.bounces": 1, "run.end_time": end})
+        return scene.replace(**{"initial_gap": gap, "run.bounces": 1, "run.end_time": end})
+
+
+def first_bounce(scene: scenes.Scene, gap: float, rebound: bool = True) -> dict:
+    """ODE model from `gap` to the apex after the first impact (or to the impact only)."""
+    trial = bounce_scene(scene, gap)
     integrator = SphereIntegrator(trial, stop_after_impacts=0 if rebound else 1)
-    integrator.advance(end)
+    integrator.advance(trial.run.end_time)
     integrator.finish()
     if not integrator.impacts:
         return {"gap": gap, "St": 0.0, "Re": 0.0, "restitution": 0.0}
@@ -83,18 +88,18 @@ def gap_for_stokes(scene: scenes.Scene, stokes: float, rtol: float = 0.01) -> fl
     return mid
 
 
-def material_for(stokes: float) -> str:
-    return next(name for name, limit in MATERIAL_LADDER if stokes <= limit)
+def material_for(stokes: float, ladder=MATERIAL_LADDER) -> str:
+    return next(name for name, limit in ladder if stokes <= limit)
 
 
-def sweep(targets: np.ndarray, samples: int = 8) -> list[dict]:
-    """One ODE run per target St: each set's St(gap) is tabulated with `samples` runs,
-    the gap for each target interpolated (monotone cubic in log-log), and that gap run to its first apex."""
+def plan(targets, samples: int = 8, ladder=MATERIAL_LADDER) -> list[tuple[str, float, float]]:
+    """(preset, target St, initial gap) per target: each set's St(gap) is tabulated with `samples`
+    ODE runs to the first impact and the gap interpolated (monotone cubic in log-log)."""
     from scipy.interpolate import PchipInterpolator
 
-    results = []
-    for name, _ in MATERIAL_LADDER:
-        wanted = [st for st in targets if material_for(st) == name]
+    chosen = []
+    for name, _ in ladder:
+        wanted = [float(st) for st in targets if material_for(st, ladder) == name]
         if not wanted:
             continue
         scene = scenes.load(name)
@@ -103,9 +108,15 @@ def sweep(targets: np.ndarray, samples: int = 8) -> list[dict]:
         stokes = np.array([first_bounce(scene, g, rebound=False)["St"] for g in gaps])
         log_gap = PchipInterpolator(np.log(stokes), np.log(gaps), extrapolate=False)
         for st in wanted:
-            gap = float(np.exp(log_gap(np.clip(math.log(st), math.log(stokes[0]), math.log(stokes[-1])))))
-            results.append({"scene": name, "target_St": float(st), **first_bounce(scene, gap)})
-    return results
+            x = np.clip(math.log(st), math.log(stokes[0]), math.log(stokes[-1]))
+            chosen.append((name, st, float(np.exp(log_gap(x)))))
+    return chosen
+
+
+def sweep(targets) -> list[dict]:
+    """The ODE model at each planned gap, to its first apex."""
+    return [{"scene": name, "target_St": st, **first_bounce(scenes.load(name), gap)}
+            for name, st, gap in plan(targets)]
 
 
 COLUMNS = ("scene", "target_St", "gap", "St", "Re", "impact_speed", "restitution", "rebound_speed", "apex_gap",

@@ -13,8 +13,8 @@ Rosenbrock-W integrator (TSROSW) whose steps sub-cycle inside a fluid step: the
 elastic contact lasts microseconds, a fluid step a millisecond.
 
 TS events locate the gap crossing delta_ss (W_o is fixed there from the
-crossing speed), the minimum gap (impact) and the apex after a rebound; a small
-state machine turns them into Impact and Rebound records.
+crossing speed) and delta_sl, the minimum gap (impact) and the apex after a
+rebound; a small state machine turns them into Impact and Rebound records.
 """
 from __future__ import annotations
 
@@ -92,6 +92,7 @@ class SphereIntegrator:
         self.observers: list[Callable[[dict], None]] = []
         self.impacts: list[Impact] = []
         self.rebounds: list[Rebound] = []
+        self.blend_crossings: list[dict] = []  # the gap passing delta_sl: time, "in"/"out", speed
         self.done = False  # the scene's bounce limit (or stop_after_impacts) was reached
         self.stop_after_impacts = stop_after_impacts
         self._stop_at = math.inf
@@ -146,7 +147,7 @@ class SphereIntegrator:
         ts.getSNES().getKSP().setType("preonly")
         ts.getSNES().getKSP().getPC().setType("lu")
         if self.mode == "free":
-            ts.setEventHandler([0, 0, -1], [False, False, True], self._indicators, self._post_event)
+            ts.setEventHandler([0, 0, 0, -1], [False, False, False, True], self._indicators, self._post_event)
             ts.setEventTolerances(1e-9)  # dimensionless; 1e-12 made PETSc 3.18 take dt = 0 steps
         ts.setPostStep(self._post_step)
         ts.setFromOptions()
@@ -222,7 +223,8 @@ class SphereIntegrator:
         h, v = y.array_r[:2]
         values[0] = (h - self.contact.contact_gap) / self.diameter
         values[1] = v / self.scene.velocity_unit
-        values[2] = h / self.diameter
+        values[2] = (h - self.contact.blend_gap) / self.diameter
+        values[3] = h / self.diameter
 
     def _post_event(self, ts, events, t, y, forward) -> None:
         h, v = y.array_r[:2]
@@ -231,6 +233,8 @@ class SphereIntegrator:
                 self._contact_crossing(h, v)
             elif event == 1:
                 self._turning_point(t, h)
+            elif event == 2:
+                self._blend_crossing(t, v)
             else:
                 raise PenetrationError(f"the sphere reached the wall at t = {t:.6g} s (gap {h:.3g} m)")
 
@@ -243,6 +247,12 @@ class SphereIntegrator:
         elif self.in_contact and v > 0.0:
             self.in_contact = False
             self._left_contact = True
+
+    def _blend_crossing(self, t: float, v: float) -> None:
+        """The gap passing delta_sl, where f_thr and f_sim weigh equally (recorded once per crossing)."""
+        direction = "in" if v < 0.0 else "out"
+        if not self.blend_crossings or self.blend_crossings[-1]["direction"] != direction:
+            self.blend_crossings.append({"time": t, "direction": direction, "speed": abs(v)})
 
     def _turning_point(self, t: float, h: float) -> None:
         """A sign change of V: the minimum gap of an impact, or the apex of a rebound.
@@ -373,6 +383,7 @@ class SphereIntegrator:
             log=[self._log_t, self._log_h, self._log_v],
             impacts=[dataclasses.asdict(i) for i in self.impacts],
             rebounds=[dataclasses.asdict(r) for r in self.rebounds],
+            blend_crossings=self.blend_crossings,
         )
 
     def load_state_dict(self, state: dict) -> None:
@@ -384,6 +395,7 @@ class SphereIntegrator:
         self._log_t, self._log_h, self._log_v = (list(x) for x in state["log"])
         self.impacts = [Impact(**i) for i in state["impacts"]]
         self.rebounds = [Rebound(**r) for r in state["rebounds"]]
+        self.blend_crossings = list(state["blend_crossings"])
 
 
 def _default_option(name: str, value) -> None:

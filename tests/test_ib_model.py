@@ -116,5 +116,5 @@ def test_a_diverged_run_says_so_in_one_line_and_exits_1(tmp_path, capsys):
 
 
 def test_ib_settings_are_range_checked(capsys):
-    assert cli.main(["run", "--model", "ib", "--set", "numerics.ib.cells_per_diameter=2"]) == 2
-    assert "numerics.ib.cells_per_diameter = 2.0 is out of range: allowed in [4, 400]" in capsys.readouterr().err
+    assert cli.main(["run", "--model", "ib", "--set", "numerics.ib.cells_per_diameter=1.5"]) == 2
+    assert "numerics.ib.cells_per_diameter = 1.5 is out of range: allowed in [2, 400]" in capsys.readouterr().err

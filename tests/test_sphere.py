@@ -73,6 +73,11 @@ def test_no_rebound_without_the_elastic_force():
 def test_contact_forces_a_rebound():
     integrator, rows = run(scene.load("li2011-case3", {"run.bounces": 1}))
     assert len(integrator.impacts) == 1 and integrator.rebounds[0].apex_gap > 0.1 * 0.0095
+    # the first apex (0.38 D) lies above delta_sl = 0.2: the gap passes it going in, then going out
+    crossings = integrator.blend_crossings
+    assert [c["direction"] for c in crossings] == ["in", "out"]
+    crossing_gap = np.interp(crossings[0]["time"], rows["t"], rows["gap"])
+    assert crossing_gap == pytest.approx(0.2 * 0.0095, rel=1e-4)
     # the elastic force acts only inside delta_ss and pushes away from the wall
     inside = rows["gap"] < 0.017 * 0.0095
     assert rows["f_elastic"][inside].min() >= 0.0 and rows["f_elastic"][~inside].max() == 0.0
@@ -132,3 +137,13 @@ def test_pinned_ode_case3():
     integrator, _ = run(scene.load("li2011-case3", {"run.bounces": 2}))
     assert [i.impact_speed for i in integrator.impacts] == pytest.approx([0.33112, 0.16695], rel=2e-3)
     assert integrator.rebounds[0].apex_gap == pytest.approx(3.5915e-3, rel=2e-3)
+
+
+def test_far_from_the_wall_the_sphere_reaches_the_terminal_speed():
+    """f_thr reduces to the usual drag: after 14 diffusion times D^2/nu the sphere settles at the
+    Schiller-Naumann terminal speed, less the history force's slowly decaying tail."""
+    sc = scene.load("li2011-table3-steel-95", {"initial_gap": 2.0, "run.end_time": 3.0})
+    integrator = SphereIntegrator(sc)
+    integrator.advance(sc.run.end_time)
+    assert -integrator.velocity == pytest.approx(sc.terminal_speed(), rel=0.01)
+    assert -integrator.velocity < sc.terminal_speed()  # approached from below

@@ -1,0 +1,63 @@
+"""Time the standard cases and record the result, so that performance history stays visible.
+
+    python benchmarks/speed.py                       # ODE cases, ~30 s
+    mpirun -n 2 python benchmarks/speed.py fd ib     # resolved models as they exist
+
+Each case is timed in-process (imports excluded) and appended to
+benchmarks/history/YYYY-MM-DD-MACHINE.json, which is committed.
+"""
+from __future__ import annotations
+
+import json
+import platform
+import sys
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+from fem_bounce import restitution, scene
+from fem_bounce.sphere import SphereIntegrator
+
+
+def ode_case3_three_impacts(comm) -> dict:
+    """Issue 2 target: the ODE model on li2011-case3 to the third impact in under 1 s."""
+    sc = scene.load("li2011-case3", {"run.end_time": 1.0})
+    start = time.perf_counter()
+    integrator = SphereIntegrator(sc, stop_after_impacts=3)
+    integrator.advance(sc.run.end_time)
+    wall = time.perf_counter() - start
+    return {"wall_time_s": wall, "target_s": 1.0, "sphere_steps": integrator.steps,
+            "impacts": len(integrator.impacts)}
+
+
+def ode_restitution_sweep(comm) -> dict:
+    """Issue 2 target: a 40-point restitution sweep in under 30 s."""
+    start = time.perf_counter()
+    results = restitution.sweep(restitution.log_targets(1.0, 1000.0, 40))
+    return {"wall_time_s": time.perf_counter() - start, "target_s": 30.0, "runs": len(results)}
+
+
+CASES = {"ode": [ode_case3_three_impacts, ode_restitution_sweep]}
+
+
+def main(models: list[str]) -> None:
+    comm = MPI.COMM_WORLD
+    record = {"date": time.strftime("%Y-%m-%dT%H:%M:%S"), "machine": platform.node(), "ranks": comm.size,
+              "python": platform.python_version(), "cases": {}}
+    for model in models:
+        for case in CASES[model]:
+            record["cases"][case.__name__] = result = case(comm)
+            if comm.rank == 0:
+                print(f"{case.__name__:32s} {result['wall_time_s']:8.2f} s  {result}", flush=True)
+    if comm.rank == 0:
+        folder = Path(__file__).parent / "history"
+        folder.mkdir(exist_ok=True)
+        path = folder / f"{time.strftime('%Y-%m-%d')}-{platform.node()}.json"
+        previous = json.loads(path.read_text()) if path.exists() else []
+        path.write_text(json.dumps(previous + [record], indent=2) + "\n")
+        print(f"-> {path}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:] or ["ode"])

@@ -1,0 +1,184 @@
+"""What every study shares: what to measure in a run, each model's resolution ladder, error
+arithmetic (observed orders, Richardson extrapolation, Pareto fronts) and the study directory."""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import plots, reference
+from .. import scene as scenes
+from ..cache import cached_run, load_summary
+
+
+@dataclass(frozen=True)
+class Ladder:
+    """A model's resolution knob: the scene key, its values coarse to fine, and the length it sets."""
+
+    key: str
+    values: tuple
+    time_step_key: str | None
+
+    def spacing(self, value: float) -> float:
+        """A length-like measure that shrinks under refinement (1/cells, or the tolerance itself)."""
+        return value if self.key.endswith("rtol") else 1.0 / value
+
+
+LADDERS = {
+    "ode": Ladder("numerics.ode.rtol", (1e-3, 1e-4, 1e-5, 1e-6, 1e-7), None),
+    "fd": Ladder("numerics.fd.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.fd.cfl"),
+    "ib": Ladder("numerics.ib.cells_per_diameter", (16.0, 24.0, 32.0, 48.0, 64.0), "numerics.ib.cfl"),
+    "ale": Ladder("numerics.ale.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.ale.cfl"),
+}
+CFL_LADDER = (0.8, 0.4, 0.2, 0.1)
+FIDELITY = ("ale", "fd", "ib", "ode")  # which model's finest run serves as the reference, first found
+
+
+def quantities(scene: scenes.Scene, run_dir: Path) -> dict:
+    """The numbers a study compares, for the kind of scene this is [SI]."""
+    summary = load_summary(run_dir)
+    found: dict = {"wall_time_s": summary["wall_time_s"], "status": summary["status"]}
+    motion = scene.motion
+    if motion.mode == "fixed":
+        force = plots.read_trajectory(run_dir)["f_sim"][-1]
+        a, rho, mu = scene.sphere.radius, scene.liquid.density, scene.liquid.viscosity
+        if motion.stream_velocity:
+            found["drag_coefficient"] = force / (0.5 * rho * motion.stream_velocity**2 * math.pi * a**2)
+        if motion.velocity:
+            found["wall_drag_factor"] = -force / (6 * math.pi * mu * a * motion.velocity)
+        return found
+    trajectory = plots.read_trajectory(run_dir)
+    found["peak_speed"] = float(max(0.0, -trajectory["velocity"].min()))
+    impacts, rebounds = summary["impacts"], summary["rebounds"]
+    if impacts:
+        found["impact_speed"] = impacts[0]["impact_speed"]
+    if len(impacts) > 1:
+        found["re_second"] = impacts[1]["Re"]
+    if rebounds and rebounds[0]["apex_gap"] is not None:
+        found["apex_gap"] = rebounds[0]["apex_gap"]
+    return found
+
+
+def primary(scene: scenes.Scene) -> list[str]:
+    """The quantities a scene is judged by, most important first."""
+    if scene.motion.mode == "fixed":
+        return ["drag_coefficient"] if scene.motion.stream_velocity else ["wall_drag_factor"]
+    if scene.reference.peak_speed is not None or scene.run.bounces == 0:
+        return ["peak_speed"]
+    return ["impact_speed", "apex_gap"]
+
+
+def measured(scene: scenes.Scene) -> dict:
+    """Experimental or published reference values for this scene, where they exist."""
+    ref = scene.reference
+    values = {"impact_speed": ref.impact_speed, "peak_speed": ref.peak_speed,
+              "re_second": ref.re_second}
+    if scene.motion.mode == "fixed" and scene.motion.stream_velocity:
+        reynolds = scene.reynolds(scene.motion.stream_velocity)
+        for row in reference.table("sphere_drag_reference"):
+            if abs(row["Re"] - reynolds) < 0.01 * reynolds:
+                values["drag_coefficient"] = row["Cd_reference"]
+    if scene.motion.mode == "fixed" and scene.motion.velocity:
+        delta = scene.initial_gap / scene.sphere.diameter
+        for row in reference.table("brenner1961_wall_drag"):
+            if abs(row["delta"] - delta) < 1e-9 * delta:
+                values["wall_drag_factor"] = row["lambda_brenner"]
+    return {k: v for k, v in values.items() if v is not None}
+
+
+def relative_error(value: float | None, ref: float | None) -> float | None:
+    if value is None or ref is None or ref == 0:
+        return None
+    return abs(value / ref - 1.0)
+
+
+def observed_orders(spacings: list[float], values: list[float]) -> list[float | None]:
+    """Order between consecutive levels, errors taken against the finest value."""
+    errors = [abs(v - values[-1]) for v in values[:-1]]
+    orders: list[float | None] = []
+    for k in range(len(errors) - 1):
+        e0, e1 = errors[k], errors[k + 1]
+        ratio = spacings[k] / spacings[k + 1]
+        orders.append(math.log(e0 / e1) / math.log(ratio) if e0 > 0 and e1 > 0 and ratio != 1 else None)
+    return orders
+
+
+def richardson(spacings: list[float], values: list[float]) -> tuple[float, float] | None:
+    """(order, extrapolated value) from the three finest levels, when they converge monotonically."""
+    (h1, h2, h3), (q1, q2, q3) = spacings[-3:], values[-3:]
+    if (q1 - q2) * (q2 - q3) <= 0:
+        return None
+    target = (q1 - q2) / (q2 - q3)
+
+    def mismatch(p):
+        return (h1**p - h2**p) / (h2**p - h3**p) - target
+
+    lo, hi = 0.05, 8.0
+    if mismatch(lo) * mismatch(hi) > 0:
+        return None
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if mismatch(lo) * mismatch(mid) > 0 else (lo, mid)
+    p = 0.5 * (lo + hi)
+    return p, q3 + (q3 - q2) / ((h2 / h3) ** p - 1.0)
+
+
+def pareto(points: list[tuple[float, float]]) -> list[int]:
+    """Indices of the points no other point beats in both cost and error, cheapest first."""
+    order = sorted(range(len(points)), key=lambda k: (points[k][0], points[k][1]))
+    front, best = [], math.inf
+    for k in order:
+        if points[k][1] < best:
+            front.append(k)
+            best = points[k][1]
+    return front
+
+
+class StudyDirectory:
+    """Where a study writes: CSV/JSON data, PNG figures and a progress log (rank 0)."""
+
+    def __init__(self, path: Path, comm):
+        self.path, self.comm = Path(path), comm
+        if comm.rank == 0:
+            self.path.mkdir(parents=True, exist_ok=True)
+        self._start = time.perf_counter()
+
+    def log(self, message: str) -> None:
+        if self.comm.rank != 0:
+            return
+        line = f"[{time.perf_counter() - self._start:7.0f} s] {message}"
+        print(line, file=sys.stderr, flush=True)
+        with open(self.path / "progress.log", "a") as stream:
+            stream.write(line + "\n")
+
+    def write_csv(self, name: str, rows: list[dict]) -> None:
+        if self.comm.rank != 0 or not rows:
+            return
+        columns = list(dict.fromkeys(k for row in rows for k in row))
+        with open(self.path / name, "w", newline="") as stream:
+            writer = csv.DictWriter(stream, columns)
+            writer.writeheader()
+            writer.writerows(rows)
+
+    def write_json(self, name: str, data) -> None:
+        if self.comm.rank == 0:
+            (self.path / name).write_text(json.dumps(data, indent=2, default=float) + "\n")
+
+
+def run_and_measure(scene: scenes.Scene, model: str, comm, study: StudyDirectory, label: str) -> dict:
+    study.log(f"{model} {label}: running (or reusing) ...")
+    run_dir = cached_run(scene, model, comm)
+    found = quantities(scene, run_dir)
+    study.log(f"{model} {label}: {found['status']}, {found['wall_time_s']:.1f} s  "
+              + "  ".join(f"{k} = {v:.5g}" for k, v in found.items() if isinstance(v, float) and k != "wall_time_s"))
+    return {"model": model, "label": label, "run_dir": str(run_dir), **found}
+
+
+def finite(values) -> np.ndarray:
+    return np.array([np.nan if v is None else v for v in values], dtype=float)

@@ -1,0 +1,125 @@
+"""The paper's Fig. 9-12 regenerated from a model, beside the paper's data where it is tabulated.
+
+    mpirun -n 2 fem-bounce study figures --model fd
+
+- Fig. 9:  case 3 trajectory for delta_ss = 0.015, 0.017, 0.019;
+- Fig. 10: case 3 velocity against gap;
+- Fig. 11: case 7 vorticity snapshots (models that write field snapshots; see fem_bounce.fields);
+- Fig. 12: relative error of the impact Reynolds numbers Re_I and Re_II against Table 2, by case and
+  Stokes number (a), and for the low-St cases against delta_ss (b).
+"""
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+from .. import plots, reference
+from .. import scene as scenes
+from ..cache import cached_run, load_summary
+from .common import StudyDirectory
+
+DELTA_SS = (0.015, 0.017, 0.019)
+DELTA_SS_LOW_ST = (0.017, 0.01785, 0.0187)
+SNAPSHOT_KEY = {"fd": "numerics.fd.output_every", "ib": "numerics.ib.output_every", "ale": "numerics.ale.output_every"}
+
+
+def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dict | None = None) -> dict:
+    study = StudyDirectory(out, comm)
+    extra = dict(overrides or {})
+
+    def run_case(case: int, **changes) -> Path:
+        sc = scenes.load(f"li2011-case{case}", {"run.bounces": 3, **extra, **changes})
+        label = ", ".join(f"{k} = {v:g}" for k, v in changes.items())
+        study.log(f"{model} case {case} {label}: running (or reusing) ...")
+        return cached_run(sc, model, comm)
+
+    fig9 = {dss: run_case(3, **{"contact.delta_ss": dss}) for dss in DELTA_SS}
+    fig12 = {case: run_case(case) for case in cases}
+    fig12b = {(case, dss): run_case(case, **{"contact.delta_ss": dss}) for case in (1, 2) if case in cases
+              for dss in DELTA_SS_LOW_ST}
+    made = {}
+    if comm.rank == 0:
+        made["fig9"] = figure_9(fig9, out / "fig09_case3_delta_ss.png")
+        summary = load_summary(fig9[0.017])
+        made["fig10"] = plots.velocity_gap_figure(plots.read_trajectory(fig9[0.017]), summary,
+                                                  out / "fig10_case3_velocity_gap.png")
+        made["fig12"] = figure_12(fig12, fig12b, out / "fig12_relative_error.png")
+    snapshots_key = SNAPSHOT_KEY.get(model)
+    if snapshots_key:
+        case7 = run_case(7, **{snapshots_key: 20})
+        if comm.rank == 0:
+            made["fig11"] = figure_11(case7, out / "fig11_case7_vorticity.png", study)
+    else:
+        study.log(f"fig 11 skipped: the {model} model writes no flow field")
+    study.write_json("figures.json", {k: str(v) for k, v in made.items() if v})
+    return made
+
+
+def figure_9(runs: dict, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, (dss, run_dir) in enumerate(runs.items()):
+        traj, summary = plots.read_trajectory(run_dir), load_summary(run_dir)
+        diameter, t_unit, _ = plots.units(summary["scene"])
+        ax.plot(traj["t"] / t_unit, traj["gap"] / diameter, color=f"C{k}", lw=1.2,
+                label=rf"$\delta_{{ss}}$ = {dss:g}")
+    ax.set_xlabel(r"$t/\sqrt{D/g}$")
+    ax.set_ylabel(r"$h/D$")
+    ax.set_ylim(bottom=0)
+    ax.set_title(f"Fig. 9: case 3 trajectory ({summary['model']} model)", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def figure_12(runs: dict, low_st: dict, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    table = {int(r["case"]): r for r in reference.table("li2011_table2_experiments")}
+    fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(10, 4))
+    model = None
+    for case, run_dir in runs.items():
+        summary = load_summary(run_dir)
+        model = summary["model"]
+        impacts = summary["impacts"]
+        for k, (key, name) in enumerate((("Re_I", "first impact"), ("Re_II", "second impact"))):
+            if len(impacts) > k:
+                error = impacts[k]["Re"] / table[case][key] - 1.0
+                ax_a.plot(table[case]["St_I_derived" if k == 0 else "St_II_derived"], 100 * error, "os"[k],
+                          color=f"C{k}", label=name if case == min(runs) else None)
+                ax_a.annotate(str(case), (table[case]["St_I_derived" if k == 0 else "St_II_derived"], 100 * error),
+                              fontsize=7, xytext=(3, 3), textcoords="offset points")
+    ax_a.axhspan(-3, 3, color="0.9", label="experimental spread (3 %)")
+    ax_a.axhline(0, color="0.5", lw=0.8)
+    ax_a.set_xlabel("measured impact Stokes number")
+    ax_a.set_ylabel("relative error of Re against Table 2 (%)")
+    ax_a.set_title(f"(a) cases 1-7 ({model})", fontsize=9)
+    ax_a.legend(fontsize=8)
+    for k, case in enumerate(sorted({c for c, _ in low_st})):
+        points = sorted((dss, load_summary(d)) for (c, dss), d in low_st.items() if c == case)
+        xs = [dss for dss, s in points if len(s["impacts"]) > 1]
+        ys = [100 * (s["impacts"][1]["Re"] / table[case]["Re_II"] - 1) for _, s in points if len(s["impacts"]) > 1]
+        ax_b.plot(xs, ys, "o-", color=f"C{k}", label=f"case {case}, second impact")
+    ax_b.axhspan(-3, 3, color="0.9")
+    ax_b.set_xticks(DELTA_SS_LOW_ST)
+    ax_b.set_xlabel(r"$\delta_{ss}$")
+    ax_b.set_ylabel("relative error of Re_II (%)")
+    ax_b.set_title("(b) low Stokes numbers against delta_ss", fontsize=9)
+    ax_b.legend(fontsize=8)
+    fig.suptitle("Fig. 12 (with impact Reynolds numbers, which Table 2 tabulates)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def figure_11(run_dir: Path, path: Path, study: StudyDirectory) -> Path | None:
+    try:
+        fields = importlib.import_module("fem_bounce.fields")
+        return fields.vorticity_figure(run_dir, path)
+    except (ModuleNotFoundError, AttributeError, FileNotFoundError) as err:
+        study.log(f"fig 11 skipped: {err}")
+        return None

@@ -1,0 +1,127 @@
+"""Speed against accuracy: every model at every resolution on one chart.
+
+    mpirun -n 2 fem-bounce study speed-accuracy li2011-case3 --models ode,fd,ib
+
+x = wall time (log), y = relative error (log) of the scene's quantities against (a) the finest run of the
+highest-fidelity model present and (b) the experiment where one exists; the Pareto front is marked.  Also
+writes, per accuracy threshold (1 %, 5 %, 10 %), the cheapest setting that reaches it on every primary
+quantity: `fem-bounce run --accuracy 5%` reads these recommendations.
+"""
+from __future__ import annotations
+
+import json
+from importlib import resources
+from pathlib import Path
+
+from .. import scene as scenes
+from .common import FIDELITY, LADDERS, StudyDirectory, measured, pareto, primary, relative_error, run_and_measure
+
+THRESHOLDS = (0.01, 0.05, 0.10)
+
+
+def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | None = None) -> dict:
+    study = StudyDirectory(out, comm)
+    rows = []
+    for model in models:
+        ladder = LADDERS[model]
+        for value in (levels or {}).get(model, ladder.values):
+            trial = scene.replace(**{ladder.key: value})
+            rows.append({"setting": {ladder.key: value},
+                         **run_and_measure(trial, model, comm, study, f"{ladder.key} = {value:g}")})
+    names = primary(scene)
+    reference_model = next(m for m in FIDELITY if m in models)
+    finest = [r for r in rows if r["model"] == reference_model][-1]
+    experiment = measured(scene)
+    for r in rows:
+        for name in names:
+            r[f"error_{name}"] = relative_error(r.get(name), finest.get(name))
+            r[f"experiment_error_{name}"] = relative_error(r.get(name), experiment.get(name))
+        r["error"] = _worst(r, "error_", names)
+        r["experiment_error"] = _worst(r, "experiment_error_", names)
+    recommendations = recommend(rows, names, finest)
+    result = {"scene": scene.name, "quantities": names, "reference_run": finest["run_dir"],
+              "reference_model": reference_model, "experiment": experiment, "rows": rows,
+              "recommendations": recommendations}
+    study.write_json("speed_accuracy.json", result)
+    study.write_csv("speed_accuracy.csv", [{k: v for k, v in r.items() if k != "setting"} | r["setting"]
+                                           for r in rows])
+    if comm.rank == 0:
+        figure(result, out / "speed_accuracy.png")
+        for level, rec in recommendations.items():
+            study.log(f"within {level}: " + (f"{rec['model']} {rec['setting']} ({rec['wall_time_s']:.1f} s)"
+                                             if rec else "no setting reaches it"))
+    return result
+
+
+def _worst(row: dict, prefix: str, names: list[str]) -> float | None:
+    errors = [row[prefix + n] for n in names]
+    return None if any(e is None for e in errors) else max(errors)
+
+
+def recommend(rows: list[dict], names: list[str], reference: dict) -> dict:
+    """Cheapest run whose worst error against the reference run is within each threshold.
+    The reference run itself is excluded: its error is zero by construction."""
+    recommendations = {}
+    for threshold in THRESHOLDS:
+        candidates = [r for r in rows if r is not reference and r["error"] is not None and r["error"] <= threshold
+                      and r["status"] == "completed"]
+        best = min(candidates, key=lambda r: r["wall_time_s"], default=None)
+        recommendations[f"{threshold:.0%}"] = None if best is None else {
+            "model": best["model"], "setting": best["setting"], "wall_time_s": best["wall_time_s"],
+            "error": best["error"], "quantities": names}
+    return recommendations
+
+
+def figure(result: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = result["rows"]
+    panels = [("error", f"against the finest {result['reference_model']} run")]
+    if any(r["experiment_error"] is not None for r in rows):
+        panels.append(("experiment_error", "against the experiment"))
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4.5), squeeze=False)
+    for ax, (key, title) in zip(axes[0], panels):
+        usable = [r for r in rows if r[key] is not None and r[key] > 0]
+        models = list(dict.fromkeys(r["model"] for r in usable))
+        for k, model in enumerate(models):
+            mine = [r for r in usable if r["model"] == model]
+            ax.loglog([r["wall_time_s"] for r in mine], [r[key] for r in mine], "o-", color=f"C{k}", label=model)
+        points = [(r["wall_time_s"], r[key]) for r in usable]
+        front = [points[i] for i in pareto(points)]
+        if front:
+            xs, ys = zip(*front)
+            ax.step(xs, ys, where="post", color="k", lw=1.0, alpha=0.6, label="Pareto front")
+            ax.plot(xs, ys, "s", mfc="none", mec="k", ms=9)
+        for threshold in THRESHOLDS:
+            ax.axhline(threshold, color="0.7", ls=":", lw=0.8)
+        ax.set_xlabel("wall time (s)")
+        ax.set_ylabel("worst relative error of " + ", ".join(result["quantities"]))
+        ax.set_title(title, fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"{result['scene']}: speed against accuracy", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+# -- recorded recommendations, for `fem-bounce run --accuracy` ------------------------------------
+
+RECORD = "accuracy_recommendations.json"
+
+
+def recorded() -> dict:
+    """{scene name: {"5%": {"model": ..., "setting": {...}, ...}}} shipped with the package."""
+    path = resources.files("fem_bounce") / "data" / RECORD
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def record(result: dict, package_data: Path) -> None:
+    """Add one study's recommendations to the shipped record (a deliberate, committed file)."""
+    path = Path(package_data) / RECORD
+    data = json.loads(path.read_text()) if path.exists() else {}
+    data[result["scene"]] = result["recommendations"]
+    path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")

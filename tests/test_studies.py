@@ -1,0 +1,72 @@
+"""Study machinery: the run cache, error arithmetic, classification, and each study on the ODE model."""
+import json
+import math
+
+import pytest
+from mpi4py import MPI
+
+from fem_bounce import cache, cli, scene
+from fem_bounce.studies import common, convergence, speed_accuracy, stability
+
+
+def test_observed_order_and_richardson_recover_a_known_expansion():
+    spacings = [1 / 8, 1 / 16, 1 / 32, 1 / 64]
+    values = [2.0 + 3.0 * h**2 for h in spacings]
+    orders = common.observed_orders(spacings, values)
+    assert orders[0] == pytest.approx(math.log((3 / 64 - 3 / 4096) / (3 / 256 - 3 / 4096)) / math.log(2))
+    order, limit = common.richardson(spacings, values)
+    assert order == pytest.approx(2.0, rel=1e-6) and limit == pytest.approx(2.0, rel=1e-9)
+    assert common.richardson([1.0, 0.5, 0.25], [1.0, 2.0, 1.5]) is None  # oscillating: no extrapolation
+
+
+def test_pareto_front_keeps_only_undominated_points():
+    points = [(1.0, 0.5), (2.0, 0.6), (3.0, 0.1), (4.0, 0.2), (5.0, 0.01)]
+    assert common.pareto(points) == [0, 2, 4]
+
+
+def test_recommendation_is_the_cheapest_setting_within_each_threshold():
+    rows = [{"model": "ode", "setting": {"k": 1}, "wall_time_s": 0.1, "error": 0.2, "status": "completed"},
+            {"model": "fd", "setting": {"k": 2}, "wall_time_s": 10, "error": 0.04, "status": "completed"},
+            {"model": "fd", "setting": {"k": 3}, "wall_time_s": 20, "error": 0.005, "status": "completed"},
+            {"model": "fd", "setting": {"k": 4}, "wall_time_s": 40, "error": 0.0, "status": "completed"}]
+    picks = speed_accuracy.recommend(rows, ["impact_speed"], rows[-1])
+    assert picks["10%"]["setting"] == {"k": 2} and picks["5%"]["setting"] == {"k": 2}
+    assert picks["1%"]["setting"] == {"k": 3}  # the reference itself (error 0) is never recommended
+
+
+def test_cache_reuses_finished_runs_and_keys_on_the_scene(tmp_path):
+    sc = scene.load("li2011-case1", {"run.bounces": 1})
+    first = cache.cached_run(sc, "ode", MPI.COMM_SELF, root=tmp_path)
+    stamp = (first / "summary.json").stat().st_mtime_ns
+    assert cache.cached_run(sc, "ode", MPI.COMM_SELF, root=tmp_path) == first
+    assert (first / "summary.json").stat().st_mtime_ns == stamp
+    assert cache.run_key(sc.replace(**{"contact.delta_ss": 0.018}), "ode") != cache.run_key(sc, "ode")
+    assert cache.run_key(sc, "fd") != cache.run_key(sc, "ode")
+
+
+def test_energy_growth_flags_an_unphysical_trajectory(tmp_path):
+    sc = scene.load("li2011-case3")
+    sound = cache.cached_run(sc.replace(**{"run.bounces": 1}), "ode", MPI.COMM_SELF, root=tmp_path)
+    assert not stability.energy_grew(sc, sound)
+    rows = (sound / "trajectory.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    last = rows[-1].split(",")
+    last[header.index("velocity")] = "5.0"  # a kinetic energy the fall cannot have supplied
+    (sound / "trajectory.csv").write_text("\n".join(rows[:-1] + [",".join(last)]) + "\n")
+    assert stability.energy_grew(sc, sound)
+
+
+def test_convergence_study_on_the_ode_model(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    sc = scene.load("li2011-case1", {"run.bounces": 1})
+    analysis = convergence.run(sc, "ode", MPI.COMM_SELF, tmp_path / "study", levels=(1e-3, 1e-4, 1e-5, 1e-6))
+    assert (tmp_path / "study" / "convergence.png").exists()
+    errors = analysis["space:apex_gap"]["errors_vs_finest"]
+    assert errors[0] > errors[-1]  # tighter tolerances converge
+    data = json.loads((tmp_path / "study" / "convergence.json").read_text())
+    assert data["key"] == "numerics.ode.rtol" and len(data["rows"]) == 4
+
+
+def test_accuracy_without_a_recorded_study_is_a_clear_error(capsys):
+    assert cli.main(["run", "li2011-case5", "--model", "ode", "--accuracy", "5%"]) == 2
+    assert "no recorded speed-accuracy study for 'li2011-case5'" in capsys.readouterr().err
