@@ -22,6 +22,10 @@ impact speed; halved if the measured CFL number exceeds `max_cfl`):
 5. the integrator sub-cycles through the contact to t + dt and returns V'; the
    flow is completed with f0 + (V' - V_n) f1.
 
+The flow is a 2-D problem of 10^4-10^5 unknowns solved serially (PETSc on
+COMM_SELF): under mpirun every rank runs the same deterministic computation and
+only rank 0 writes, so results do not depend on the number of ranks.
+
 The paper advanced the pair with explicit RK2; this coupling stays stable for
 light spheres (see benchmarks/ib_validation.py for the measured limit).  With
 `numerics.ib.coupling = "explicit"` the flow instead follows the old velocity V_n
