@@ -210,7 +210,7 @@ def check_timestep(cells):
 
 
 def check_speed(cells):
-    ode = run("li2011-case3", {})
+    ode = run("li2011-case3", {}, model="ode")
     ib = run("li2011-case3", {"numerics.ib.cells_per_diameter": cells}, model="ib")
     return {"ode_wall_time_s": round(ode["wall_time_s"], 2), "ib_wall_time_s": round(ib["wall_time_s"], 2),
             "ratio_ib_over_ode": round(ib["wall_time_s"] / ode["wall_time_s"], 1),

@@ -40,7 +40,7 @@ class IbNumerics:
     max_cfl: float = _setting(1.0, 0.05, 5.0)  # measured CFL above this halves dt (refactorises)
     viscous_cfl: float = _setting(5.0, 0.1, 1e6)  # and dt <= viscous_cfl * h^2 / nu
     far_field: float = _setting(15.0, 1.0, 200.0)  # unbounded: slip boundary this far beyond the fine region
-    growth: float = _setting(1.05, 1.0, 1.5)  # cell size ratio outside the fine region
+    growth: float = _setting(1.1, 1.0, 1.5)  # cell size ratio outside the fine region
     fine_radius: float = _setting(1.0, 0.55, 50.0)  # uniform cells from the axis out to this radius
     fine_margin: float = _setting(1.0, 0.1, 50.0)  # and this far above and below the sphere's path
     point_spacing: float = _setting(1.0, 0.3, 3.0)  # Lagrangian points on the meridian, in cells
