@@ -16,6 +16,7 @@ Checks (targets from physics.md section 5 and the issue):
   domain      far-field distance and cell growth (graded single grid): Cd(100) and case 3 V_i
   timestep    case 3 at CFL 0.4 and 0.2
   speed       case 3 with ode and ib in this session (wall-time ratio)
+  retraction  Cd(100), ten Cate peak and case 3 with the points on radius a - 0.3 h (Breugem 2012)
 
 Results are merged into benchmarks/results/ib_validation.json with the date and machine.
 Timings are of this machine at the time; another job running alongside makes them noisy.
@@ -208,6 +209,21 @@ def check_timestep(cells):
             for cfl in (0.4, 0.2)}
 
 
+def check_retraction(cells):
+    """The diffuse surface's thickness: points on radius a - 0.3 h (Breugem 2012) against a."""
+    out = {}
+    for retraction in (0.0, 0.3):
+        common = {"numerics.ib.cells_per_diameter": cells, "numerics.ib.retraction": retraction}
+        drag = run("sphere-drag-re100", common)
+        settle = run("tencate2002-e4", common)
+        bounce = impacts(run("li2011-case3", {**common, "run.bounces": 2}))
+        out[f"{retraction:g}"] = {"Cd100": round(drag["ib"]["drag_coefficient"], 4),
+                                  "recirculation_100": round(drag["ib"]["recirculation_length_over_D"], 3),
+                                  "tencate_peak_speed": round(float(-settle["_trajectory"]["velocity"].min()), 5),
+                                  "case3_impact_speed": bounce["impact_speed"], "case3_Re": bounce["Re"]}
+    return out
+
+
 def check_speed(cells):
     ode = run("li2011-case3", {}, model="ode")
     ib = run("li2011-case3", {"numerics.ib.cells_per_diameter": cells}, model="ib")
@@ -218,7 +234,7 @@ def check_speed(cells):
 
 CHECKS = {"drag": check_drag, "tencate": check_tencate, "case3": check_case3, "cases": check_cases,
           "density": check_density, "resolution": check_resolution, "domain": check_domain,
-          "timestep": check_timestep, "speed": check_speed}
+          "timestep": check_timestep, "speed": check_speed, "retraction": check_retraction}
 
 
 def main(argv=None) -> int:
