@@ -138,10 +138,16 @@ def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
                      f"{summary['status'][:20]}", ha="center", va="bottom", fontsize=7)
     ax_cost.set_xticks(range(len(summaries)), [s["model"] for s in summaries])
     ax_cost.set_yscale("log")
+    ax_cost.set_ylim(top=5.0 * max(s["wall_time_s"] for s in summaries))  # room for the labels
     ax_cost.set(ylabel="wall time [s]", title="cost (same machine, same session)")
     ref = scene.get("reference", {})
-    if ref.get("impact_speed"):
-        ax_imp.plot([1], [ref["impact_speed"]], "k*", ms=10, label="measured (Table 2)")
+    measured = [(1, ref.get("impact_speed"))]
+    if ref.get("re_second"):  # Table 2 gives the second impact as a Reynolds number
+        liquid = scene["liquid"]
+        measured.append((2, ref["re_second"] * liquid["viscosity"] / (liquid["density"] * diameter)))
+    measured = [(n, v) for n, v in measured if v]
+    if measured:
+        ax_imp.plot(*zip(*measured), "k*", ms=10, label="measured (Table 2)")
     if ref.get("velocity_curve"):
         t_exp, u_exp = reference.velocity_curve(ref["velocity_curve"])
         ax_vel.plot(t_exp / t_unit, u_exp / v_unit, "ko", ms=3, mfc="none", label="experiment")
