@@ -18,7 +18,7 @@ Checks (targets from physics.md section 5 and the issue):
   speed       case 3 with ode and ib in this session (wall-time ratio)
   retraction  Cd(100), ten Cate peak and case 3 with the points on radius a - 0.3 h (Breugem 2012)
 
-Results are merged into benchmarks/results/ib_validation.json with the date and machine.
+Results are merged into benchmarks/history/ib_validation.json with the date and machine.
 Timings are of this machine at the time; another job running alongside makes them noisy.
 """
 from __future__ import annotations
@@ -40,7 +40,7 @@ from fem_bounce import reference, scene
 from fem_bounce.plots import read_summary, read_trajectory
 from fem_bounce.run import RunDiverged, simulate
 
-RESULTS = Path(__file__).parent / "results" / "ib_validation.json"
+RESULTS = Path(__file__).parent / "history" / "ib_validation.json"
 COMM = MPI.COMM_SELF
 
 
