@@ -4,7 +4,7 @@
 # Re-running either is fast: each install step is skipped when nothing changed.
 
 APT_PACKAGES := python3-dolfinx python3-gmsh python3-meshio python3-matplotlib python3-scipy \
-                python3-pytest python3-venv python3-setuptools openmpi-bin
+                python3-pytest python3-venv python3-setuptools openmpi-bin python3-h5py
 VENV   := .venv
 PY     := $(VENV)/bin/python
 SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)

@@ -5,6 +5,7 @@
     fem-bounce scenes show NAME        print a scene as TOML (it runs unchanged as a scene file)
     fem-bounce restitution [...]       coefficient of restitution against impact Stokes number (ODE)
     fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
+    fem-bounce compare [SCENE] --models ode,ib,...   several models on one scene: one figure, one table
 
 Only this module and the demos touch MPI.COMM_WORLD.  Errors a user can cause
 print one line naming the field and exit with status 2.
@@ -40,6 +41,15 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--accuracy", default=None, metavar="PERCENT",
                      help="pick the cheapest model and resolution that the recorded study says reaches this "
                           "error on the scene's quantities (1%%, 5%% or 10%%)")
+
+    cmp_ = sub.add_parser("compare", help="run several models on one scene; one figure and one table")
+    cmp_.add_argument("scene", nargs="?", default=None, help=f"preset name or TOML file (default {DEFAULT_SCENE})")
+    cmp_.add_argument("--models", default="ode,ib", help="comma-separated models (default ode,ib)")
+    cmp_.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                      help="override a scene value for every model (repeatable)")
+    cmp_.add_argument("--out", type=Path, default=None, help="output directory (default runs/compare-SCENE[-N])")
+    cmp_.add_argument("--force", action="store_true", help="replace an existing output directory")
+    cmp_.add_argument("--quiet", action="store_true", help="no progress lines")
 
     show = sub.add_parser("scenes", help="list the shipped scenes, or show one as TOML")
     show.add_argument("action", nargs="?", choices=["list", "show"], default="list")
@@ -87,7 +97,7 @@ def _scene_from_args(source: str | None, overrides: list[str]) -> scenes.Scene:
 def _cmd_run(args) -> int:
     from mpi4py import MPI
 
-    from .run import simulate
+    from .run import RunDiverged, simulate
 
     comm = MPI.COMM_WORLD
     if args.restart is not None:
@@ -109,11 +119,40 @@ def _cmd_run(args) -> int:
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     if comm.rank == 0:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
-    summary = simulate(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                       command=command, progress=not args.quiet)
+    try:
+        summary = simulate(scene, model, comm, out, force=args.force, restart=args.restart is not None,
+                           command=command, progress=not args.quiet)
+    except RunDiverged as err:
+        if comm.rank == 0:
+            print(f"fem-bounce: {err}", file=sys.stderr)
+        return 1
     if comm.rank == 0:
         _print_records(summary)
     return 0
+
+
+def _cmd_compare(args) -> int:
+    from mpi4py import MPI
+
+    from . import compare
+
+    comm = MPI.COMM_WORLD
+    names = [name.strip() for name in args.models.split(",") if name.strip()]
+    if not names:
+        raise models.ModelError("--models needs at least one model, e.g. --models ode,ib")
+    for name in names:
+        models.get(name)
+    scene = _scene_from_args(args.scene, args.overrides)
+    out = args.out
+    if out is None:
+        out = comm.bcast(output.unused_directory(Path("runs") / f"compare-{scene.name}") if comm.rank == 0 else None,
+                         root=0)
+    command = shlex.join(["fem-bounce", *sys.argv[1:]])
+    rows = compare.compare(scene, names, comm, out, force=args.force, progress=not args.quiet, command=command)
+    if comm.rank == 0:
+        print(compare.format_table(rows))
+        print(f"-> {out}/comparison.csv, {out}/comparison.png")
+    return 0 if all(r["status"] == "completed" for r in rows if r["model"] != "measured") else 1
 
 
 def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | None):
@@ -223,7 +262,7 @@ def _cmd_study(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
-               "study": _cmd_study}[args.command]
+               "study": _cmd_study, "compare": _cmd_compare}[args.command]
     with warnings.catch_warnings():
         warnings.simplefilter("always")
         warnings.showwarning = lambda message, *a, **k: print(f"fem-bounce: warning: {message}", file=sys.stderr)

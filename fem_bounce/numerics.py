@@ -33,11 +33,24 @@ class FdNumerics:
 
 @dataclass(frozen=True)
 class IbNumerics:
-    cells_per_diameter: float = _setting(32.0, 4.0, 400.0)
-    levels: int = _setting(3, 1, 8)  # nested grids, each twice as coarse
-    cfl: float = _setting(0.4, 0.01, 5.0)
-    far_field: float = _setting(4.0, 1.0, 100.0)  # finest grid extent beyond the path, in diameters
-    output_every: int = _setting(0, 0, 10**9)
+    """Immersed-boundary model (fem_bounce.models.ib).  Lengths in sphere diameters or fine cells."""
+
+    cells_per_diameter: float = _setting(32.0, 2.0, 400.0)  # fine uniform spacing h = D / this
+    cfl: float = _setting(0.4, 0.01, 2.0)  # dt = cfl * h / speed scale (the expected impact speed)
+    max_cfl: float = _setting(1.0, 0.05, 5.0)  # measured CFL above this halves dt (refactorises)
+    viscous_cfl: float = _setting(5.0, 0.1, 1e6)  # and dt <= viscous_cfl * h^2 / nu
+    far_field: float = _setting(15.0, 1.0, 200.0)  # unbounded: slip boundary this far beyond the fine region
+    growth: float = _setting(1.1, 1.0, 1.5)  # cell size ratio outside the fine region
+    fine_radius: float = _setting(1.0, 0.55, 50.0)  # uniform cells from the axis out to this radius
+    fine_margin: float = _setting(1.0, 0.1, 50.0)  # and this far above and below the sphere's path
+    point_spacing: float = _setting(1.0, 0.3, 3.0)  # Lagrangian points on the meridian, in cells
+    retraction: float = _setting(0.0, 0.0, 1.0)  # points on radius a - retraction * h (Breugem 2012)
+    wall_exclusion: float = _setting(0.5, 0.0, 3.0)  # points nearer the wall than this (cells) are released
+    force_tolerance: float = _setting(1e-6, 1e-12, 1e-2)  # rms slip left by CG, relative to the speed scale
+    # implicit: the flow's response to the new sphere velocity goes to the integrator (stable for any
+    # density ratio); explicit: the flow follows the old velocity (as the paper's RK2; for comparison)
+    coupling: str = field(default="implicit", metadata={"choices": ("implicit", "explicit")})
+    output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,301 @@
+"""The immersed-boundary model (`--model ib`): the paper's own method (section 2.1).
+
+Each fluid step of size dt (fixed, chosen from the CFL number and the expected
+impact speed; halved if the measured CFL number exceeds `max_cfl`):
+
+1. predict the sphere's gap at t + dt from its last two velocities and place
+   the Lagrangian points there;
+2. advance the flow without immersed forces (FlowSolver.predict);
+3. find the forces f0 that make the flow match the sphere's current velocity
+   V_n at the points, and the forces f1 of a unit velocity (both by CG).  The
+   flow is linear in the sphere's new velocity V': f = f0 + (V' - V_n) f1;
+4. hand the sphere integrator the resolved force linearised in its
+   acceleration (implicit coupling, physics.md section 4):
+
+       f_sim = -F(f) + m_l dV/dt,   F(f) = 2 pi rho_l sum_k f_k,z
+
+   where -F is minus the total immersed force and m_l dV/dt the momentum change
+   of the liquid that fills the sphere (Uhlmann 2005), so that
+
+       explicit = -F(f0),   added_mass = F(f1) dt - m_l  (about m_l / 2);
+
+5. the integrator sub-cycles through the contact to t + dt and returns V'; the
+   flow is completed with f0 + (V' - V_n) f1.
+
+The flow is a 2-D problem of 10^4-10^5 unknowns solved serially (PETSc on
+COMM_SELF): under mpirun every rank runs the same deterministic computation and
+only rank 0 writes, so results do not depend on the number of ranks.
+
+The paper advanced the pair with explicit RK2; this coupling stays stable for
+light spheres (see benchmarks/ib_validation.py for the measured limit).  With
+`numerics.ib.coupling = "explicit"` the flow instead follows the old velocity V_n
+and only the interior liquid's m_l dV/dt is implicit (Uhlmann 2005): kept to show
+the difference, it fails as rho_p / rho_l approaches 1.
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg as sla
+from petsc4py import PETSc
+
+from ...run import RunDiverged
+from ...sphere import FluidForce
+from .body import SphereSurface
+from .delta import SUPPORT, interpolation_matrix
+from .domain import build_grid
+from .grid import WALL
+from .operators import AxisymmetricOperators
+from .snapshots import SnapshotWriter
+from .solver import FlowSolver, ForcePreconditioner, ForceSolveError
+
+
+def time_step(scene, h: float) -> tuple[float, float]:
+    """(dt [s], speed scale [m/s]) from the CFL number and the viscous limit of numerics.ib."""
+    opts, motion = scene.numerics.ib, scene.motion
+    if motion.mode == "free":
+        speed = scene.estimated_impact_speed()
+    else:
+        speed = max(abs(motion.velocity), abs(motion.stream_velocity))
+        if motion.mode == "prescribed" and motion.series:
+            data = np.genfromtxt(motion.series, delimiter=",", names=True)
+            speed = max(speed, float(np.max(np.abs(data["velocity"]))))
+    speed = max(speed, 1e-12)
+    nu = scene.liquid.kinematic_viscosity
+    dt = min(opts.cfl * h / speed, opts.viscous_cfl * h * h / nu, scene.run.end_time / 20.0)
+    return dt, speed
+
+
+class ImmersedBoundaryModel:
+    name = "ib"
+    resolved = True
+
+    def __init__(self, scene, comm):
+        self.scene = scene
+        self.comm = comm
+        self.opts = scene.numerics.ib
+        self.grid = build_grid(scene)
+        self.ops = AxisymmetricOperators(self.grid)
+        self.dt, self.speed_scale = time_step(scene, self.grid.h)
+        h = self.grid.h
+        exclusion = self.opts.wall_exclusion * h if self.grid.boundaries.bottom == WALL else -math.inf
+        self.surface = SphereSurface(scene.sphere.radius, self.opts.point_spacing * h,
+                                     self.opts.retraction * h, exclusion)
+
+    # -- pieces of a step ------------------------------------------------------------------------
+    def _check_inside(self, r: np.ndarray, z: np.ndarray, t: float) -> None:
+        reach = SUPPORT * self.grid.h
+        z_low = z.min() - reach
+        if self.grid.boundaries.bottom == WALL:
+            z_low = max(z_low, 0.0)  # the kernel's mirror image handles the wall
+        if not self.grid.in_fine_region(0.0, r.max() + reach, z_low, z.max() + reach):
+            raise RunDiverged(f"t = {t:.5g} s: the sphere left the uniform grid region "
+                              f"(z = {z.min():.4g}..{z.max():.4g} m, fine region {self.grid.fine_z}); "
+                              "raise numerics.ib.fine_margin")
+
+    def run(self, integrator, progress, out_dir: Path | None = None, restart: bool = False) -> dict:
+        if restart:
+            raise RunDiverged("the ib model writes no checkpoints: rerun without --restart")
+        scene, opts, grid = self.scene, self.opts, self.grid
+        solver = FlowSolver(self.ops, scene.liquid.kinematic_viscosity, self.dt)
+        stats = StepStatistics(calm_limit=0.5 * opts.max_cfl)
+        preconditioner = ForcePreconditioner(grid.h)
+        warm = WarmStarts(self.surface.n_points)
+        writer = None
+        if out_dir is not None and opts.output_every and self.comm.rank == 0:
+            writer = SnapshotWriter(out_dir, grid.R, grid.Z)
+        drag_history: list[tuple[float, float]] = []
+        end = scene.run.end_time
+        start = time.perf_counter()
+        try:
+            if writer is not None:
+                self._snapshot(writer, solver, integrator.time)
+            while integrator.time < end * (1.0 - 1e-12) and not integrator.done:
+                fluid = self._step(integrator, solver, preconditioner, warm, stats)
+                drag_history.append((integrator.time, fluid.explicit))
+                self._adapt_time_step(solver, preconditioner, stats)
+                progress(integrator.time, stats.steps, integrator.gap, integrator.velocity)
+                if writer is not None and stats.steps % opts.output_every == 0:
+                    self._snapshot(writer, solver, integrator.time)
+            wake = self._recirculation_length(solver)
+        finally:
+            if writer is not None:
+                writer.close()
+            solver.destroy()
+        extra = {"dt": self.dt, "final_dt": solver.dt, "speed_scale": self.speed_scale,
+                 **stats.summary(time.perf_counter() - start), "grid": grid.describe(),
+                 "lagrangian_points": self.surface.n_points, "snapshots": writer.count if writer is not None else 0,
+                 "force_tables_assembled": preconditioner.assembled, **self._drag_summary(drag_history), **wake}
+        sizes = {"unknowns": grid.n_psi, "cells": grid.n_cells, "fine_cells_per_diameter": opts.cells_per_diameter,
+                 "lagrangian_points": self.surface.n_points}
+        return {"steps": stats.steps, "sizes": sizes, "extra": {"ib": extra}}
+
+    def _step(self, integrator, solver: FlowSolver, preconditioner: ForcePreconditioner, warm: "WarmStarts",
+              stats: "StepStatistics") -> FluidForce:
+        """One fluid step coupled to the sphere (steps 1-5 of the module docstring)."""
+        scene, opts, grid = self.scene, self.opts, self.grid
+        mode = scene.motion.mode
+        t, v, gap, dt = integrator.time, integrator.velocity, integrator.gap, solver.dt
+        # 1. the points where the sphere will be
+        gap_next = gap if mode == "fixed" else gap + dt * (1.5 * v - 0.5 * warm.v_old)
+        r_pts, z_pts = self.surface.positions(gap_next)
+        self._check_inside(r_pts, z_pts, t)
+        active = self.surface.active(gap_next)
+        n_act = int(active.sum())
+        E = interpolation_matrix(grid, r_pts[active], z_pts[active])
+        EC = (E @ solver.curl).tocsr()
+        # 2. the flow without immersed forces; 3. the forces for V_n and for a unit velocity
+        prediction = solver.predict()
+        v_ref = scene.motion.velocity if mode == "fixed" else v
+        zeros, ones = np.zeros(n_act), np.ones(n_act)
+        S, keys = preconditioner.build(solver, gap_next + self.surface.radius, self._force_rows(solver))
+        sel = np.concatenate([active, active])
+        factor = sla.cho_factor(S[np.ix_(sel, sel)])
+        apply = lambda res: sla.cho_solve(factor, res)  # noqa: E731
+        try:
+            base = solver.solve_forces(EC, np.concatenate([zeros, v_ref * ones]) - E @ prediction.q,
+                                       warm.base[sel], opts.force_tolerance * self.speed_scale, apply)
+            unit = None
+            if mode != "fixed" and opts.coupling == "implicit":
+                unit = solver.solve_forces(EC, np.concatenate([zeros, ones]), warm.unit[sel], opts.force_tolerance,
+                                           apply)
+        except ForceSolveError as err:
+            raise RunDiverged(f"t = {t:.5g} s: {err}") from err
+        if max(base.iterations, unit.iterations if unit else 0) > preconditioner.stale_after:
+            preconditioner.mark_stale(keys)
+        # 4. the resolved force, linearised in the sphere's acceleration; the integrator's step
+        to_newton = 2.0 * math.pi * scene.liquid.density  # kinematic ring forces / 2 pi -> N
+        explicit = -to_newton * base.forces[n_act:].sum()
+        if mode == "fixed":
+            fluid = FluidForce(explicit=explicit, added_mass=0.0)
+        elif unit is None:  # explicit coupling: only the rigid interior liquid is implicit
+            fluid = FluidForce(explicit=explicit, added_mass=-scene.displaced_mass)
+        else:
+            added = to_newton * unit.forces[n_act:].sum() * dt - scene.displaced_mass
+            fluid = FluidForce(explicit=explicit, added_mass=added)
+        try:
+            integrator.advance(t + dt, fluid)
+        except PETSc.Error as err:  # NaN from an unstable coupling, seen first by TS
+            raise RunDiverged(f"t = {t:.5g} s: the sphere integrator failed "
+                              f"(PETSc error {err.ierr}): the coupling went unstable") from err
+        # 5. the flow for the velocity the sphere actually reached
+        change = integrator.velocity - v_ref
+        forces, psi = base.forces, base.psi
+        if unit is not None:
+            forces, psi = base.forces + change * unit.forces, base.psi + change * unit.psi
+        solver.accept(prediction, psi, E.T @ forces)
+        warm.store(sel, forces, unit.forces if unit is not None else None, v)
+        stats.record(base, unit, solver.cfl())
+        if not (np.isfinite(integrator.velocity) and np.all(np.isfinite(solver.q))):
+            raise RunDiverged(f"t = {t:.5g} s: the flow or the sphere became NaN")
+        return fluid
+
+    def _force_rows(self, solver: FlowSolver):
+        """z_centre -> E C for all points of a sphere centred at z_centre (for the force tables)."""
+        r_all, z_all = self.surface.positions(-self.surface.radius)  # centred at z = 0
+        return lambda z_centre: (interpolation_matrix(self.grid, r_all, z_centre + z_all) @ solver.curl).tocsr()
+
+    def _adapt_time_step(self, solver: FlowSolver, preconditioner: ForcePreconditioner,
+                         stats: "StepStatistics") -> None:
+        """Halve dt when the CFL number exceeds max_cfl (an impact squeezes liquid out of the gap);
+        double it back, up to the nominal dt, after 50 calm steps.  Either refactorises K."""
+        limit = self.opts.max_cfl
+        new_dt = None
+        if stats.cfl > limit:
+            new_dt = 0.5 * solver.dt
+        elif stats.calm_steps >= 50 and solver.dt < self.dt:
+            new_dt = min(2.0 * solver.dt, self.dt)
+        if new_dt is not None:
+            solver.set_time_step(new_dt)
+            preconditioner.clear()
+            stats.refactorised()
+
+    def _drag_summary(self, history: list[tuple[float, float]]) -> dict:
+        """For a fixed sphere in a stream: the drag coefficient over the last tenth of the run,
+        and how much it moved from the tenth before (a steadiness check)."""
+        scene = self.scene
+        u = scene.motion.stream_velocity - scene.motion.velocity
+        if scene.motion.mode != "fixed" or not u or len(history) < 20:
+            return {}
+        t, f = np.array(history).T
+        scale = 0.5 * scene.liquid.density * u * u * math.pi * scene.sphere.radius**2
+        cd = np.sign(u) * f / scale
+        last, before = t > t[-1] - 0.1 * t[-1], (t > t[-1] - 0.2 * t[-1]) & (t <= t[-1] - 0.1 * t[-1])
+        return {"drag_coefficient": float(cd[last].mean()),
+                "drag_coefficient_drift": float(cd[last].mean() - cd[before].mean())}
+
+    def _recirculation_length(self, solver: FlowSolver) -> dict:
+        """For a fixed sphere in an upward stream: the length of the reversed flow on the axis
+        behind it, over D (Johnson & Patel 1999: 0.87 at Re 100, 1.46 at Re 200)."""
+        scene, grid = self.scene, self.grid
+        if scene.motion.mode != "fixed" or scene.motion.stream_velocity <= 0.0:
+            return {}
+        _, w = solver.full_velocity()
+        axis = w[0, :]  # at r = h / 2
+        top = scene.initial_gap + scene.sphere.diameter
+        behind = np.nonzero(grid.Z > top + 0.5 * grid.h)[0]  # past the diffuse surface
+        reverse = behind[axis[behind] < 0.0]
+        if len(reverse) == 0 or grid.Z[reverse[0]] > top + 2.0 * grid.h:
+            return {"recirculation_length_over_D": 0.0}
+        j = reverse[np.argmax(np.diff(np.r_[reverse, reverse[-1] + 2]) > 1)]  # end of the first run
+        z0, z1, w0, w1 = grid.Z[j], grid.Z[j + 1], axis[j], axis[j + 1]
+        end = z0 - w0 * (z1 - z0) / (w1 - w0)
+        return {"recirculation_length_over_D": float((end - top) / scene.sphere.diameter)}
+
+    def _snapshot(self, writer: SnapshotWriter, solver: FlowSolver, t: float) -> None:
+        ops = self.ops
+        u, w = solver.full_velocity()
+        ur, wz = ops.nodal_velocity(u, w)
+        pressure = ops.nodal_from_cells(solver.pressure()) * self.scene.liquid.density
+        writer.write(t, ur, wz, pressure, ops.vorticity(u, w))
+
+
+class WarmStarts:
+    """The last step's forces (all points; released ones hold zero) start the next CG solves."""
+
+    def __init__(self, n_points: int):
+        self.base = np.zeros(2 * n_points)
+        self.unit = np.zeros(2 * n_points)
+        self.v_old = 0.0  # the sphere velocity a step ago, for the position predictor [m/s]
+
+    def store(self, sel: np.ndarray, forces: np.ndarray, unit: np.ndarray | None, velocity: float) -> None:
+        self.base[:] = 0.0
+        self.base[sel] = forces
+        if unit is not None:
+            self.unit[:] = 0.0
+            self.unit[sel] = unit
+        self.v_old = velocity
+
+
+class StepStatistics:
+    """What the run reports about its own numerics."""
+
+    def __init__(self, calm_limit: float):
+        self.calm_limit = calm_limit  # a CFL number below this counts as calm
+        self.steps = self.iterations = self.solves = self.max_iterations = self.refactorisations = 0
+        self.max_cfl = self.max_slip = self.cfl = 0.0
+        self.calm_steps = 0  # steps since the CFL number was last above calm_limit
+
+    def record(self, base, unit, cfl: float) -> None:
+        self.steps += 1
+        for sol in (base, unit):
+            if sol is not None:
+                self.iterations += sol.iterations
+                self.solves += 1
+                self.max_iterations = max(self.max_iterations, sol.iterations)
+        self.max_slip = max(self.max_slip, base.slip)
+        self.cfl = cfl
+        self.max_cfl = max(self.max_cfl, cfl)
+        self.calm_steps = self.calm_steps + 1 if cfl <= self.calm_limit else 0
+
+    def refactorised(self) -> None:
+        self.refactorisations += 1
+        self.calm_steps = 0
+
+    def summary(self, wall_time: float) -> dict:
+        return {"cg_iterations_mean": self.iterations / max(self.solves, 1), "cg_iterations_max": self.max_iterations,
+                "max_cfl": self.max_cfl, "refactorisations": self.refactorisations, "max_rms_slip": self.max_slip,
+                "seconds_per_step": wall_time / max(self.steps, 1)}
