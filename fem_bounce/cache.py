@@ -1,8 +1,10 @@
 """Finished runs, reused: a study asks for (scene, model) and gets the run directory.
 
-A run is keyed by its resolved scene (as TOML), its model and the code that computes it (a hash of
-the package's numerical sources; plotting and command-line code are left out), so redrawing a figure
-never re-runs a simulation, and changing the physics never reuses a stale answer.  An interrupted
+A run is keyed by its resolved scene (as TOML), its model and the code that computes it: a hash of the
+shared core (scene, theory, contact, sphere integrator, run driver) and of that model's own modules, so
+redrawing a figure never re-runs a simulation, changing the physics never reuses a stale answer, and
+adding or changing one model leaves the other models' runs valid.  (numerics.py is data: its values
+enter through the resolved scene.)  An interrupted
 study resumes where it stopped: finished runs are found, unfinished ones run again.
 
     run_dir = cached_run(scene, "fd", comm)                 # results/cache/<key>/
@@ -18,26 +20,27 @@ from . import scene as scenes
 from .run import RunDiverged, simulate
 
 DEFAULT_ROOT = Path("results") / "cache"
-_NOT_NUMERICS = {"cli.py", "plots.py", "cache.py", "compare.py", "fields.py", "__main__.py"}
+CORE = ("scene.py", "theory.py", "contact.py", "sphere.py", "run.py", "output.py", "models/__init__.py")
+MODEL_SOURCES = {"ode": ("models/ode.py",), "fd": ("models/fd", "fem"), "ib": ("models/ib",),
+                 "ale": ("models/ale", "models/ale.py", "fem")}
 
 
 @functools.cache
-def code_version() -> str:
-    """Hash of the source files that decide a run's numbers."""
+def code_version(model: str) -> str:
+    """Hash of the source files that decide this model's numbers."""
     package = Path(__file__).parent
     digest = hashlib.sha256()
-    for path in sorted(package.rglob("*")):
-        relative = path.relative_to(package)
-        if path.is_dir() or relative.parts[0] == "studies" or path.name in _NOT_NUMERICS:
-            continue
-        if path.suffix in (".py", ".toml", ".csv"):
-            digest.update(str(relative).encode())
-            digest.update(path.read_bytes())
+    for name in CORE + MODEL_SOURCES.get(model, ()):
+        path = package / name
+        files = sorted(path.rglob("*.py")) if path.is_dir() else [path] if path.exists() else []
+        for source in files:
+            digest.update(str(source.relative_to(package)).encode())
+            digest.update(source.read_bytes())
     return digest.hexdigest()[:12]
 
 
 def run_key(scene: scenes.Scene, model: str) -> str:
-    text = f"{model}\n{code_version()}\n{scenes.dumps(scene)}"
+    text = f"{model}\n{code_version(model)}\n{scenes.dumps(scene)}"
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

@@ -42,6 +42,8 @@ def test_cache_reuses_finished_runs_and_keys_on_the_scene(tmp_path):
     assert (first / "summary.json").stat().st_mtime_ns == stamp
     assert cache.run_key(sc.replace(**{"contact.delta_ss": 0.018}), "ode") != cache.run_key(sc, "ode")
     assert cache.run_key(sc, "fd") != cache.run_key(sc, "ode")
+    # one model's code does not key another's runs
+    assert cache.code_version("ode") != cache.code_version("ib")
 
 
 def test_energy_growth_flags_an_unphysical_trajectory(tmp_path):
