@@ -19,6 +19,8 @@ import dataclasses
 import hashlib
 import json
 import os
+import shutil
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -132,17 +134,21 @@ def create_mesh(comm, spec: HalfPlane, cache: bool = True):
         gmsh.option.setNumber("General.Terminal", 0)
         path = cache_directory() / f"halfplane-{spec.key()}.msh"
         try:
-            if cache and path.is_file():
-                gmsh.merge(str(path))
-            else:
+            if not (cache and path.is_file()):
                 gmsh.model.add("halfplane")
                 _build_model(gmsh, spec)
-                if cache:
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    partial = path.with_suffix(f".{os.getpid()}.msh")
-                    gmsh.write(str(partial))
-                    partial.replace(path)
+                if not cache:
+                    path = Path(tempfile.mkdtemp()) / path.name
+                path.parent.mkdir(parents=True, exist_ok=True)
+                partial = path.with_suffix(f".{os.getpid()}.msh")
+                gmsh.write(str(partial))
+                partial.replace(path)
+                gmsh.clear()
+            # always read the file back: a fresh and a cached mesh are then identical to the last bit
+            gmsh.merge(str(path))
             result = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=2)
+            if not cache:
+                shutil.rmtree(path.parent)
         finally:
             gmsh.finalize()
     else:

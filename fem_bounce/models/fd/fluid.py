@@ -131,8 +131,8 @@ class FlowSolver:
                 values[dofs] = velocity[component]
             state.x.scatter_forward()
 
-    def predict(self) -> fem.Function:
-        """The step without immersed forcing: A x~ = b(u^n, u^{n-1}).  Returns x~ (velocity and pressure)."""
+    def predictor_rhs(self) -> PETSc.Vec:
+        """b(u^n, u^{n-1}, ...): history and extrapolated convection, boundary values set."""
         b = self.rhs
         with b.localForm() as local:
             local.set(0.0)
@@ -140,17 +140,29 @@ class FlowSolver:
         apply_lifting(b, [self.a], [self.bcs])
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         set_bc(b, self.bcs)
-        self.operator.solve(b, self.predicted.vector)
-        self.predicted.x.scatter_forward()
+        return b
+
+    def force_rhs(self, force: PETSc.Vec) -> PETSc.Vec:
+        """An assembled body-force vector made ready for a response with homogeneous boundary
+        values: ghost contributions accumulated, Dirichlet rows zeroed (in place)."""
+        force.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(force, self.bcs, scale=0.0)
+        return force
+
+    def solve(self, rhs: list, solutions: list) -> None:
+        """A x = b for each pair, in one pass over the factors."""
+        self.operator.solve_many(rhs, [x.vector for x in solutions])
+        for x in solutions:
+            x.x.scatter_forward()
+
+    def predict(self) -> fem.Function:
+        """The step without immersed forcing: A x~ = b(u^n, u^{n-1}).  Returns x~ (velocity and pressure)."""
+        self.solve([self.predictor_rhs()], [self.predicted])
         return self.predicted
 
     def respond(self, force: PETSc.Vec, out: fem.Function) -> fem.Function:
-        """The response to an assembled body-force vector with homogeneous boundary values:
-        A y = F (F's Dirichlet rows are zeroed here; F is modified)."""
-        force.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(force, self.bcs, scale=0.0)
-        self.operator.solve(force, out.vector)
-        out.x.scatter_forward()
+        """The response A y = F to an assembled body-force vector (F is modified)."""
+        self.solve([self.force_rhs(force)], [out])
         return out
 
     def commit(self, new: PETSc.Vec) -> None:

@@ -22,15 +22,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from petsc4py import PETSc
+
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
 from ...run import RunDiverged
+from ...scene import SceneError
 from ...sphere import FluidForce, PenetrationError
 from . import checkpoint, coupling
-from .domain import Domain, domain_for, steps_to, time_step
+from .domain import Domain, domain_for, is_stream, steps_to, time_step
 from .fields import FieldWriter, segment_path
 from .fluid import FlowSolver
 from .immersed import ImmersedSphere
+from .steady import SteadyStokes
 
 
 @dataclass
@@ -92,6 +96,10 @@ class FictitiousDomainModel:
         self.fields: FieldWriter | None = None
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
         self.last_checkpoint: tuple[int, float] | None = None
+        self.steps_this_run = 0
+        self.steady_iterations: int | None = None
+        if self.settings.steady_stokes and (scene.motion.mode != "fixed" or is_stream(scene)):
+            raise SceneError("numerics.fd.steady_stokes = true needs motion.mode = \"fixed\" without a stream")
 
     # -- set-up ---------------------------------------------------------------------------
     def setup(self) -> None:
@@ -104,7 +112,6 @@ class FictitiousDomainModel:
         self.flow.set_uniform((0.0, domain.inflow_speed))
         radius = scene.sphere.radius + fd.radius_offset * domain.fine_size
         self.sphere = ImmersedSphere(self.flow, radius, fd.interface_width * domain.fine_size, domain.center)
-        self.sphere.place(domain.center)
         velocity = scene.motion.velocity if scene.motion.mode != "free" else 0.0
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.sphere.volume] * order)
@@ -124,17 +131,24 @@ class FictitiousDomainModel:
         flow, sphere, h = self.flow, self.sphere, self.history
         t_next = (h.step + 1) * self.dt
         center = self.predicted_center(integrator)
-        if center != float(sphere.center.value):
+        if center != sphere.center:
             sphere.place(center)
-        predicted = flow.predict()
-        integrals = sphere.respond(predicted)
+        # predictor and (if the sphere moved) the unit response share one pass over the factors
+        predicted = flow.predicted
+        if sphere.unit_stale:
+            flow.solve([flow.predictor_rhs(), sphere.unit_forcing()], [predicted, sphere.unit])
+        else:
+            flow.solve([flow.predictor_rhs()], [predicted])
+        flow.solve([sphere.forcing(predicted)], [sphere.forced])
+        integrals = sphere.integrals(predicted)
         rho, c = self.scene.liquid.density, flow.c
         linear = coupling.linearise(integrals, rho, c, h.momentum_history, h.reference_velocity)
         if not all(math.isfinite(v) for v in (linear.explicit, linear.added_mass)):
             raise FloatingPointError(f"the fluid force became {linear.explicit} N at t = {t_next:.6g} s")
         self.last_force = linear
         start = time.perf_counter()
-        integrator.advance(t_next, FluidForce(explicit=linear.explicit, added_mass=linear.added_mass))
+        added_mass = linear.added_mass if self.settings.coupling == "implicit" else 0.0
+        integrator.advance(t_next, FluidForce(explicit=linear.explicit, added_mass=added_mass))
         self.timings["integrator"] += time.perf_counter() - start
         velocity = integrator.velocity
         s = coupling.rigid_amplitude(integrals, velocity)
@@ -146,6 +160,20 @@ class FictitiousDomainModel:
             raise FloatingPointError(f"the flow field became non-finite at t = {t_next:.6g} s")
         flow.commit(new)
         h.push(velocity, velocity * integrals.volume)
+
+    def solve_steady(self, integrator) -> None:
+        """Jump to the steady Stokes state of the step (steady.SteadyStokes) at the end time."""
+        steady = SteadyStokes(self.flow, self.sphere)
+        try:
+            force, integrals = steady.solve(self.scene.motion.velocity)
+        finally:
+            steady.destroy()
+        self.steady_iterations = steady.iterations
+        self.last_force = coupling.Linearised(force, coupling.added_mass(integrals, self.scene.liquid.density),
+                                              self.scene.motion.velocity)
+        n_steps = steps_to(self.scene.run.end_time, self.dt)
+        integrator.advance(n_steps * self.dt, FluidForce(explicit=force))
+        self.history.step = n_steps
 
     @property
     def time(self) -> float:
@@ -192,6 +220,10 @@ class FictitiousDomainModel:
         start = time.perf_counter()
         steps_before = self.history.step
         try:
+            if fd.steady_stokes:
+                self.solve_steady(integrator)
+                for observer in observers:
+                    observer(self)
             while self.history.step < n_steps and not integrator.done:
                 self.step(integrator)
                 for observer in observers:
@@ -199,7 +231,7 @@ class FictitiousDomainModel:
             self.timings["steps"] = time.perf_counter() - start
             self.steps_this_run = self.history.step - steps_before
             return {"steps": self.history.step, "sizes": self.sizes(), "extra": {"fd": self.report()}}
-        except (SolverError, FloatingPointError, PenetrationError) as err:
+        except (SolverError, ArithmeticError, PenetrationError, PETSc.Error) as err:
             where = ("no checkpoint yet" if self.last_checkpoint is None else
                      f"last checkpoint at step {self.last_checkpoint[0]}, t = {self.last_checkpoint[1]:.6g} s")
             raise RunDiverged(f"{err} ({where})") from err
@@ -216,17 +248,21 @@ class FictitiousDomainModel:
         """Cost and discretisation details for summary.json."""
         steps = max(self.steps_this_run, 1)
         solves = self.flow.operator.back_solves
+        solve_time = self.flow.operator.solve_time / max(solves, 1)
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
         return {
             "timings_s": self.timings,
             "time_per_step_s": self.timings["steps"] / steps,
             "back_solves": solves,
             "back_solves_per_step": solves / steps,
+            "back_solve_s": solve_time,
+            "step_cost_in_back_solves": self.timings["steps"] / steps / solve_time if solves else None,
             "peak_memory_bytes": self.comm.allreduce(peak),
             "mesh_key": self.domain.spec.key(),
             "added_mass_over_displaced": (self.last_force.added_mass / self.scene.displaced_mass
                                           if hasattr(self, "last_force") else None),
             "indicator_volume_over_sphere": self.sphere.volume / self.scene.sphere.volume,
+            "steady_gmres_iterations": self.steady_iterations,
         }
 
     def destroy(self) -> None:
