@@ -19,6 +19,7 @@ The check at the end: |lambda / lambda_Brenner - 1| within 3 % at delta = 1, 0.5
 (8 % at toy size, 8 cells per diameter).
 """
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -38,10 +39,9 @@ tolerance = 0.08 if args.toy else 0.03
 rows = validation.brenner_drag(MPI.COMM_WORLD, args.out, deltas=(1.0, 0.5, 0.25),
                                overrides={"numerics.fd.cells_per_diameter": cells})
 
+checks = [validation.Check(f"lambda at delta = {row['delta']:g}", row["lambda"], row["reference"], tolerance)
+          for row in rows]
 if MPI.COMM_WORLD.rank == 0:
-    print(f"{'delta':>6} {'lambda fd':>10} {'Brenner':>10} {'error':>8}")
-    for row in rows:
-        print(f"{row['delta']:6.2f} {row['lambda']:10.4f} {row['reference']:10.4f} {row['error']:+8.2%}")
-failed = [row for row in rows if abs(row["error"]) > tolerance]
-if failed:
-    sys.exit(f"Brenner check failed beyond {tolerance:.0%}: {failed}")
+    (args.out / "result.json").write_text(json.dumps(rows, indent=1))
+passed = validation.report(checks) if MPI.COMM_WORLD.rank == 0 else True
+sys.exit(0 if MPI.COMM_WORLD.bcast(passed, root=0) else 1)

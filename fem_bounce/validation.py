@@ -15,7 +15,9 @@ on every rank.
 from __future__ import annotations
 
 import math
+import sys
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +25,36 @@ import numpy as np
 from . import plots, reference
 from . import scene as scenes
 from .run import simulate
+
+
+@dataclass(frozen=True)
+class Check:
+    """One comparison with a reference: passed when |value / reference - 1| <= tolerance.  A target
+    that is not `required` is reported (PASS or MISS with its number) without failing the caller."""
+
+    name: str
+    value: float
+    reference: float
+    tolerance: float
+    required: bool = True
+
+    @property
+    def error(self) -> float:
+        return self.value / self.reference - 1.0
+
+    @property
+    def passed(self) -> bool:
+        return abs(self.error) <= self.tolerance
+
+
+def report(checks: list[Check], stream=sys.stdout) -> bool:
+    """Print one line per check; True when every required check passed."""
+    for c in checks:
+        verdict = "PASS" if c.passed else ("FAIL" if c.required else "MISS")
+        kind = "check " if c.required else "target"
+        print(f"{kind} {verdict}  {c.name}: {c.value:.5g} vs {c.reference:.5g} ({c.error:+.2%}, "
+              f"tolerance {c.tolerance:.0%})", file=stream)
+    return all(c.passed for c in checks if c.required)
 
 
 def _run(comm, name: str, out_dir: Path, overrides: dict | None, model: str = "fd", **changes) -> tuple:
@@ -65,13 +97,17 @@ def drag_coefficient(comm, out_dir: Path, reynolds: int = 100, overrides: dict |
 
 
 def settling(comm, out_dir: Path, overrides: dict | None = None) -> dict:
-    """ten Cate E4: the largest settling speed against the measured 0.1226 m/s (and the RMS gap to the
-    digitised velocity curve over its span)."""
+    """ten Cate E4: the largest settling speed against the measured 0.1226 m/s, and the RMS distance to
+    the digitised velocity curve while the sphere approaches (until the measured speed falls below
+    95 % of its peak: the digitised curve's integral overshoots the 120 mm fall by 3 %, so its timing
+    near the floor is not reliable)."""
     scene, summary, trajectory = _run(comm, "tencate2002-e4", out_dir, overrides)
     peak = float(-trajectory["velocity"].min())
     target = scene.reference.peak_speed
     t_exp, u_exp = reference.velocity_curve(scene.reference.velocity_curve)
-    inside = t_exp <= trajectory["t"][-1]
+    slowing = (t_exp > t_exp[np.argmin(u_exp)]) & (-u_exp < 0.95 * (-u_exp.min()))
+    end = t_exp[slowing][0] if slowing.any() else t_exp[-1]
+    inside = (t_exp < end) & (t_exp <= trajectory["t"][-1])
     model = np.interp(t_exp[inside], trajectory["t"], trajectory["velocity"])
     return {"peak_speed": peak, "reference": target, "error": peak / target - 1.0,
             "curve_rms": float(np.sqrt(np.mean((model - u_exp[inside]) ** 2))), "cells": summary["sizes"]["cells"],

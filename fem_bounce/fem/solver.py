@@ -7,7 +7,8 @@
 The default is MUMPS LU through PETSc (`-{prefix}pc_factor_mat_solver_type`,
 `-{prefix}mat_mumps_icntl_*` tune it from the command line).  The operator owns
 its KSP and destroys it; `back_solves` counts the solves, so a model can report
-its cost per time step in back-solves (and `solve_time` the seconds they took).
+its cost per time step in back-solves (`solve_time` the seconds they took,
+`single_solve_time / single_solves` the time of one back-solve with one right-hand side).
 """
 from __future__ import annotations
 
@@ -43,6 +44,7 @@ class FactorizedOperator:
         self.ksp.setFromOptions()
         self.back_solves = 0
         self.solve_time = 0.0  # [s] spent in back-solves on this rank
+        self.single_solves, self.single_solve_time = 0, 0.0  # one right-hand side at a time
         self._blocks: dict = {}  # dense right-hand sides and solutions for solve_many
         try:
             self.ksp.setUp()
@@ -52,7 +54,10 @@ class FactorizedOperator:
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         start = time.perf_counter()
         self.ksp.solve(b, x)
-        self.solve_time += time.perf_counter() - start
+        elapsed = time.perf_counter() - start
+        self.solve_time += elapsed
+        self.single_solve_time += elapsed
+        self.single_solves += 1
         self.back_solves += 1
         reason = self.ksp.getConvergedReason()
         if reason < 0:
