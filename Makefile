@@ -3,7 +3,7 @@
 #   make test   install everything, then run the tests serial and under mpirun -n 2
 # Re-running either is fast: each install step is skipped when nothing changed.
 
-APT_PACKAGES := python3-dolfinx python3-gmsh python3-meshio python3-matplotlib python3-scipy \
+APT_PACKAGES := python3-dolfinx python3-gmsh python3-meshio python3-matplotlib python3-scipy python3-h5py \
                 python3-pytest python3-venv python3-setuptools openmpi-bin
 VENV   := .venv
 PY     := $(VENV)/bin/python

@@ -15,11 +15,11 @@ DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
 # demo -> (key path in result.json, pinned value)
 PINNED = {
-    "brenner_drag": ([0, "lambda"], None),
-    "sphere_drag": ([0, "Cd"], None),
-    "tencate_e4": (["peak_speed"], None),
-    "li_case3": (["impact_speed"], None),
-    "case7_vorticity": (["Re_I"], None),
+    "brenner_drag": ([0, "lambda"], 1.52733),
+    "sphere_drag": ([0, "Cd"], 1.16389),
+    "tencate_e4": (["peak_speed"], 0.122589),
+    "li_case3": (["impact_speed"], 0.350548),
+    "case7_vorticity": (["Re_I"], 115.104),
 }
 
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 from ...fem.mesh import OUTER, TOP, WALL, Box, HalfPlane
 from ...scene import Scene, SceneError
+from ...sphere import prescribed_velocity
 
 
 @dataclass(frozen=True)
@@ -76,9 +77,7 @@ def speed_scale(scene: Scene) -> float:
         return scene.estimated_impact_speed()
     speed = max(abs(motion.velocity), abs(motion.stream_velocity))
     if motion.mode == "prescribed" and motion.series:
-        from ...sphere import _prescribed_velocity
-
-        profile = _prescribed_velocity(scene)
+        profile = prescribed_velocity(scene)
         samples = [abs(profile(t)[0]) for t in [k * scene.run.end_time / 200 for k in range(201)]]
         speed = max(samples)
     if speed <= 0.0:
