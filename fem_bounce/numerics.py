@@ -24,7 +24,7 @@ class OdeNumerics:
 class FdNumerics:
     """The fictitious-domain model (fem_bounce.models.fd).  Sizes are per sphere diameter D."""
 
-    cells_per_diameter: float = _setting(16.0, 2.0, 400.0)  # fine triangle size D / this
+    cells_per_diameter: float = _setting(24.0, 2.0, 400.0)  # fine triangle size D / this
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
     grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path

@@ -3,7 +3,7 @@
     rho (3 u^{n+1} - 4 u^n + u^{n-1}) / (2 dt) + rho N(u*) - mu Lap u^{n+1} + grad p^{n+1} = f,
     div u^{n+1} = 0,      u* = 2 u^n - u^{n-1}  (EXT2),
 
-with N the skew-symmetric convective term (fem.forms.convection, advective form).  Only the
+with N the convective term (fem.forms.convection, advective form).  Only the
 right-hand side changes from step to step, so the Taylor-Hood P2/P1 saddle
 point A = [rho c M + mu K, -B^T; -B, 0] (c = 3 / (2 dt), r-weighted) is
 assembled and factorised once; a step, or the response to a body force, is one
@@ -58,7 +58,6 @@ class FlowSolver:
         self.bdf, self.ext = BDF[order], EXTRAPOLATION[order]
         self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference(u^n, u^{n-1}, ...))
         self.W = taylor_hood_space(mesh)
-        self.V, self.velocity_dofs = self.W.sub(0).collapse()
         self.states = [fem.Function(self.W) for _ in range(order)]  # u^n, u^{n-1}, ... (with p)
         self.now = self.states[0]
         self.predicted = fem.Function(self.W)
