@@ -94,14 +94,12 @@ class FactorizedOperator:
             self._blocks[k] = tuple(pair)
         return self._blocks[k]
 
-    def factor_memory(self) -> float:
-        """Bytes held by the factors on this rank (MUMPS INFOG(22) is the total in MB), or 0 if unknown."""
-        pc = self.ksp.getPC()
+    def factor_memory(self) -> float | None:
+        """Memory the factorisation used on all ranks together [bytes] (MUMPS INFOG(22)), None if not MUMPS."""
         try:
-            factor = pc.getFactorMatrix()
-            return float(factor.getMumpsInfog(22)) * 1e6
+            return float(self.ksp.getPC().getFactorMatrix().getMumpsInfog(22)) * 1e6
         except (PETSc.Error, AttributeError):
-            return 0.0
+            return None
 
     def destroy(self) -> None:
         for pair in self._blocks.values():

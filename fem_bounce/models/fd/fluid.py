@@ -62,7 +62,7 @@ class FlowSolver:
         self.now = self.states[0]
         self.predicted = fem.Function(self.W)
         self.inflow_speed = inflow_speed
-        self.bcs, self.pressure_pinned = self._boundary_conditions(facet_tags, sides)
+        self.bcs = self._boundary_conditions(facet_tags, sides)
 
         r = forms.radial_coordinate(mesh)
         self.r = r
@@ -117,7 +117,7 @@ class FlowSolver:
             dofs = fem.locate_dofs_geometrical(
                 (W.sub(1), Q), lambda x: np.isclose(x[0], corner[0]) & np.isclose(x[1], corner[1]))
             bcs.append(fem.dirichletbc(fem.Function(Q), dofs, W.sub(1)))
-        return bcs, pinned
+        return bcs
 
     # -- the state ---------------------------------------------------------------------------
     def set_uniform(self, velocity: tuple[float, float]) -> None:
@@ -153,16 +153,6 @@ class FlowSolver:
         self.operator.solve_many(rhs, [x.vector for x in solutions])
         for x in solutions:
             x.x.scatter_forward()
-
-    def predict(self) -> fem.Function:
-        """The step without immersed forcing: A x~ = b(u^n, u^{n-1}).  Returns x~ (velocity and pressure)."""
-        self.solve([self.predictor_rhs()], [self.predicted])
-        return self.predicted
-
-    def respond(self, force: PETSc.Vec, out: fem.Function) -> fem.Function:
-        """The response A y = F to an assembled body-force vector (F is modified)."""
-        self.solve([self.force_rhs(force)], [out])
-        return out
 
     def commit(self, new: PETSc.Vec) -> None:
         """u^{n-1} <- u^n <- new (a mixed-space vector), and so on down the history."""

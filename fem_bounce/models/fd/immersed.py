@@ -170,13 +170,6 @@ class ImmersedSphere:
         return InteriorIntegrals(volume=self.volume, predicted=self.interior(predicted.vector),
                                  forced=self.interior(self.forced.vector), unit=self.interior(self.unit.vector))
 
-    def respond(self, predicted: fem.Function) -> InteriorIntegrals:
-        """Solve for y0 and, if the sphere moved, y1 (one solve each)."""
-        if self.unit_stale:
-            self.flow.solve([self.unit_forcing()], [self.unit])
-        self.flow.solve([self.forcing(predicted)], [self.forced])
-        return self.integrals(predicted)
-
     def destroy(self) -> None:
         self.b_phi.destroy()
         self.force.destroy()

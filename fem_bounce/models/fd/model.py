@@ -259,7 +259,8 @@ class FictitiousDomainModel:
             "back_solves_per_step": solves / steps,
             "back_solve_s": single,
             "step_cost_in_back_solves": self.timings["steps"] / steps / single if single else None,
-            "peak_memory_bytes": self.comm.allreduce(peak),
+            "peak_memory_bytes": self.comm.allreduce(peak),  # sum over ranks of each rank's peak RSS
+            "factorisation_memory_bytes": operator.factor_memory(),
             "mesh_key": self.domain.spec.key(),
             "added_mass_over_displaced": (self.last_force.added_mass / self.scene.displaced_mass
                                           if self.last_force is not None else None),
