@@ -22,13 +22,25 @@ class OdeNumerics:
 
 @dataclass(frozen=True)
 class FdNumerics:
-    cells_per_diameter: float = _setting(16.0, 2.0, 400.0)
-    cfl: float = _setting(0.4, 0.01, 5.0)  # dt = cfl * cell size / speed scale
-    interface_width: float = _setting(1.5, 0.25, 10.0)  # smoothing width of the indicator, in fine cells
-    far_field: float = _setting(10.0, 2.0, 100.0)  # unbounded domain: radius and headroom, in diameters
-    coarse_cells_per_diameter: float = _setting(1.0, 0.05, 400.0)  # far from the sphere's path
+    """The fictitious-domain model (fem_bounce.models.fd).  Sizes are per sphere diameter D."""
+
+    cells_per_diameter: float = _setting(24.0, 2.0, 400.0)  # fine triangle size D / this
+    coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
+    grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
+    refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
+    wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
+    far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
+    cfl: float = _setting(0.2, 0.01, 50.0)  # dt <= cfl * fine size / (1.5 speed scale): explicit convection
+    forcing_number: float = _setting(0.025, 0.001, 10.0)  # dt <= this * fine size^2 / nu (rigid interior)
+    time_order: int = _setting(2, 1, 3)  # BDF/extrapolation order of the flow
+    interface_width: float = _setting(2.0, 0.25, 10.0)  # band inside the surface where phi falls to 0, in fine cells
+    radius_offset: float = _setting(0.5, -3.0, 3.0)  # the indicator's outer edge at a + this * fine size
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
+    steady_stokes: bool = False  # held sphere at Re -> 0: solve for the step's steady state, no marching
+    # "implicit": the sphere integrator gets F* and the numerical added mass (stable for light spheres);
+    # "explicit": F at the extrapolated velocity only, the classical lagged coupling (for comparison)
+    coupling: str = field(default="implicit", metadata={"choices": ("implicit", "explicit")})
 
 
 @dataclass(frozen=True)

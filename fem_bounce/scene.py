@@ -305,12 +305,12 @@ def _build(cls, data: dict, prefix: str):
 def _coerce(value: Any, expected: Any, key: str) -> Any:
     """TOML writes 1 for 1.0 and users write 8000 for 8000.0: accept both, reject the rest."""
     allowed = typing.get_args(expected) or (expected,)
-    if isinstance(value, bool) or not isinstance(value, allowed):
+    if (isinstance(value, bool) and bool not in allowed) or not isinstance(value, allowed):
         if float in allowed and isinstance(value, int) and not isinstance(value, bool):
             return float(value)
         if int in allowed and isinstance(value, float) and value.is_integer():
             return int(value)
-        kind = "a string" if str in allowed else "a number"
+        kind = "a string" if str in allowed else "true or false" if bool in allowed else "a number"
         raise SceneError(f"{key} = {value!r} must be {kind}")
     return value
 

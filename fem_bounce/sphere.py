@@ -87,7 +87,7 @@ class SphereIntegrator:
         self.sphere_mass = scene.sphere.mass
         self.weight = (scene.sphere.mass - scene.displaced_mass) * scene.gravity  # net, toward the wall
         self.diameter = scene.sphere.diameter
-        self._prescribed = _prescribed_velocity(scene)
+        self._prescribed = prescribed_velocity(scene)
         self.fluid = FluidForce(0.0, 0.0)
         self.observers: list[Callable[[dict], None]] = []
         self.impacts: list[Impact] = []
@@ -424,7 +424,7 @@ def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> flo
     return h00 * hs[k] + h10 * dt * vs[k] + h01 * hs[k + 1] + h11 * dt * vs[k + 1]
 
 
-def _prescribed_velocity(scene: Scene) -> Callable[[float], tuple[float, float]]:
+def prescribed_velocity(scene: Scene) -> Callable[[float], tuple[float, float]]:
     """t -> (V, dV/dt) for fixed and prescribed motion."""
     motion = scene.motion
     if motion.mode != "prescribed" or not motion.series:

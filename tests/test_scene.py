@@ -34,6 +34,8 @@ def test_overrides_and_files(tmp_path):
     assert mine.sphere.density == 8000.0 and mine.name == "li2011-case1"
     assert scene.parse_override("contact.wall_drag=simple") == ("contact.wall_drag", "simple")
     assert scene.parse_override("run.bounces=2") == ("run.bounces", 2)
+    # boolean settings take TOML booleans
+    assert scene.load("brenner-approach", {"numerics.fd.steady_stokes": True}).numerics.fd.steady_stokes is True
 
 
 @pytest.mark.parametrize("override,message", [
@@ -46,6 +48,8 @@ def test_overrides_and_files(tmp_path):
     ({"sphere.poisson_ratio": 0.5}, "sphere.poisson_ratio = 0.5 is out of range: allowed in (0, 0.5)"),
     ({"container.radius": 0.1}, "container needs both radius and height"),
     ({"run.bounces": "two"}, "run.bounces = 'two' must be a number"),
+    ({"run.bounces": True}, "run.bounces = True must be a number"),
+    ({"numerics.fd.steady_stokes": 1}, "numerics.fd.steady_stokes = 1 must be true or false"),
 ])
 def test_bad_values_name_the_field_and_range(override, message):
     with pytest.raises(scene.SceneError, match=message.replace("(", r"\(").replace(")", r"\)")):

@@ -1,0 +1,156 @@
+"""The axisymmetric meridian half-plane r in [0, R], z in [0, Z], meshed with gmsh.
+
+    spec = HalfPlane(radius=R, height=Z, fine_size=h, coarse_size=H, grading=0.1,
+                     refined=(Box(r_max=..., z_min=..., z_max=...),))
+    mesh, cell_tags, facet_tags = create_mesh(comm, spec)
+
+Triangles have size `fine_size` inside the refined boxes and grow linearly with
+the distance d from them, size = fine_size + grading * d, up to `coarse_size`.
+The boundary carries named physical groups (WALL z = 0, AXIS r = 0, OUTER r = R,
+TOP z = Z) so a model can pick its conditions per side.
+
+gmsh runs on rank 0 only; `dolfinx.io.gmshio` distributes the mesh.  The .msh
+file is cached under the mesh cache directory (see `cache_directory`), keyed by
+a hash of the spec, so a convergence study or a restart never meshes twice.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+# physical group tags
+FLUID = 1
+WALL, AXIS, OUTER, TOP = 1, 2, 3, 4
+BOUNDARY_NAMES = {WALL: "wall", AXIS: "axis", OUTER: "outer", TOP: "top"}
+MESH_FORMAT_VERSION = 1  # part of the cache key: bump when the meshing below changes
+
+
+@dataclass(frozen=True)
+class Box:
+    """A region r <= r_max, z_min <= z <= z_max meshed at the fine size [m]."""
+
+    r_max: float
+    z_min: float
+    z_max: float
+
+    def distance(self, r: np.ndarray, z: np.ndarray) -> np.ndarray:
+        dr = np.maximum(r - self.r_max, 0.0)
+        dz = np.maximum(np.maximum(z - self.z_max, self.z_min - z), 0.0)
+        return np.hypot(dr, dz)
+
+
+@dataclass(frozen=True)
+class HalfPlane:
+    """Geometry and mesh-size field of the meridian half-plane [m]."""
+
+    radius: float
+    height: float
+    fine_size: float
+    coarse_size: float
+    grading: float
+    refined: tuple[Box, ...] = ()
+
+    def __post_init__(self):
+        if not (self.radius > 0 and self.height > 0 and 0 < self.fine_size <= self.coarse_size and self.grading > 0):
+            raise ValueError(f"inconsistent mesh spec {self}")
+
+    def key(self) -> str:
+        """A short hash of everything that shapes the mesh (the cache file name)."""
+        data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION}
+        text = json.dumps(data, sort_keys=True, default=lambda x: round(x, 15))
+        return hashlib.sha1(text.encode()).hexdigest()[:16]
+
+    def size_at(self, r: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """The target triangle size at (r, z) [m]: the same law as the gmsh field."""
+        r, z = np.asarray(r, float), np.asarray(z, float)
+        size = np.full(np.broadcast(r, z).shape, self.coarse_size)
+        for box in self.refined:
+            size = np.minimum(size, self.fine_size + self.grading * box.distance(r, z))
+        return size
+
+    def _gmsh_size_expression(self) -> str:
+        terms = [f"{self.coarse_size!r}"]
+        for box in self.refined:
+            dr = f"max(x - {box.r_max!r}, 0)"
+            dz = f"max(max(y - {box.z_max!r}, {box.z_min!r} - y), 0)"
+            terms.append(f"{self.fine_size!r} + {self.grading!r} * sqrt({dr}^2 + {dz}^2)")
+        expression = terms[0]
+        for term in terms[1:]:
+            expression = f"min({expression}, {term})"
+        return expression
+
+
+def cache_directory() -> Path:
+    """$FEM_BOUNCE_MESH_CACHE, else meshes/cache in a source checkout, else ~/.cache/fem_bounce/meshes."""
+    if os.environ.get("FEM_BOUNCE_MESH_CACHE"):
+        return Path(os.environ["FEM_BOUNCE_MESH_CACHE"])
+    checkout = Path(__file__).resolve().parents[2] / "meshes"
+    if checkout.is_dir() and os.access(checkout, os.W_OK):
+        return checkout / "cache"
+    return Path.home() / ".cache" / "fem_bounce" / "meshes"
+
+
+def _build_model(gmsh, spec: HalfPlane) -> None:
+    """Geometry, physical groups and size field of the half-plane in the current gmsh model."""
+    geo = gmsh.model.geo
+    corners = [(0.0, 0.0), (spec.radius, 0.0), (spec.radius, spec.height), (0.0, spec.height)]
+    points = [geo.addPoint(r, z, 0.0) for r, z in corners]
+    wall, outer, top, axis = (geo.addLine(points[k], points[(k + 1) % 4]) for k in range(4))
+    surface = geo.addPlaneSurface([geo.addCurveLoop([wall, outer, top, axis])])
+    geo.synchronize()
+    for tag, curve in ((WALL, wall), (AXIS, axis), (OUTER, outer), (TOP, top)):
+        gmsh.model.addPhysicalGroup(1, [curve], tag)
+        gmsh.model.setPhysicalName(1, tag, BOUNDARY_NAMES[tag])
+    gmsh.model.addPhysicalGroup(2, [surface], FLUID)
+    gmsh.model.setPhysicalName(2, FLUID, "fluid")
+    field = gmsh.model.mesh.field.add("MathEval")
+    gmsh.model.mesh.field.setString(field, "F", spec._gmsh_size_expression())
+    gmsh.model.mesh.field.setAsBackgroundMesh(field)
+    for option in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
+        gmsh.option.setNumber(option, 0)
+    gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay: well-shaped triangles
+    gmsh.model.mesh.generate(2)
+
+
+def create_mesh(comm, spec: HalfPlane, cache: bool = True):
+    """(mesh, cell_tags, facet_tags) of the half-plane, distributed over comm.
+
+    Rank 0 reads the cached .msh file, or meshes and caches it; every rank takes part
+    in the distribution.  The cache file is written atomically, so concurrent runs
+    that need the same mesh are safe."""
+    import gmsh
+    from dolfinx.io import gmshio
+
+    if comm.rank == 0:
+        gmsh.initialize()
+        gmsh.option.setNumber("General.Terminal", 0)
+        path = cache_directory() / f"halfplane-{spec.key()}.msh"
+        try:
+            if not (cache and path.is_file()):
+                gmsh.model.add("halfplane")
+                _build_model(gmsh, spec)
+                if not cache:
+                    path = Path(tempfile.mkdtemp()) / path.name
+                path.parent.mkdir(parents=True, exist_ok=True)
+                partial = path.with_suffix(f".{os.getpid()}.msh")
+                gmsh.write(str(partial))
+                partial.replace(path)
+                gmsh.clear()
+            # always read the file back: a fresh and a cached mesh are then identical to the last bit
+            gmsh.merge(str(path))
+            result = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=2)
+            if not cache:
+                shutil.rmtree(path.parent)
+        finally:
+            gmsh.finalize()
+    else:
+        result = gmshio.model_to_mesh(None, comm, 0, gdim=2)
+    return result

@@ -1,0 +1,154 @@
+"""Flow-field snapshots an fd run wrote (DIR/fields-KKK.xdmf + .h5), and the paper's Fig. 11 drawn from them.
+
+    snapshots = read_snapshots("runs/li2011-case7-fd")
+    snapshots[0].time, snapshots[0].points (N, 2) in (r, z) [m], snapshots[0].triangles (M, 3),
+    snapshots[0].fields["velocity"] (N, 2), ["pressure"] (N,), ["vorticity"] (N,)   [SI]
+    vorticity_figure("runs/li2011-case7-fd")       # -> DIR/vorticity.png
+
+Files only: nothing here needs dolfinx, so figures can be redrawn anywhere with
+h5py and matplotlib.  Segments written by restarts (fields-001, ...) continue the
+series; where a later segment starts, the earlier one's later snapshots are dropped.
+"""
+from __future__ import annotations
+
+import sys
+import xml.etree.ElementTree as ElementTree
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+FIELD_NAMES = ("velocity", "pressure", "vorticity")
+
+
+@dataclass
+class Snapshot:
+    time: float  # [s]
+    points: np.ndarray  # (N, 2): r, z [m]
+    triangles: np.ndarray  # (M, 3) indices into points
+    fields: dict = field(default_factory=dict)  # name -> (N,) or (N, 2) nodal values [SI]
+
+
+def _data_item(folder: Path, item) -> np.ndarray:
+    import h5py
+
+    file_name, dataset = item.text.strip().split(":", 1)
+    with h5py.File(folder / file_name, "r") as h5:
+        return np.asarray(h5[dataset])
+
+
+def _read_segment(path: Path) -> list[Snapshot]:
+    folder = path.parent
+    domain = ElementTree.parse(path).getroot().find("Domain")
+    grids = domain.findall("Grid")
+    mesh = next(g for g in grids if g.get("GridType") == "Uniform")
+    points = _data_item(folder, mesh.find("Geometry/DataItem"))[:, :2]
+    triangles = _data_item(folder, mesh.find("Topology/DataItem")).astype(np.int64)
+    by_time: dict[float, Snapshot] = {}
+    for series in (g for g in grids if g.get("GridType") == "Collection"):
+        for grid in series.findall("Grid"):
+            t = float(grid.find("Time").get("Value"))
+            attribute = grid.find("Attribute")
+            values = _data_item(folder, attribute.find("DataItem"))
+            name = attribute.get("Name")
+            if name == "velocity":
+                values = values[:, :2]
+            elif values.ndim == 2:
+                values = values[:, 0]
+            snapshot = by_time.setdefault(t, Snapshot(t, points, triangles))
+            snapshot.fields[name] = values
+    return [by_time[t] for t in sorted(by_time)]
+
+
+def read_snapshots(run_dir: Path) -> list[Snapshot]:
+    """Every snapshot of a run, in time order, restart segments merged."""
+    segments = sorted(Path(run_dir).glob("fields-*.xdmf"))
+    if not segments:
+        raise FileNotFoundError(f"{run_dir} has no fields-*.xdmf (run with numerics.fd.output_every > 0)")
+    snapshots: list[Snapshot] = []
+    for path in segments:
+        later = _read_segment(path)
+        if later:
+            snapshots = [s for s in snapshots if s.time < later[0].time * (1 - 1e-12)]
+        snapshots += later
+    return snapshots
+
+
+def default_times(summary: dict) -> list[float]:
+    """Five instants like the paper's Fig. 11: before the first impact, rebounding, at the apex,
+    falling again, before the second impact (fewer when the run has fewer events)."""
+    impacts, rebounds = summary["impacts"], summary["rebounds"]
+    if not impacts:
+        end = summary["final"]["time"]
+        return list(np.linspace(0.2, 1.0, 5) * end)
+    first = impacts[0]["time"]
+    times = [first - 1e-3]
+    if rebounds and rebounds[0]["apex_time"] is not None:
+        apex = rebounds[0]["apex_time"]
+        times += [first + (apex - first) / 3.0, apex]
+        if len(impacts) > 1:
+            second = impacts[1]["time"]
+            times += [apex + (second - apex) / 2.0, second - 1e-3]
+    return times
+
+
+def vorticity_figure(run_dir: Path, times: list[float] | None = None, path: Path | None = None,
+                     extent: tuple[float, float] = (2.5, 4.0)) -> Path:
+    """(a) the trajectory with the snapshot instants, (b) vorticity contours omega sqrt(D/g) from -0.5 to
+    0.5 every 0.05 (as the paper's Fig. 11) near the axis, the sphere drawn black; extent = (r, z) in D."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Wedge
+    from matplotlib.tri import Triangulation
+
+    from . import plots
+
+    run_dir = Path(run_dir)
+    summary, trajectory = plots.read_summary(run_dir), plots.read_trajectory(run_dir)
+    diameter, t_unit, _ = plots.units(summary["scene"])
+    snapshots = read_snapshots(run_dir)
+    available = np.array([s.time for s in snapshots])
+    chosen = [snapshots[int(np.argmin(np.abs(available - t)))] for t in (times or default_times(summary))]
+    fig = plt.figure(figsize=(3.0 + 2.4 * len(chosen), 4.2))
+    grid = fig.add_gridspec(1, len(chosen) + 1, width_ratios=[1.4] + [1.0] * len(chosen))
+    ax = fig.add_subplot(grid[0])
+    ax.plot(trajectory["t"] / t_unit, trajectory["gap"] / diameter, lw=1.0, color="k")
+    for k, snap in enumerate(chosen, 1):
+        gap = np.interp(snap.time, trajectory["t"], trajectory["gap"])
+        ax.plot(snap.time / t_unit, gap / diameter, "o", color="C3", ms=4)
+        ax.annotate(str(k), (snap.time / t_unit, gap / diameter), textcoords="offset points", xytext=(3, 4))
+    ax.set_xlabel(r"$t/\sqrt{D/g}$")
+    ax.set_ylabel(r"$h/D$")
+    ax.set_title("(a) trajectory", fontsize=9)
+    levels = np.arange(-0.5, 0.5001, 0.05)
+    radius = 0.5 * diameter
+    for k, snap in enumerate(chosen, 1):
+        ax = fig.add_subplot(grid[k])
+        tri = Triangulation(snap.points[:, 0] / diameter, snap.points[:, 1] / diameter, snap.triangles)
+        omega = np.clip(snap.fields["vorticity"] * t_unit, levels[0], levels[-1])
+        ax.tricontourf(tri, omega, levels=levels, cmap="RdBu_r", extend="both")
+        ax.tricontour(tri, omega, levels=levels[levels != 0.0], colors="k", linewidths=0.3)
+        center = (np.interp(snap.time, trajectory["t"], trajectory["gap"]) + radius) / diameter
+        ax.add_patch(Wedge((0.0, center), 0.5, -90, 90, color="k"))
+        ax.axhline(0.0, color="k", lw=2)
+        ax.set_xlim(0.0, extent[0])
+        ax.set_ylim(0.0, extent[1])
+        ax.set_aspect("equal")
+        ax.set_title(f"({k}) t = {snap.time / t_unit:.2f}", fontsize=9)
+        ax.set_xlabel("r/D")
+        if k == 1:
+            ax.set_ylabel("z/D")
+    fig.suptitle(f"{summary['scene']['name']}: vorticity $\\omega\\sqrt{{D/g}}$, levels -0.5:0.05:0.5 "
+                 f"({summary['model']} model)", fontsize=10)
+    fig.tight_layout()
+    out = Path(path) if path else run_dir / "vorticity.png"
+    fig.savefig(out, dpi=130)
+    plt.close(fig)
+    return out
+
+
+if __name__ == "__main__":
+    for folder in sys.argv[1:]:
+        print(vorticity_figure(Path(folder)))

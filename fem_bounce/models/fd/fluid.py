@@ -1,0 +1,174 @@
+"""Axisymmetric incompressible flow on a fixed mesh, BDF2 in time, convection extrapolated.
+
+    rho (3 u^{n+1} - 4 u^n + u^{n-1}) / (2 dt) + rho N(u*) - mu Lap u^{n+1} + grad p^{n+1} = f,
+    div u^{n+1} = 0,      u* = 2 u^n - u^{n-1}  (EXT2),
+
+with N the convective term (fem.forms.convection, advective form).  Only the
+right-hand side changes from step to step, so the Taylor-Hood P2/P1 saddle
+point A = [rho c M + mu K, -B^T; -B, 0] (c = 3 / (2 dt), r-weighted) is
+assembled and factorised once; a step, or the response to a body force, is one
+back-solve (Karniadakis, Israeli & Orszag 1991 for the BDF2/EXT2 pair).
+Gravity is not in the fluid: the hydrostatic pressure does no work on a rigid
+sphere beyond the buoyancy, which the sphere equation carries.
+
+Boundaries are named by the mesh's facet tags: "no-slip" (u = 0), "slip"
+(zero normal velocity, free tangential), "inflow" (u = (0, U_in)), "outflow"
+(do nothing: mu du/dn - p n = 0); the axis always has u_r = 0.  When every
+side fixes the normal velocity the pressure is pinned at one far corner.
+"""
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, create_vector, set_bc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ...fem import forms
+from ...fem.mesh import AXIS, OUTER, TOP, WALL
+from ...fem.solver import FactorizedOperator
+
+SIDE_KINDS = ("no-slip", "slip", "inflow", "outflow")
+# du/dt ~ sum_j BDF[k][j] u^{n+1-j} / dt and u* = sum_j EXTRAPOLATION[k][j] u^{n-j} (Karniadakis et al. 1991)
+BDF = {1: (1.0, -1.0), 2: (1.5, -2.0, 0.5), 3: (11.0 / 6.0, -3.0, 1.5, -1.0 / 3.0)}
+EXTRAPOLATION = {1: (1.0,), 2: (2.0, -1.0), 3: (3.0, -3.0, 1.0)}
+_NORMAL_COMPONENT = {WALL: 1, TOP: 1, OUTER: 0, AXIS: 0}
+
+
+def taylor_hood_space(mesh) -> fem.FunctionSpace:
+    cell = mesh.ufl_cell()
+    return fem.FunctionSpace(mesh, ufl.MixedElement([ufl.VectorElement("Lagrange", cell, 2),
+                                                     ufl.FiniteElement("Lagrange", cell, 1)]))
+
+
+class FlowSolver:
+    """BDF2/EXT2 steps of the axisymmetric Navier-Stokes equations with one factorised matrix.
+
+    density [kg/m3], viscosity [Pa s], dt [s]; `sides` maps WALL/OUTER/TOP to a kind in
+    SIDE_KINDS; `inflow_speed` [m/s] is u_z on "inflow" sides."""
+
+    def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
+                 inflow_speed: float = 0.0, order: int = 2, prefix: str = "fd_flow_"):
+        for side, kind in sides.items():
+            if kind not in SIDE_KINDS:
+                raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
+        self.mesh, self.density, self.viscosity, self.dt = mesh, density, viscosity, dt
+        self.order = order
+        self.bdf, self.ext = BDF[order], EXTRAPOLATION[order]
+        self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference(u^n, u^{n-1}, ...))
+        self.W = taylor_hood_space(mesh)
+        self.states = [fem.Function(self.W) for _ in range(order)]  # u^n, u^{n-1}, ... (with p)
+        self.now = self.states[0]
+        self.predicted = fem.Function(self.W)
+        self.inflow_speed = inflow_speed
+        self.bcs = self._boundary_conditions(facet_tags, sides)
+
+        r = forms.radial_coordinate(mesh)
+        self.r = r
+        self.dx = ufl.Measure("dx", domain=mesh)
+        (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
+        self.test_velocity = v
+        rho, mu, c = density, viscosity, self.c
+        self.a = fem.form(forms.stokes_operator(u, p, v, q, rho * c, mu, r, self.dx))
+        past = [ufl.split(state)[0] for state in self.states]
+        extrapolated = sum(beta * u_j for beta, u_j in zip(self.ext, past))
+        history = -rho / dt * sum(alpha * u_j for alpha, u_j in zip(self.bdf[1:], past))
+        self.L_history = fem.form(forms.source(history, v, r, self.dx)
+                                  - rho * forms.convection(extrapolated, extrapolated, v, r, self.dx))
+        A = assemble_matrix(self.a, bcs=self.bcs)
+        A.assemble()
+        self.matrix = A
+        self.operator = FactorizedOperator(A, prefix)
+        self.rhs = create_vector(self.L_history)
+        self.work = self.rhs.duplicate()
+
+    # -- boundary conditions ---------------------------------------------------------------
+    def _boundary_conditions(self, facet_tags, sides):
+        W, fdim = self.W, self.mesh.topology.dim - 1
+        bcs = []
+
+        def component_bc(component: int, facets, value: float = 0.0):
+            sub = W.sub(0).sub(component)
+            space, _ = sub.collapse()
+            g = fem.Function(space)
+            g.x.array[:] = value
+            dofs = fem.locate_dofs_topological((sub, space), fdim, facets)
+            bcs.append(fem.dirichletbc(g, dofs, sub))
+
+        component_bc(0, facet_tags.find(AXIS))
+        pinned = True
+        for side, kind in sides.items():
+            facets = facet_tags.find(side)
+            if kind == "no-slip":
+                component_bc(0, facets)
+                component_bc(1, facets)
+            elif kind == "slip":
+                component_bc(_NORMAL_COMPONENT[side], facets)
+            elif kind == "inflow":
+                component_bc(0, facets)
+                component_bc(1, facets, self.inflow_speed)
+            else:
+                pinned = False
+        if pinned:  # the pressure level is free: fix it at the far corner
+            Q, _ = W.sub(1).collapse()
+            corner = self.mesh.geometry.x[:, :2].max(axis=0) if self.mesh.geometry.x.size else np.zeros(2)
+            corner = np.array([self.mesh.comm.allreduce(corner[k], op=MPI.MAX) for k in range(2)])
+            dofs = fem.locate_dofs_geometrical(
+                (W.sub(1), Q), lambda x: np.isclose(x[0], corner[0]) & np.isclose(x[1], corner[1]))
+            bcs.append(fem.dirichletbc(fem.Function(Q), dofs, W.sub(1)))
+        return bcs
+
+    # -- the state ---------------------------------------------------------------------------
+    def set_uniform(self, velocity: tuple[float, float]) -> None:
+        """u^n = u^{n-1} = ... = velocity everywhere (an impulsive start from a uniform state)."""
+        for state in self.states:
+            state.x.array[:] = 0.0
+            values = state.x.array.reshape(-1)
+            for component in range(2):
+                sub_space, dofs = self.W.sub(0).sub(component).collapse()
+                values[dofs] = velocity[component]
+            state.x.scatter_forward()
+
+    def predictor_rhs(self) -> PETSc.Vec:
+        """b(u^n, u^{n-1}, ...): history and extrapolated convection, boundary values set."""
+        b = self.rhs
+        with b.localForm() as local:
+            local.set(0.0)
+        assemble_vector(b, self.L_history)
+        apply_lifting(b, [self.a], [self.bcs])
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(b, self.bcs)
+        return b
+
+    def force_rhs(self, force: PETSc.Vec) -> PETSc.Vec:
+        """An assembled body-force vector made ready for a response with homogeneous boundary
+        values: ghost contributions accumulated, Dirichlet rows zeroed (in place)."""
+        force.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(force, self.bcs, scale=0.0)
+        return force
+
+    def solve(self, rhs: list, solutions: list) -> None:
+        """A x = b for each pair, in one pass over the factors."""
+        self.operator.solve_many(rhs, [x.vector for x in solutions])
+        for x in solutions:
+            x.x.scatter_forward()
+
+    def commit(self, new: PETSc.Vec) -> None:
+        """u^{n-1} <- u^n <- new (a mixed-space vector), and so on down the history."""
+        for older, newer in zip(self.states[::-1], self.states[-2::-1]):
+            older.vector.array[:] = newer.vector.array_r
+            older.x.scatter_forward()
+        self.now.vector.array[:] = new.array_r
+        self.now.x.scatter_forward()
+
+    @property
+    def unknowns(self) -> int:
+        return self.W.dofmap.index_map.size_global * self.W.dofmap.index_map_bs
+
+    def destroy(self) -> None:
+        self.operator.destroy()
+        self.matrix.destroy()
+        self.rhs.destroy()
+        self.work.destroy()
+

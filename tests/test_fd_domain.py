@@ -1,0 +1,52 @@
+"""From scenes to fd problems: domain, boundary kinds, time step; and the validation check table."""
+import io
+
+import pytest
+
+from fem_bounce import scene, validation
+from fem_bounce.fem.mesh import OUTER, TOP, WALL
+from fem_bounce.models.fd import domain
+
+
+def test_unbounded_fall_closes_with_slip_and_refines_the_path():
+    sc = scene.load("li2011-case3")
+    d = domain.domain_for(sc)
+    D = sc.sphere.diameter
+    assert d.sides == {WALL: "no-slip", OUTER: "slip", TOP: "slip"}
+    assert d.spec.radius == pytest.approx(10 * D)
+    assert d.spec.height == pytest.approx(sc.initial_gap + D + 2 * D + 10 * D)  # path, wake, far field
+    box = d.spec.refined[0]
+    assert box.z_min == 0.0 and box.z_max == pytest.approx(sc.initial_gap + 3 * D) and box.r_max == pytest.approx(D)
+    assert d.fine_size == pytest.approx(D / 24) and d.center == pytest.approx(sc.initial_gap + D / 2)
+
+
+def test_container_is_no_slip_all_round_and_a_stream_flows_through():
+    box = domain.domain_for(scene.load("tencate2002-e4"))
+    assert set(box.sides.values()) == {"no-slip"} and box.spec.radius == 0.0564 and box.spec.height == 0.16
+    stream = domain.domain_for(scene.load("sphere-drag-re100"))
+    assert stream.sides == {WALL: "inflow", OUTER: "slip", TOP: "outflow"} and stream.inflow_speed == 0.1
+    refined = stream.spec.refined[0]
+    assert refined.z_min < stream.center - 0.005 and refined.z_max == pytest.approx(stream.center + 0.005 + 0.02)
+
+
+def test_time_step_takes_the_tighter_of_the_convective_and_forcing_bounds():
+    sc = scene.load("sphere-drag-re200")  # fast and not very viscous: convection binds
+    h = sc.sphere.diameter / 24
+    assert domain.time_step(sc) == pytest.approx(0.2 * h / (1.5 * 0.1))
+    slow = scene.load("brenner-approach")  # Re = 0.01: the forcing number binds
+    h = slow.sphere.diameter / 24
+    assert domain.time_step(slow) == pytest.approx(0.025 * h**2 / slow.liquid.kinematic_viscosity)
+
+
+def test_a_held_sphere_needs_a_speed_to_set_the_time_step():
+    sc = scene.load("brenner-approach", {"motion.velocity": 0.0})
+    with pytest.raises(scene.SceneError, match="nonzero motion.velocity"):
+        domain.time_step(sc)
+
+
+def test_check_table_separates_required_checks_from_targets():
+    stream = io.StringIO()
+    ok = validation.report([validation.Check("a", 1.02, 1.0, 0.03),
+                            validation.Check("b", 0.80, 1.0, 0.05, required=False)], stream)
+    assert ok and "check  PASS  a" in stream.getvalue() and "target MISS  b" in stream.getvalue()
+    assert not validation.report([validation.Check("c", 1.2, 1.0, 0.1)], io.StringIO())
