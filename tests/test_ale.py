@@ -180,6 +180,25 @@ def test_transfer_to_a_new_mesh_is_divergence_free_and_keeps_the_momentum():
     new.destroy()
 
 
+def test_the_mass_saddle_point_factorises_where_mumps_underestimates_its_workspace():
+    """The projection's [M B^T; B 0] (r-weighted mass, no viscosity) on this 24 cells/D mesh made MUMPS
+    stop with INFOG(1) = -9 at its default workspace; FactorizedOperator retries with more."""
+    from fem_bounce.models.ale.domain import domain_for
+
+    scene = scenes.load("li2011-case3", {"numerics.ale.cells_per_diameter": 24.0})
+    domain = domain_for(scene)
+    center = 0.007 + domain.sphere_radius
+    mesh, _, facet_tags = create_mesh(MPI.COMM_WORLD, domain.spec(center), cache=False)
+    motion = MeshMotion(mesh, facet_tags, center=center)
+    flow = SphereFlow(mesh, facet_tags, domain.sides, 1203.0, 0.05, 4e-4, motion.velocity)
+    flow.set_boundary_values(-0.3)
+    projection = DivergenceFreeProjection(flow.W, flow.bcs)
+    projection.project(flow.now)  # raises SolverError if the factorisation failed
+    assert np.abs(velocity_values(flow, flow.now, 1)).max() == pytest.approx(0.3)
+    projection.destroy()
+    flow.destroy()
+
+
 def _brenner(delta, cells):
     scene = scenes.load("brenner-approach", {"initial_gap": delta * D, "numerics.ale.cells_per_diameter": cells})
     summary = simulate(scene, "ale", MPI.COMM_WORLD, None, progress=False)
