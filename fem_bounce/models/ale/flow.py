@@ -79,7 +79,7 @@ class SphereFlow:
 
         r = forms.radial_coordinate(mesh)
         self.r = r
-        dx = ufl.Measure("dx", domain=mesh)
+        self.dx = dx = ufl.Measure("dx", domain=mesh)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         rho, mu, c = density, viscosity, self.c
@@ -94,7 +94,6 @@ class SphereFlow:
                                                      - ufl.action(L, self.phi)))
         self.force_slope_form = fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, self.unit), self.phi))
         self.surface_force_form = fem.form(surface_force(self.solution, mu, r, ds(SPHERE)))
-        self._stokes = (u, p, v, q, r, dx)
 
         self.matrix = assemble_matrix(self.a, bcs=self.bcs)
         self.matrix.assemble()
@@ -227,8 +226,8 @@ class SphereFlow:
                log=None) -> float:
         """Solve the steady Stokes (or Navier-Stokes, by Newton from the Stokes state) problem with the
         sphere surface at sphere_velocity; set every history level to it; return the force [N]."""
-        u_trial, p_trial, v, q, r, dx = self._stokes
-        rho, mu = self.density, self.viscosity
+        rho, mu, r, dx = self.density, self.viscosity, self.r, self.dx
+        (u_trial, p_trial), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         x = self.solution
         u, p = ufl.split(x)
         stokes = forms.stokes_operator(u_trial, p_trial, v, q, 0.0, mu, r, dx)
