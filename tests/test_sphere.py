@@ -132,3 +132,19 @@ def test_pinned_ode_case3():
     integrator, _ = run(scene.load("li2011-case3", {"run.bounces": 2}))
     assert [i.impact_speed for i in integrator.impacts] == pytest.approx([0.33112, 0.16695], rel=2e-3)
     assert integrator.rebounds[0].apex_gap == pytest.approx(3.5915e-3, rel=2e-3)
+
+
+def test_scene_dependent_solver_defaults_do_not_outlive_the_integrator():
+    """The step limit and post-event step scale with the scene's time unit; set in the process-wide
+    options database they used to follow the first scene into every later one (a test or study order
+    changed case 3's results by 2e-7)."""
+    options = PETSc.Options()
+    SphereIntegrator(scene.load("brenner-approach"))
+    assert not options.hasName("sphere_ts_adapt_dt_max")
+    assert not options.hasName("sphere_ts_event_post_event_step")
+    options["sphere_ts_adapt_dt_max"] = 1e-3  # a user's choice still wins, and stays
+    try:
+        SphereIntegrator(scene.load("li2011-case3"))
+        assert options.getReal("sphere_ts_adapt_dt_max") == 1e-3
+    finally:
+        options.delValue("sphere_ts_adapt_dt_max")
