@@ -99,7 +99,6 @@ class SphereFlow:
         self.matrix.assemble()
         self.operator: FactorizedOperator | None = None
         self.rhs = create_vector(self.L)
-        self.factorisations = 0
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides) -> None:
@@ -182,7 +181,6 @@ class SphereFlow:
             self.operator = FactorizedOperator(A, self.prefix)
         else:
             self.operator.refactor()
-        self.factorisations += 1
 
     def _solve(self, with_history: bool, out: fem.Function) -> None:
         b = self.rhs
