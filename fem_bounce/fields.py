@@ -1,4 +1,4 @@
-"""Flow-field snapshots an fd run wrote (DIR/fields-KKK.xdmf + .h5), and the paper's Fig. 11 drawn from them.
+"""Flow-field snapshots an fd or ale run wrote (DIR/fields-KKK.xdmf + .h5), and the paper's Fig. 11 drawn from them.
 
     snapshots = read_snapshots("runs/li2011-case7-fd")
     snapshots[0].time, snapshots[0].points (N, 2) in (r, z) [m], snapshots[0].triangles (M, 3),
@@ -11,6 +11,7 @@ series; where a later segment starts, the earlier one's later snapshots are drop
 """
 from __future__ import annotations
 
+import re
 import sys
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass, field
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 FIELD_NAMES = ("velocity", "pressure", "vorticity")
+XINCLUDE = "http://www.w3.org/2001/XInclude"
 
 
 @dataclass
@@ -41,9 +43,24 @@ def _read_segment(path: Path) -> list[Snapshot]:
     folder = path.parent
     domain = ElementTree.parse(path).getroot().find("Domain")
     grids = domain.findall("Grid")
-    mesh = next(g for g in grids if g.get("GridType") == "Uniform")
-    points = _data_item(folder, mesh.find("Geometry/DataItem"))[:, :2]
-    triangles = _data_item(folder, mesh.find("Topology/DataItem")).astype(np.int64)
+    meshes = {g.get("Name"): g for g in grids if g.get("GridType") == "Uniform"}
+    read: dict[str, tuple] = {}
+
+    def mesh_of(grid) -> tuple[np.ndarray, np.ndarray]:
+        """(points, triangles) of the mesh a time grid refers to: a moving mesh (ale) writes one per
+        snapshot and names it in the xpointer; otherwise the file's first mesh."""
+        name = next(iter(meshes))
+        include = grid.find(f"{{{XINCLUDE}}}include")
+        if include is not None:
+            match = re.search(r"@Name='([^']+)'", include.get("xpointer", ""))
+            if match and match.group(1) in meshes:
+                name = match.group(1)
+        if name not in read:
+            mesh = meshes[name]
+            read[name] = (_data_item(folder, mesh.find("Geometry/DataItem"))[:, :2],
+                          _data_item(folder, mesh.find("Topology/DataItem")).astype(np.int64))
+        return read[name]
+
     by_time: dict[float, Snapshot] = {}
     for series in (g for g in grids if g.get("GridType") == "Collection"):
         for grid in series.findall("Grid"):
@@ -55,7 +72,7 @@ def _read_segment(path: Path) -> list[Snapshot]:
                 values = values[:, :2]
             elif values.ndim == 2:
                 values = values[:, 0]
-            snapshot = by_time.setdefault(t, Snapshot(t, points, triangles))
+            snapshot = by_time.setdefault(t, Snapshot(t, *mesh_of(grid)))
             snapshot.fields[name] = values
     return [by_time[t] for t in sorted(by_time)]
 
@@ -64,7 +81,7 @@ def read_snapshots(run_dir: Path) -> list[Snapshot]:
     """Every snapshot of a run, in time order, restart segments merged."""
     segments = sorted(Path(run_dir).glob("fields-*.xdmf"))
     if not segments:
-        raise FileNotFoundError(f"{run_dir} has no fields-*.xdmf (run with numerics.fd.output_every > 0)")
+        raise FileNotFoundError(f"{run_dir} has no fields-*.xdmf (run with numerics.<model>.output_every > 0)")
     snapshots: list[Snapshot] = []
     for path in segments:
         later = _read_segment(path)

@@ -67,12 +67,18 @@ class IbNumerics:
 
 @dataclass(frozen=True)
 class AleNumerics:
-    cells_per_diameter: float = _setting(16.0, 2.0, 400.0)
-    cfl: float = _setting(0.4, 0.01, 5.0)
-    far_field: float = _setting(10.0, 2.0, 100.0)
-    min_quality: float = _setting(0.2, 0.0, 1.0)  # remesh below this element quality
-    min_gap_cells: float = _setting(2.0, 0.5, 100.0)  # cells kept across the gap near contact
-    output_every: int = _setting(0, 0, 10**9)
+    """The boundary-fitted ALE model (fem_bounce.models.ale).  Sizes are per sphere diameter D."""
 
-
-
+    cells_per_diameter: float = _setting(16.0, 2.0, 400.0)  # triangle size D / this on the sphere and along its path
+    coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
+    grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
+    refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
+    wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
+    far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
+    cfl: float = _setting(0.5, 0.01, 20.0)  # dt = cfl * fine size / speed scale (convection is implicit)
+    time_order: int = _setting(2, 1, 2)  # BDF order of the flow and the mesh motion
+    min_quality: float = _setting(0.3, 0.01, 0.9)  # remesh when a triangle's quality would fall below this
+    min_gap_cells: float = _setting(2.0, 0.5, 100.0)  # a remeshed gap has at least this many triangles across
+    hold_delta: float = _setting(0.02, 0.0, 0.5)  # the mesh stops following the sphere at this gap / D
+    fixed_solver: str = field(default="steady", metadata={"choices": ("steady", "march")})  # held sphere
+    output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none

@@ -18,6 +18,7 @@ rebound; a small state machine turns them into Impact and Rebound records.
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import math
@@ -140,17 +141,20 @@ class SphereIntegrator:
         ts.setMaxSteps(2**31 - 1)
         ts.setMaxSNESFailures(-1)
         ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
-        _default_option("sphere_ts_adapt_dt_max", 0.02 * self.scene.time_unit)
-        # After an event PETSc 3.18 resumes with the rest of the interrupted step, unchecked by the
-        # error control; inside the stiff contact that lost 0.5 % of the energy.  Restart tiny instead.
-        _default_option("sphere_ts_event_post_event_step", 1e-7 * self.scene.time_unit)
+        scene_defaults = {
+            "sphere_ts_adapt_dt_max": 0.02 * self.scene.time_unit,
+            # After an event PETSc 3.18 resumes with the rest of the interrupted step, unchecked by the
+            # error control; inside the stiff contact that lost 0.5 % of the energy.  Restart tiny instead.
+            "sphere_ts_event_post_event_step": 1e-7 * self.scene.time_unit,
+        }
         ts.getSNES().getKSP().setType("preonly")
         ts.getSNES().getKSP().getPC().setType("lu")
-        if self.mode == "free":
-            ts.setEventHandler([0, 0, 0, -1], [False, False, False, True], self._indicators, self._post_event)
-            ts.setEventTolerances(1e-9)  # dimensionless; 1e-12 made PETSc 3.18 take dt = 0 steps
         ts.setPostStep(self._post_step)
-        ts.setFromOptions()
+        with _options_for_one_solver(scene_defaults):  # the event handler reads its options when set
+            if self.mode == "free":
+                ts.setEventHandler([0, 0, 0, -1], [False, False, False, True], self._indicators, self._post_event)
+                ts.setEventTolerances(1e-9)  # dimensionless; 1e-12 made PETSc 3.18 take dt = 0 steps
+            ts.setFromOptions()
         self.ts = ts
 
     def _terms(self, h: float, v: float, z: np.ndarray) -> dict:
@@ -398,16 +402,19 @@ class SphereIntegrator:
         self.blend_crossings = list(state["blend_crossings"])
 
 
-_OPTIONS_SET_HERE: set[str] = set()
-
-
-def _default_option(name: str, value) -> None:
-    """Set a PETSc option unless the user gave it; a value set here is renewed for each scene
-    (the options database outlives one integrator: a study runs many scenes in one process)."""
+@contextlib.contextmanager
+def _options_for_one_solver(defaults: dict):
+    """PETSc options the user did not give, set only while one solver reads them: they depend on the
+    scene, and the options database outlives it (a study or a test session runs many scenes)."""
     options = PETSc.Options()
-    if name in _OPTIONS_SET_HERE or not options.hasName(name):
-        options[name] = value
-        _OPTIONS_SET_HERE.add(name)
+    added = [name for name in defaults if not options.hasName(name)]
+    for name in added:
+        options[name] = defaults[name]
+    try:
+        yield
+    finally:
+        for name in added:
+            options.delValue(name)
 
 
 def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> float:

@@ -7,7 +7,10 @@
 Triangles have size `fine_size` inside the refined boxes and grow linearly with
 the distance d from them, size = fine_size + grading * d, up to `coarse_size`.
 The boundary carries named physical groups (WALL z = 0, AXIS r = 0, OUTER r = R,
-TOP z = Z) so a model can pick its conditions per side.
+TOP z = Z) so a model can pick its conditions per side.  A boundary-fitted model
+cuts a sphere on the axis out of the half-plane (`hole=SphereHole(...)`): its
+surface is the group SPHERE, meshed at its own size, and the thin gap between it
+and the wall keeps a set number of triangles across.
 
 gmsh runs on rank 0 only; `dolfinx.io.gmshio` distributes the mesh.  The .msh
 file is cached under the mesh cache directory (see `cache_directory`), keyed by
@@ -28,8 +31,8 @@ import numpy as np
 
 # physical group tags
 FLUID = 1
-WALL, AXIS, OUTER, TOP = 1, 2, 3, 4
-BOUNDARY_NAMES = {WALL: "wall", AXIS: "axis", OUTER: "outer", TOP: "top"}
+WALL, AXIS, OUTER, TOP, SPHERE = 1, 2, 3, 4, 5
+BOUNDARY_NAMES = {WALL: "wall", AXIS: "axis", OUTER: "outer", TOP: "top", SPHERE: "sphere"}
 MESH_FORMAT_VERSION = 1  # part of the cache key: bump when the meshing below changes
 
 
@@ -48,6 +51,49 @@ class Box:
 
 
 @dataclass(frozen=True)
+class SphereHole:
+    """A sphere of `radius` centred on the axis at z = `center`, cut out of the half-plane [m].
+
+    Triangles on its surface have size `surface_size` and grow with the distance from it at
+    the half-plane's grading.  Below it, where the local gap between sphere and wall
+    g(r) = center - sqrt(radius^2 - r^2) is thin, they are at most g(r) / `gap_cells`
+    (0: no gap rule), so a thin gap keeps that many triangles across."""
+
+    center: float
+    radius: float
+    surface_size: float
+    gap_cells: float = 0.0
+
+    def __post_init__(self):
+        if not (self.radius > 0 and self.center > self.radius and self.surface_size > 0 and self.gap_cells >= 0):
+            raise ValueError(f"inconsistent sphere hole {self}")
+
+    @property
+    def gap(self) -> float:
+        """Distance from the sphere's lowest point to the wall z = 0 [m]."""
+        return self.center - self.radius
+
+    def size_at(self, r: np.ndarray, z: np.ndarray, grading: float) -> np.ndarray:
+        """The size limit of the surface and the gap at (r, z) [m] (the same law as gmsh_size)."""
+        a, zc = self.radius, self.center
+        size = self.surface_size + grading * np.maximum(np.hypot(r, z - zc) - a, 0.0)
+        if self.gap_cells > 0:
+            local_gap = zc - np.sqrt(np.maximum(a * a - r * r, 0.0))
+            # only beneath the sphere's centre: the rule must not refine the axis above it
+            size = np.minimum(size, local_gap / self.gap_cells + 1e6 * np.maximum(z - zc, 0.0))
+        return size
+
+    def gmsh_size(self, grading: float) -> str:
+        """size_at as a gmsh MathEval expression in x = r, y = z."""
+        a, zc = self.radius, self.center
+        text = f"{self.surface_size!r} + {grading!r} * max(sqrt(x^2 + (y - {zc!r})^2) - {a!r}, 0)"
+        if self.gap_cells > 0:
+            gap = f"({zc!r} - sqrt(max({a * a!r} - x^2, 0))) / {self.gap_cells!r} + 1e6 * max(y - {zc!r}, 0)"
+            text = f"min({text}, {gap})"
+        return text
+
+
+@dataclass(frozen=True)
 class HalfPlane:
     """Geometry and mesh-size field of the meridian half-plane [m]."""
 
@@ -57,14 +103,20 @@ class HalfPlane:
     coarse_size: float
     grading: float
     refined: tuple[Box, ...] = ()
+    hole: SphereHole | None = None
 
     def __post_init__(self):
         if not (self.radius > 0 and self.height > 0 and 0 < self.fine_size <= self.coarse_size and self.grading > 0):
             raise ValueError(f"inconsistent mesh spec {self}")
+        hole = self.hole
+        if hole is not None and not (hole.radius < self.radius and hole.center + hole.radius < self.height):
+            raise ValueError(f"the sphere hole {hole} does not fit in the half-plane {self.radius} x {self.height}")
 
     def key(self) -> str:
         """A short hash of everything that shapes the mesh (the cache file name)."""
         data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION}
+        if self.hole is None:
+            del data["hole"]  # meshes without a hole keep the keys they had before holes existed
         text = json.dumps(data, sort_keys=True, default=lambda x: round(x, 15))
         return hashlib.sha1(text.encode()).hexdigest()[:16]
 
@@ -74,6 +126,8 @@ class HalfPlane:
         size = np.full(np.broadcast(r, z).shape, self.coarse_size)
         for box in self.refined:
             size = np.minimum(size, self.fine_size + self.grading * box.distance(r, z))
+        if self.hole is not None:
+            size = np.minimum(size, self.hole.size_at(r, z, self.grading))
         return size
 
     def _gmsh_size_expression(self) -> str:
@@ -82,6 +136,8 @@ class HalfPlane:
             dr = f"max(x - {box.r_max!r}, 0)"
             dz = f"max(max(y - {box.z_max!r}, {box.z_min!r} - y), 0)"
             terms.append(f"{self.fine_size!r} + {self.grading!r} * sqrt({dr}^2 + {dz}^2)")
+        if self.hole is not None:
+            terms.append(self.hole.gmsh_size(self.grading))
         expression = terms[0]
         for term in terms[1:]:
             expression = f"min({expression}, {term})"
@@ -103,11 +159,24 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
     geo = gmsh.model.geo
     corners = [(0.0, 0.0), (spec.radius, 0.0), (spec.radius, spec.height), (0.0, spec.height)]
     points = [geo.addPoint(r, z, 0.0) for r, z in corners]
-    wall, outer, top, axis = (geo.addLine(points[k], points[(k + 1) % 4]) for k in range(4))
-    surface = geo.addPlaneSurface([geo.addCurveLoop([wall, outer, top, axis])])
+    wall, outer, top = (geo.addLine(points[k], points[k + 1]) for k in range(3))
+    curves = {WALL: [wall], OUTER: [outer], TOP: [top]}
+    if spec.hole is None:
+        curves[AXIS] = [geo.addLine(points[3], points[0])]
+        loop = [wall, outer, top, *curves[AXIS]]
+    else:
+        # down the axis from the top, around the sphere's right half (two quarter arcs), down to the wall
+        a, zc = spec.hole.radius, spec.hole.center
+        north, center, equator, south = (geo.addPoint(r, z, 0.0) for r, z in ((0.0, zc + a), (0.0, zc), (a, zc),
+                                                                               (0.0, zc - a)))
+        upper, lower = geo.addLine(points[3], north), geo.addLine(south, points[0])
+        arcs = [geo.addCircleArc(north, center, equator), geo.addCircleArc(equator, center, south)]
+        curves[AXIS], curves[SPHERE] = [upper, lower], arcs
+        loop = [wall, outer, top, upper, *arcs, lower]
+    surface = geo.addPlaneSurface([geo.addCurveLoop(loop)])
     geo.synchronize()
-    for tag, curve in ((WALL, wall), (AXIS, axis), (OUTER, outer), (TOP, top)):
-        gmsh.model.addPhysicalGroup(1, [curve], tag)
+    for tag, group in curves.items():
+        gmsh.model.addPhysicalGroup(1, group, tag)
         gmsh.model.setPhysicalName(1, tag, BOUNDARY_NAMES[tag])
     gmsh.model.addPhysicalGroup(2, [surface], FLUID)
     gmsh.model.setPhysicalName(2, FLUID, "fluid")

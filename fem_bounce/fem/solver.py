@@ -2,6 +2,7 @@
 
     solver = FactorizedOperator(A, prefix="fd_fluid_")
     solver.solve(b, x)            # one back-solve with the stored factors
+    solver.refactor()             # after A's values changed (same sparsity: the analysis is reused)
     solver.destroy()
 
 The default is MUMPS LU through PETSc (`-{prefix}pc_factor_mat_solver_type`,
@@ -15,6 +16,9 @@ from __future__ import annotations
 import time
 
 from petsc4py import PETSc
+
+
+MUMPS_WORKSPACE_TOO_SMALL = (-8, -9)  # INFOG(1): integer or real workspace ran out
 
 
 class SolverError(RuntimeError):
@@ -32,6 +36,7 @@ class FactorizedOperator:
 
     def __init__(self, A: PETSc.Mat, prefix: str, factor: str = "lu", package: str = "mumps"):
         self.prefix = prefix
+        self.operator = A
         _default_option(f"{prefix}ksp_type", "preonly")
         _default_option(f"{prefix}pc_type", factor)
         _default_option(f"{prefix}pc_factor_mat_solver_type", package)
@@ -46,10 +51,37 @@ class FactorizedOperator:
         self.solve_time = 0.0  # [s] spent in back-solves on this rank
         self.single_solves, self.single_solve_time = 0, 0.0  # one right-hand side at a time
         self._blocks: dict = {}  # dense right-hand sides and solutions for solve_many
+        self._factorise(self.ksp.setUp)
+
+    def refactor(self) -> None:
+        """Factorise again after the operator's values changed in place.  With the same nonzero
+        pattern PETSc redoes only the numerical factorisation (MUMPS keeps its analysis)."""
+        self._factorise(self.ksp.getPC().setUp)  # KSP.setUp alone would leave it to the next solve
+
+    def _factorise(self, setup) -> None:
+        """Run `setup`; when MUMPS ran short of the workspace it estimated (heavy pivoting, e.g. in a
+        saddle point whose rows are scaled by r near the axis), double its relaxation ICNTL(14) and
+        factorise from scratch, a few times at most."""
+        for _ in range(4):
+            try:
+                setup()
+            except PETSc.Error as err:
+                raise SolverError(f"factorisation failed ({self.prefix}): {err}") from None
+            if self._mumps_status() not in MUMPS_WORKSPACE_TOO_SMALL:
+                return
+            options = PETSc.Options()
+            name = f"{self.prefix}mat_mumps_icntl_14"
+            options[name] = 2 * options.getInt(name, 80)
+            self.ksp.getPC().reset()  # drops the factors and the operator with them
+            self.ksp.setOperators(self.operator)
+            setup = self.ksp.setUp
+
+    def _mumps_status(self) -> int:
+        """MUMPS's INFOG(1) of the last factorisation (0 when fine or not MUMPS)."""
         try:
-            self.ksp.setUp()
-        except PETSc.Error as err:
-            raise SolverError(f"factorisation failed ({prefix}): {err}") from None
+            return int(self.ksp.getPC().getFactorMatrix().getMumpsInfog(1))
+        except (PETSc.Error, AttributeError):
+            return 0
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         start = time.perf_counter()

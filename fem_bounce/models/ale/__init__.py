@@ -1,0 +1,11 @@
+"""The boundary-fitted ALE model: `fem-bounce run SCENE --model ale`.
+
+The sphere is a hole in a gmsh mesh of the meridian half-plane (domain), the mesh
+follows the sphere by a harmonic extension and is remade when its triangles degrade
+(motion, remesh), a Taylor-Hood ALE flow with the sphere surface as a moving no-slip
+boundary (flow), implicit coupling with the shared sphere integrator and the time loop
+with its outputs (model).
+"""
+from .model import AleModel
+
+__all__ = ["AleModel"]

@@ -1,0 +1,58 @@
+"""Flow fields of an ale run: DIR/fields-000.xdmf (+ .h5) through dolfinx's parallel XDMF writer.
+
+The mesh moves and is remade, so every snapshot writes the mesh as it is then (a grid
+named mesh-K) and its fields point to it; `fem_bounce.fields.read_snapshots` follows
+those references, and ParaView reads the file as a time series on a moving mesh.  As in
+the fd model the fields are P1 at the vertices: velocity, pressure and the azimuthal
+vorticity omega = du_r/dz - du_z/dr, here the P2 velocity's curl sampled at the vertices.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import ufl
+from dolfinx import fem
+from dolfinx.io import XDMFFile
+
+from ...fem import forms
+
+
+class MovingFieldWriter:
+    """Writes (velocity, pressure, vorticity) of Taylor-Hood states on a moving, remade mesh."""
+
+    def __init__(self, comm, path: Path):
+        self.file = XDMFFile(comm, str(path), "w")
+        self.snapshots = 0
+        self._mesh = None
+
+    def _spaces(self, mesh, W) -> None:
+        cell = mesh.ufl_cell()
+        self.velocity = fem.Function(fem.FunctionSpace(mesh, ufl.VectorElement("Lagrange", cell, 1)),
+                                     name="velocity")
+        scalars = fem.FunctionSpace(mesh, ("Lagrange", 1))
+        self.pressure = fem.Function(scalars, name="pressure")
+        self.vorticity = fem.Function(scalars, name="vorticity")
+        self.state = fem.Function(W)
+        self._curl = fem.Expression(forms.vorticity(ufl.split(self.state)[0]), scalars.element.interpolation_points())
+        self._mesh = mesh
+
+    def write(self, state: fem.Function, t: float) -> None:
+        """One snapshot of the mixed (u, p) `state` at time t [s], on its mesh as it is now."""
+        mesh = state.function_space.mesh
+        if mesh is not self._mesh:
+            self._spaces(mesh, state.function_space)
+        self.state.x.array[:] = state.x.array
+        self.velocity.interpolate(self.state.sub(0))
+        self.pressure.interpolate(self.state.sub(1))
+        self.vorticity.interpolate(self._curl)
+        name = f"mesh-{self.snapshots}"
+        mesh.name = name
+        self.file.write_mesh(mesh)
+        for function in (self.velocity, self.pressure, self.vorticity):
+            self.file.write_function(function, t, mesh_xpath=f"/Xdmf/Domain/Grid[@Name='{name}']")
+        self.snapshots += 1
+
+    def close(self) -> None:
+        if self.file is not None:
+            self.file.close()
+            self.file = None

@@ -1,0 +1,137 @@
+"""Moving the flow to a new mesh after remeshing, keeping it divergence-free and its momentum.
+
+dolfinx 0.5.2 cannot interpolate between non-matching meshes, so the old mesh and one
+finite-element function on it are gathered onto every rank as a serial copy
+(`SerialField`), where any point can be looked up (bounding-box tree, `Function.eval`);
+each rank then evaluates it at its own new degrees of freedom (`interpolate_from`).
+Points of the new mesh that fall just outside the old one (the two polygons approximating
+the sphere differ) take the value of the nearest old cell, extrapolated.
+
+Interpolation leaves a field that is not discretely divergence-free on the new mesh; the
+next step's pressure would remove that in one step, as a force spike on the sphere.
+`DivergenceFreeProjection` instead takes the (r-weighted) L2-closest discretely
+divergence-free field with the right boundary values,
+
+    (u, v)_r - (p, div v)_r = (u_interpolated, v)_r,    (q, div u)_r = 0,   u = g on Dirichlet sides,
+
+one saddle-point solve.  That also conserves momentum: in a closed domain (every side
+fixing the normal velocity, as in every moving-sphere scene) a discretely divergence-free
+field has exactly the momentum its boundary values dictate, because the P1 pressure space
+contains q = z and (q, div u)_r = 0 with q = z is
+
+    int u_z r dx = int_boundary z (u . n) r ds    (= -(sphere volume / 2 pi) U on the sphere),
+
+so the fluid's momentum after the transfer equals its momentum before, up to the small
+difference between the two meshes' polygonal sphere volumes.  model.py reports both.
+"""
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem, geometry
+from dolfinx import mesh as dmesh
+from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, create_vector, set_bc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ...fem import forms
+from ...fem.functions import gather_values, scatter_values
+from ...fem.solver import FactorizedOperator
+
+
+def _gather_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """(points (N, 2), triangles (M, 3)) of the whole mesh as it is now, on every rank."""
+    owned = mesh.topology.index_map(mesh.topology.dim).size_local
+    cells = mesh.geometry.dofmap.array.reshape(-1, 3)[:owned]
+    corners = mesh.geometry.x[cells, :2].reshape(-1, 2)
+    corners = np.concatenate(mesh.comm.allgather(corners))
+    points, index = np.unique(corners, axis=0, return_inverse=True)
+    return points, index.reshape(-1, 3).astype(np.int64)
+
+
+class SerialField:
+    """A serial copy of `function` (any Lagrange or mixed Lagrange space) and its mesh on every rank.
+
+    Collective over the function's mesh communicator."""
+
+    def __init__(self, function: fem.Function, tolerance: float):
+        mesh = function.function_space.mesh
+        points, triangles = _gather_mesh(mesh)
+        domain = ufl.Mesh(ufl.VectorElement("Lagrange", mesh.ufl_cell(), 1))
+        self.mesh = dmesh.create_mesh(MPI.COMM_SELF, triangles, points, domain)
+        copy = fem.Function(fem.FunctionSpace(self.mesh, function.function_space.ufl_element()))
+        data = mesh.comm.bcast(gather_values(function), root=0)
+        scatter_values(copy, data, tolerance)
+        # Function.eval cannot evaluate a mixed function: keep its parts (u, p) as functions of their own
+        count = copy.function_space.num_sub_spaces
+        self.parts = [copy.sub(k).collapse() for k in range(count)] if count else [copy]
+        tdim = self.mesh.topology.dim
+        self.tree = geometry.BoundingBoxTree(self.mesh, tdim)
+        cells = np.arange(self.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+        self.midpoints = geometry.create_midpoint_tree(self.mesh, tdim, cells)
+
+    def evaluate(self, points: np.ndarray, part: int = 0) -> np.ndarray:
+        """Values (n, value size) of one part (the k-th sub-function of a mixed function) at points (n, 2) [m]."""
+        xyz = np.zeros((len(points), 3))
+        xyz[:, :2] = points
+        candidates = geometry.compute_collisions(self.tree, xyz)
+        colliding = geometry.compute_colliding_cells(self.mesh, candidates, xyz)
+        cells = np.full(len(points), -1, dtype=np.int32)
+        for k in range(len(points)):
+            found = colliding.links(k)
+            if len(found):
+                cells[k] = found[0]
+        outside = np.flatnonzero(cells < 0)
+        if outside.size:
+            cells[outside] = geometry.compute_closest_entity(self.tree, self.midpoints, self.mesh, xyz[outside])
+        return self.parts[part].eval(xyz, cells)
+
+
+def interpolate_from(source: SerialField, target: fem.Function) -> None:
+    """Set every dof of `target` (same element as the source) to the source's value at its position."""
+    space = target.function_space
+    subspaces = [space.sub(k) for k in range(space.num_sub_spaces)] if space.num_sub_spaces else [space]
+    for part, sub in enumerate(subspaces):
+        collapsed, parent = sub.collapse()
+        values = source.evaluate(collapsed.tabulate_dof_coordinates()[:, :2], part)
+        # a blocked (vector) space lists each node once: its components are consecutive dofs
+        target.x.array[np.asarray(parent)] = values.reshape(-1)
+    target.x.scatter_forward()
+
+
+class DivergenceFreeProjection:
+    """The r-weighted L2 projection onto discretely divergence-free fields meeting `bcs`, on the mesh as it is."""
+
+    def __init__(self, W, bcs: list, prefix: str = "ale_projection_"):
+        mesh = W.mesh
+        r = forms.radial_coordinate(mesh)
+        dx = ufl.Measure("dx", domain=mesh)
+        (u, p), (v, q) = ufl.TrialFunctions(W), ufl.TestFunctions(W)
+        self.field = fem.Function(W)
+        self.a = fem.form(forms.stokes_operator(u, p, v, q, 1.0, 0.0, r, dx))
+        self.L = fem.form(forms.source(ufl.split(self.field)[0], v, r, dx))
+        self.bcs = bcs
+        self.matrix = assemble_matrix(self.a, bcs=bcs)
+        self.matrix.assemble()
+        self.rhs = create_vector(self.L)
+        self.solver = FactorizedOperator(self.matrix, prefix)
+
+    def project(self, function: fem.Function) -> None:
+        """Replace the velocity of the mixed (u, p) `function` by its projection (its pressure is kept)."""
+        self.field.x.array[:] = function.x.array
+        b = self.rhs
+        with b.localForm() as local:
+            local.set(0.0)
+        assemble_vector(b, self.L)
+        apply_lifting(b, [self.a], [self.bcs])
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(b, self.bcs)
+        self.solver.solve(b, self.field.vector)
+        self.field.x.scatter_forward()
+        _, velocity = function.function_space.sub(0).collapse()
+        function.x.array[velocity] = self.field.x.array[velocity]
+
+    def destroy(self) -> None:
+        self.solver.destroy()
+        self.matrix.destroy()
+        self.rhs.destroy()
