@@ -11,7 +11,7 @@ timing      case 3 to the apex after the second impact at one resolution: wall t
             Run it under mpirun -n 2 and serially to compare.
 density     ten Cate's box with the sphere's density at ratio x the oil's, 8 cells per diameter,
             0.3 s: does the run complete without the speed oscillating?  Implicit and explicit.
-Results are merged into benchmarks/results/fd_speed.json with the date and machine.
+Results are merged into benchmarks/history/fd_speed.json with the date and machine.
 Timings are only meaningful on a quiet machine.
 """
 from __future__ import annotations
@@ -29,7 +29,7 @@ from fem_bounce import plots, scene
 from fem_bounce.run import RunDiverged, simulate
 
 HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "results" / "fd_speed.json"
+RESULTS = HERE / "history" / "fd_speed.json"
 TO_SECOND_APEX = {"run.bounces": 2}
 
 

@@ -10,7 +10,7 @@ Sections (each a function of fem_bounce.validation, runs under runs/fd-validatio
   tencate   ten Cate E4 peak speed vs 0.1226 m/s                                     ~5 min
   case3     Li case 3 (3 bounces), also with contact.inertial_factor = "none"       ~5 min
   cases     Li cases 1-7 to the second impact: V_i, Re_I, Re_II vs Table 2          ~15 min
-Results are merged into benchmarks/results/fd_validation.json with the date, machine,
+Results are merged into benchmarks/history/fd_validation.json with the date, machine,
 commit and resolution (small, committed); the cases table also goes to fd_cases.csv.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ from mpi4py import MPI
 from fem_bounce import validation
 
 HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "results" / "fd_validation.json"
+RESULTS = HERE / "history" / "fd_validation.json"
 
 
 def provenance(cells: float) -> dict:
@@ -75,7 +75,7 @@ def main() -> None:
             from fem_bounce import fields
 
             found["case7_vorticity_figure"] = str(fields.vorticity_figure(args.out / f"case7-{tag}"))
-            with open(HERE / "results" / "fd_cases.csv", "w", newline="") as stream:
+            with open(HERE / "history" / "fd_cases.csv", "w", newline="") as stream:
                 writer = csv.writer(stream)
                 writer.writerow(["case", "V_i", "V_i_table2", "Re_I", "Re_I_table2", "Re_II", "Re_II_table2", "St_I",
                                  "rebounds", "cells_per_diameter"])

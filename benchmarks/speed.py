@@ -1,7 +1,7 @@
 """Time the standard cases and record the result, so that performance history stays visible.
 
     python benchmarks/speed.py                       # ODE cases, ~30 s
-    mpirun -n 2 python benchmarks/speed.py fd ib     # resolved models as they exist
+    mpirun -n 2 python benchmarks/speed.py fd ib ale # resolved models, ~10 min on 2 cores
 
 Each case is timed in-process (imports excluded) and appended to
 benchmarks/history/YYYY-MM-DD-MACHINE.json, which is committed.
@@ -11,12 +11,14 @@ from __future__ import annotations
 import json
 import platform
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 from mpi4py import MPI
 
 from fem_bounce import restitution, scene
+from fem_bounce.run import simulate
 from fem_bounce.sphere import SphereIntegrator
 
 
@@ -38,7 +40,31 @@ def ode_restitution_sweep(comm) -> dict:
     return {"wall_time_s": time.perf_counter() - start, "target_s": 30.0, "runs": len(results)}
 
 
-CASES = {"ode": [ode_case3_three_impacts, ode_restitution_sweep]}
+def case3_to_second_apex(model: str, cells: float | None = None):
+    """Issues 3 and 4: li2011-case3 to the apex after the second impact, timed with its outputs."""
+    def case(comm) -> dict:
+        changes = {"run.bounces": 2}
+        if cells is not None:
+            changes[f"numerics.{model}.cells_per_diameter"] = cells
+        sc = scene.load("li2011-case3", changes)
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(comm.bcast(tmp if comm.rank == 0 else None))
+            start = time.perf_counter()
+            summary = simulate(sc, model, comm, out / "run", progress=False, plots=False)
+            wall = time.perf_counter() - start
+            comm.barrier()
+        resolution = getattr(sc.numerics, model).cells_per_diameter
+        return {"wall_time_s": wall, "cells_per_diameter": resolution, "steps": summary["steps"],
+                "sizes": summary.get("sizes"), "first_apex_gap": summary["rebounds"][0]["apex_gap"],
+                "impact_speed": summary["impacts"][0]["impact_speed"], "model_report": summary.get(model)}
+    case.__name__ = f"{model}_case3_second_apex" + (f"_{cells:g}cpd" if cells is not None else "")
+    return case
+
+
+CASES = {"ode": [ode_case3_three_impacts, ode_restitution_sweep],
+         "fd": [case3_to_second_apex("fd", 8.0), case3_to_second_apex("fd")],
+         "ib": [case3_to_second_apex("ib")],
+         "ale": [case3_to_second_apex("ale")]}
 
 
 def main(models: list[str]) -> None:
@@ -49,7 +75,7 @@ def main(models: list[str]) -> None:
         for case in CASES[model]:
             record["cases"][case.__name__] = result = case(comm)
             if comm.rank == 0:
-                print(f"{case.__name__:32s} {result['wall_time_s']:8.2f} s  {result}", flush=True)
+                print(f"{case.__name__:32s} {result['wall_time_s']:8.2f} s", flush=True)
     if comm.rank == 0:
         folder = Path(__file__).parent / "history"
         folder.mkdir(exist_ok=True)

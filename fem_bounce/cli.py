@@ -71,6 +71,8 @@ def _parser() -> argparse.ArgumentParser:
     speed = kinds.add_parser("speed-accuracy", help="wall time against error for several models")
     speed.add_argument("scene")
     speed.add_argument("--models", default="ode", help="comma-separated, e.g. ode,fd,ib")
+    speed.add_argument("--levels", action="append", default=[], metavar="MODEL=V1,V2,...",
+                       help="resolutions of one model (default: its ladder); repeat per model")
     speed.add_argument("--record", action="store_true",
                        help="store the recommendations in the package for `run --accuracy`")
     stab = kinds.add_parser("stability", help="density ratio, time step, contact resolution and delta_sl sweeps")
@@ -243,7 +245,13 @@ def _cmd_study(args) -> int:
         studies.convergence.run(scenes.load(args.scene, changes), args.model, comm, out, numbers(args.levels),
                                 numbers(args.cfls))
     elif args.kind == "speed-accuracy":
-        result = studies.speed_accuracy.run(scenes.load(args.scene, changes), model_names, comm, out)
+        levels = {}
+        for text in args.levels:
+            name, _, values = text.partition("=")
+            if name not in model_names or not values:
+                raise scenes.SceneError(f"--levels {text!r}: expected MODEL=V1,V2,... with MODEL one of {args.models}")
+            levels[name] = numbers(values)
+        result = studies.speed_accuracy.run(scenes.load(args.scene, changes), model_names, comm, out, levels)
         if args.record and comm.rank == 0:
             studies.speed_accuracy.record(result, Path(__file__).parent / "data")
     elif args.kind == "stability":
