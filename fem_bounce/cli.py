@@ -5,7 +5,7 @@
     fem-bounce scenes show NAME        print a scene as TOML (it runs unchanged as a scene file)
     fem-bounce restitution [...]       coefficient of restitution against impact Stokes number (ODE)
     fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
-    fem-bounce compare [SCENE] --models ode,ib,...   several models on one scene: one figure, one table
+    fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
 Only this module and the demos touch MPI.COMM_WORLD.  Errors a user can cause
 print one line naming the field and exit with status 2.
@@ -44,7 +44,7 @@ def _parser() -> argparse.ArgumentParser:
 
     cmp_ = sub.add_parser("compare", help="run several models on one scene; one figure and one table")
     cmp_.add_argument("scene", nargs="?", default=None, help=f"preset name or TOML file (default {DEFAULT_SCENE})")
-    cmp_.add_argument("--models", default="ode,ib", help="comma-separated models (default ode,ib)")
+    cmp_.add_argument("--models", default="ode,fd,ib", help="comma-separated models (default ode,fd,ib)")
     cmp_.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                       help="override a scene value for every model (repeatable)")
     cmp_.add_argument("--out", type=Path, default=None, help="output directory (default runs/compare-SCENE[-N])")

@@ -72,3 +72,8 @@ def test_convergence_study_on_the_ode_model(tmp_path, monkeypatch):
 def test_accuracy_without_a_recorded_study_is_a_clear_error(capsys):
     assert cli.main(["run", "li2011-case5", "--model", "ode", "--accuracy", "5%"]) == 2
     assert "no recorded speed-accuracy study for 'li2011-case5'" in capsys.readouterr().err
+
+
+def test_speed_accuracy_levels_must_name_a_chosen_model(capsys):
+    assert cli.main(["study", "speed-accuracy", "li2011-case1", "--models", "ode", "--levels", "fd=8,12"]) == 2
+    assert "--levels 'fd=8,12': expected MODEL=V1,V2,..." in capsys.readouterr().err
