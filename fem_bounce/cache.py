@@ -22,7 +22,7 @@ from .run import RunDiverged, simulate
 DEFAULT_ROOT = Path("results") / "cache"
 CORE = ("scene.py", "theory.py", "contact.py", "sphere.py", "run.py", "output.py", "models/__init__.py")
 MODEL_SOURCES = {"ode": ("models/ode.py",), "fd": ("models/fd", "fem"), "ib": ("models/ib",),
-                 "ale": ("models/ale", "models/ale.py", "fem")}
+                 "ale": ("models/ale", "fem")}
 
 
 @functools.cache
@@ -44,14 +44,15 @@ def run_key(scene: scenes.Scene, model: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT, progress: bool = False) -> Path:
+def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT, progress: bool = False,
+               command: str = "") -> Path:
     """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed."""
     run_dir = Path(root) / f"{scene.name}-{model}-{run_key(scene, model)}"
     summary = run_dir / "summary.json"
     if not summary.exists():
         try:
             simulate(scene, model, comm, run_dir, force=True, progress=progress, plots=False,
-                     command=f"cached run of {scene.name} with {model}")
+                     command=command or f"cached run of {scene.name} with {model}")
         except RunDiverged:
             pass  # recorded in summary.json; a study classifies it
     return run_dir
