@@ -17,6 +17,7 @@ from .. import scene as scenes
 from .common import FIDELITY, LADDERS, StudyDirectory, measured, pareto, primary, relative_error, run_and_measure
 
 THRESHOLDS = (0.01, 0.05, 0.10)
+COLOURS = {"ode": "C0", "fd": "C1", "ib": "C2", "ale": "C3"}  # the same in every chart
 
 
 def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | None = None) -> dict:
@@ -32,14 +33,16 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
     reference_model = next(m for m in FIDELITY if m in models)
     finest = [r for r in rows if r["model"] == reference_model][-1]
     experiment = measured(scene)
+    judged = [n for n in dict.fromkeys(names + ["re_second"]) if n in experiment]  # what the experiment measured
     for r in rows:
         for name in names:
             r[f"error_{name}"] = relative_error(r.get(name), finest.get(name))
+        for name in judged:
             r[f"experiment_error_{name}"] = relative_error(r.get(name), experiment.get(name))
         r["error"] = _worst(r, "error_", names)
-        r["experiment_error"] = _worst(r, "experiment_error_", names)
+        r["experiment_error"] = _worst(r, "experiment_error_", judged) if judged else None
     recommendations = recommend(rows, names, finest)
-    result = {"scene": scene.name, "quantities": names, "reference_run": finest["run_dir"],
+    result = {"scene": scene.name, "quantities": names, "experiment_quantities": judged, "reference_run": finest["run_dir"],
               "reference_model": reference_model, "experiment": experiment, "rows": rows,
               "recommendations": recommendations}
     study.write_json("speed_accuracy.json", result)
@@ -79,16 +82,16 @@ def figure(result: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     rows = result["rows"]
-    panels = [("error", f"against the finest {result['reference_model']} run")]
+    panels = [("error", f"against the finest {result['reference_model']} run", result["quantities"])]
     if any(r["experiment_error"] is not None for r in rows):
-        panels.append(("experiment_error", "against the experiment"))
+        panels.append(("experiment_error", "against the experiment", result.get("experiment_quantities", [])))
     fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4.5), squeeze=False)
-    for ax, (key, title) in zip(axes[0], panels):
+    for ax, (key, title, quantities) in zip(axes[0], panels):
         usable = [r for r in rows if r[key] is not None and r[key] > 0]
-        models = list(dict.fromkeys(r["model"] for r in usable))
-        for k, model in enumerate(models):
+        for model in dict.fromkeys(r["model"] for r in usable):
             mine = [r for r in usable if r["model"] == model]
-            ax.loglog([r["wall_time_s"] for r in mine], [r[key] for r in mine], "o-", color=f"C{k}", label=model)
+            ax.loglog([r["wall_time_s"] for r in mine], [r[key] for r in mine], "o-", color=COLOURS.get(model),
+                      label=model)
         points = [(r["wall_time_s"], r[key]) for r in usable]
         front = [points[i] for i in pareto(points)]
         if front:
@@ -98,7 +101,7 @@ def figure(result: dict, path: Path) -> None:
         for threshold in THRESHOLDS:
             ax.axhline(threshold, color="0.7", ls=":", lw=0.8)
         ax.set_xlabel("wall time (s)")
-        ax.set_ylabel("worst relative error of " + ", ".join(result["quantities"]))
+        ax.set_ylabel("worst relative error of " + ", ".join(quantities))
         ax.set_title(title, fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
