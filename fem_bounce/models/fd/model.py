@@ -235,7 +235,12 @@ class FictitiousDomainModel:
         except (SolverError, ArithmeticError, PenetrationError, PETSc.Error) as err:
             where = ("no checkpoint yet" if self.last_checkpoint is None else
                      f"last checkpoint at step {self.last_checkpoint[0]}, t = {self.last_checkpoint[1]:.6g} s")
-            raise RunDiverged(f"{err} ({where})") from err
+            message = str(err)
+            if isinstance(err, ArithmeticError) and not isinstance(err, FloatingPointError):
+                message = (f"the coupled step broke down ({type(err).__name__}: {err}) near t = {integrator.time:.6g} s "
+                           f"with the sphere at {integrator.velocity:.3g} m/s: unstable (for a light sphere use "
+                           f"numerics.fd.coupling = \"implicit\"; otherwise lower numerics.fd.cfl)")
+            raise RunDiverged(f"{message} ({where})") from err
         finally:
             if self.fields is not None:
                 self.fields.close()
