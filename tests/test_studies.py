@@ -77,3 +77,12 @@ def test_accuracy_without_a_recorded_study_is_a_clear_error(capsys):
 def test_speed_accuracy_levels_must_name_a_chosen_model(capsys):
     assert cli.main(["study", "speed-accuracy", "li2011-case1", "--models", "ode", "--levels", "fd=8,12"]) == 2
     assert "--levels 'fd=8,12': expected MODEL=V1,V2,..." in capsys.readouterr().err
+
+
+def test_time_step_ladder_scales_every_step_limit_of_a_model():
+    """The fd model's dt is usually set by its forcing number, not its CFL: both must move."""
+    sc = scene.load("li2011-case3")
+    change = common.LADDERS["fd"].time_step(sc, 2 * sc.numerics.fd.cfl)
+    assert change == {"numerics.fd.cfl": 2 * sc.numerics.fd.cfl,
+                      "numerics.fd.forcing_number": pytest.approx(2 * sc.numerics.fd.forcing_number)}
+    assert common.LADDERS["ode"].time_step(sc, 0.4) == {}

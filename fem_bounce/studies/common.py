@@ -19,20 +19,38 @@ from ..cache import cached_run, load_summary
 
 @dataclass(frozen=True)
 class Ladder:
-    """A model's resolution knob: the scene key, its values coarse to fine, and the length it sets."""
+    """A model's resolution knob: the scene key, its values coarse to fine, and the length it sets;
+    its time-step knob (a CFL number), and any other step limits that must shrink with it."""
 
     key: str
     values: tuple
     time_step_key: str | None
+    scaled_with_time_step: tuple = ()  # e.g. the fd model's forcing number, which usually sets its dt
 
     def spacing(self, value: float) -> float:
         """A length-like measure that shrinks under refinement (1/cells, or the tolerance itself)."""
         return value if self.key.endswith("rtol") else 1.0 / value
 
+    def time_step(self, scene: scenes.Scene, cfl: float) -> dict:
+        """Scene changes that set the CFL number to `cfl` and scale the other step limits by the
+        same factor, so that the time step itself changes whichever limit is binding."""
+        if self.time_step_key is None:
+            return {}
+        factor = cfl / _setting(scene, self.time_step_key)
+        return {self.time_step_key: cfl, **{k: factor * _setting(scene, k) for k in self.scaled_with_time_step}}
+
+
+def _setting(scene: scenes.Scene, key: str) -> float:
+    value = scene
+    for part in key.split("."):
+        value = getattr(value, part)
+    return value
+
 
 LADDERS = {
     "ode": Ladder("numerics.ode.rtol", (1e-3, 1e-4, 1e-5, 1e-6, 1e-7), None),
-    "fd": Ladder("numerics.fd.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.fd.cfl"),
+    "fd": Ladder("numerics.fd.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.fd.cfl",
+                 ("numerics.fd.forcing_number",)),
     "ib": Ladder("numerics.ib.cells_per_diameter", (16.0, 24.0, 32.0, 48.0, 64.0), "numerics.ib.cfl"),
     "ale": Ladder("numerics.ale.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.ale.cfl"),
 }

@@ -30,7 +30,7 @@ def run(scene: scenes.Scene, model: str, comm, out: Path, levels: tuple | None =
                      **run_and_measure(trial, model, comm, study, f"{ladder.key} = {value:g}")})
     if ladder.time_step_key:
         for cfl in cfls or CFL_LADDER:
-            trial = scene.replace(**{ladder.time_step_key: cfl})
+            trial = scene.replace(**ladder.time_step(scene, cfl))
             rows.append({"ladder": "time", "value": cfl, "spacing": cfl,
                          **run_and_measure(trial, model, comm, study, f"{ladder.time_step_key} = {cfl:g}")})
     analysis = {}

@@ -40,7 +40,7 @@ def scene_for(base: scenes.Scene, model: str, sweep: str, value: float) -> scene
     ladder = LADDERS[model]
     change = {
         "density_ratio": {"sphere.density": value * base.liquid.density},
-        "cfl": {ladder.time_step_key: value} if ladder.time_step_key else {},
+        "cfl": ladder.time_step(base, value),
         "cells_per_gap": {ladder.key: value / base.contact.delta_sl},
         "delta_sl": {"contact.delta_sl": value},
     }[sweep]
