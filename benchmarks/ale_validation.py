@@ -291,7 +291,7 @@ def density(args) -> None:
     rows = []
     cells = args.cells[0] if args.cells else 12.0
     base = scenes.load("li2011-case3")
-    for ratio in (8.0, 1.167, 1.0, 0.5, 0.2, 0.1, 0.05, 0.01):
+    for ratio in (8.0, 1.167, 1.01, 0.5, 0.2, 0.1, 0.05, 0.01):
         changes = {"sphere.density": ratio * base.liquid.density, "numerics.ale.cells_per_diameter": cells,
                    "run.end_time": 0.05, "run.bounces": 1}
         run_dir = run(f"ratio{ratio:g}", "density", "li2011-case3", changes, force=args.force)

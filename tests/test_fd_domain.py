@@ -50,3 +50,9 @@ def test_check_table_separates_required_checks_from_targets():
                             validation.Check("b", 0.80, 1.0, 0.05, required=False)], stream)
     assert ok and "check  PASS  a" in stream.getvalue() and "target MISS  b" in stream.getvalue()
     assert not validation.report([validation.Check("c", 1.2, 1.0, 0.1)], io.StringIO())
+
+
+def test_a_neutrally_buoyant_free_sphere_is_refused_clearly():
+    sc = scene.load("li2011-case3", {"sphere.density": 1203.0})
+    with pytest.raises(scene.SceneError, match="neutrally buoyant"):
+        domain.time_step(sc)

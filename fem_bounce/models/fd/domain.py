@@ -74,6 +74,9 @@ def speed_scale(scene: Scene) -> float:
     the largest imposed speed otherwise."""
     motion = scene.motion
     if motion.mode == "free":
+        if scene.estimated_impact_speed() <= 0.0:
+            raise SceneError(f"sphere.density = {scene.sphere.density:g} kg/m3 equals liquid.density: a neutrally "
+                             "buoyant sphere released from rest never moves; make it heavier or lighter")
         return scene.estimated_impact_speed()
     speed = max(abs(motion.velocity), abs(motion.stream_velocity))
     if motion.mode == "prescribed" and motion.series:
