@@ -22,7 +22,7 @@ from .run import RunDiverged, simulate
 DEFAULT_ROOT = Path("results") / "cache"
 CORE = ("scene.py", "theory.py", "contact.py", "sphere.py", "run.py", "output.py", "models/__init__.py")
 MODEL_SOURCES = {"ode": ("models/ode.py",), "fd": ("models/fd", "fem"), "ib": ("models/ib",),
-                 "ale": ("models/ale", "fem")}
+                 "ale": ("models/ale", "models/fd", "fem")}  # ale reuses fd.domain and fd.fluid
 
 
 @functools.cache
