@@ -103,6 +103,7 @@ def figure(results: dict, limits: dict, scene_name: str, model: str, path: Path)
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     fig, axes = plt.subplots(1, len(results), figsize=(3.6 * len(results), 3.8), squeeze=False)
     for ax, (sweep, rows) in zip(axes[0], results.items()):
@@ -112,7 +113,10 @@ def figure(results: dict, limits: dict, scene_name: str, model: str, path: Path)
         for label, colour in COLOURS.items():
             ax.plot([], [], "o", color=colour, label=label)
         ax.set_xlabel(sweep.replace("_", " "))
-        ax.set_ylabel("first impact speed (m/s)")
+        ax.set_ylabel("first impact speed (m/s; 0: never reached the wall)", fontsize=8)
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # no crowded minor labels
+        ax.set_xticks(sorted(row["value"] for row in rows), minor=False)
+        ax.set_xticklabels([f"{row['value']:g}" for row in sorted(rows, key=lambda r: r["value"])], fontsize=7)
         ax.set_title(f"unstable at {limits[sweep]['unstable_at'] or 'none'}", fontsize=8)
         ax.grid(True, alpha=0.3)
     axes[0][0].legend(fontsize=8)
