@@ -86,3 +86,14 @@ def test_time_step_ladder_scales_every_step_limit_of_a_model():
     assert change == {"numerics.fd.cfl": 2 * sc.numerics.fd.cfl,
                       "numerics.fd.forcing_number": pytest.approx(2 * sc.numerics.fd.forcing_number)}
     assert common.LADDERS["ode"].time_step(sc, 0.4) == {}
+
+
+def test_figure_11_draws_from_the_run_into_the_study(tmp_path, monkeypatch):
+    from fem_bounce import fields
+    from fem_bounce.studies import figures
+
+    calls = []
+    monkeypatch.setattr(fields, "vorticity_figure", lambda run_dir, times=None, path=None: calls.append((run_dir, path)) or path)
+    study = common.StudyDirectory(tmp_path / "study", MPI.COMM_SELF)
+    assert figures.figure_11(tmp_path / "run", tmp_path / "fig11.png", study) == tmp_path / "fig11.png"
+    assert calls == [(tmp_path / "run", tmp_path / "fig11.png")]

@@ -119,7 +119,7 @@ def figure_12(runs: dict, low_st: dict, path: Path) -> Path:
 def figure_11(run_dir: Path, path: Path, study: StudyDirectory) -> Path | None:
     try:
         fields = importlib.import_module("fem_bounce.fields")
-        return fields.vorticity_figure(run_dir, path)
+        return fields.vorticity_figure(run_dir, path=path)
     except (ModuleNotFoundError, AttributeError, FileNotFoundError) as err:
         study.log(f"fig 11 skipped: {err}")
         return None
