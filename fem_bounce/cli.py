@@ -240,10 +240,16 @@ def _cmd_study(args) -> int:
     scene_name = getattr(args, "scene", None)
     out = args.out or Path("results") / "-".join(["study", args.kind, *([scene_name] if scene_name else []),
                                                    *model_names])
-    numbers = lambda text: tuple(float(x) for x in text.split(",")) if text else None  # noqa: E731
+
+    def numbers(text: str | None, option: str = "--levels") -> tuple | None:
+        try:
+            return tuple(float(x) for x in text.split(",")) if text else None
+        except ValueError:
+            raise scenes.SceneError(f"{option} {text!r}: expected comma-separated numbers, e.g. 8,12,16") from None
+
     if args.kind == "convergence":
         studies.convergence.run(scenes.load(args.scene, changes), args.model, comm, out, numbers(args.levels),
-                                numbers(args.cfls))
+                                numbers(args.cfls, "--cfls"))
     elif args.kind == "speed-accuracy":
         levels = {}
         for text in args.levels:

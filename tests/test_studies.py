@@ -97,3 +97,8 @@ def test_figure_11_draws_from_the_run_into_the_study(tmp_path, monkeypatch):
     study = common.StudyDirectory(tmp_path / "study", MPI.COMM_SELF)
     assert figures.figure_11(tmp_path / "run", tmp_path / "fig11.png", study) == tmp_path / "fig11.png"
     assert calls == [(tmp_path / "run", tmp_path / "fig11.png")]
+
+
+def test_study_numbers_that_do_not_parse_are_a_clear_error(capsys):
+    assert cli.main(["study", "convergence", "li2011-case1", "--model", "ode", "--levels", "1e-3,x"]) == 2
+    assert "--levels '1e-3,x': expected comma-separated numbers" in capsys.readouterr().err
