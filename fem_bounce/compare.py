@@ -145,7 +145,7 @@ def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
     ax_cost.set_xticks(range(len(summaries)), [s["model"] for s in summaries])
     ax_cost.set_yscale("log")
     ax_cost.set_ylim(top=5.0 * max(s["wall_time_s"] for s in summaries))  # room for the labels
-    ax_cost.set(ylabel="wall time [s]", title="cost (same machine, same session)")
+    ax_cost.set(ylabel="wall time [s]", title="cost: wall time each run recorded")
     ref = scene.get("reference", {})
     measured = [(1, ref.get("impact_speed"))]
     if ref.get("re_second"):  # Table 2 gives the second impact as a Reynolds number
