@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, create_vector, set_bc
@@ -46,11 +45,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ...fem import forms
-from ...fem.mesh import AXIS, OUTER, SPHERE, TOP, WALL
+from ...fem.mesh import AXIS, SPHERE
 from ...fem.solver import FactorizedOperator
-from ..fd.fluid import BDF, EXTRAPOLATION, SIDE_KINDS, taylor_hood_space
-
-_NORMAL_COMPONENT = {WALL: 1, TOP: 1, OUTER: 0}
+from ..fd.fluid import BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, side_constraints, taylor_hood_space
 
 
 class SphereFlow:
@@ -120,27 +117,11 @@ class SphereFlow:
         component_bc(0, facet_tags.find(AXIS))
         component_bc(0, sphere)
         sphere_dofs = component_bc(1, sphere, "sphere")
-        pinned = True
-        for side, kind in sides.items():
-            facets = facet_tags.find(side)
-            if kind == "no-slip":
-                component_bc(0, facets)
-                component_bc(1, facets)
-            elif kind == "slip":
-                component_bc(_NORMAL_COMPONENT[side], facets)
-            elif kind == "inflow":
-                component_bc(0, facets)
-                component_bc(1, facets, "inflow")
-            else:
-                pinned = False
-        if pinned:  # the pressure level is free: fix it at the far corner
-            Q, _ = W.sub(1).collapse()
-            x = self.mesh.geometry.x
-            corner = x[:, :2].max(axis=0) if x.size else np.full(2, -np.inf)
-            corner = np.array([self.mesh.comm.allreduce(corner[k], op=MPI.MAX) for k in range(2)])
-            dofs = fem.locate_dofs_geometrical(
-                (W.sub(1), Q), lambda x: np.isclose(x[0], corner[0]) & np.isclose(x[1], corner[1]))
-            self.bcs.append(fem.dirichletbc(fem.Function(Q), dofs, W.sub(1)))
+        fixed, pinned = side_constraints(facet_tags, sides)
+        for component, facets, inflow in fixed:
+            component_bc(component, facets, "inflow" if inflow else None)
+        if pinned:
+            self.bcs.append(pressure_pin(W, self.mesh))
         self.pressure_pinned = pinned
         # phi = e_z on the sphere: a Dirichlet condition of value 1 set into a zero vector
         sub = W.sub(0).sub(1)
@@ -183,14 +164,7 @@ class SphereFlow:
             self.operator.refactor()
 
     def _solve(self, with_history: bool, out: fem.Function) -> None:
-        b = self.rhs
-        with b.localForm() as local:
-            local.set(0.0)
-        if with_history:
-            assemble_vector(b, self.L)
-        apply_lifting(b, [self.a], [self.bcs])
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(b, self.bcs)
+        b = lifted_rhs(self.rhs, self.L if with_history else None, self.a, self.bcs)
         self.operator.solve(b, out.vector)
         out.x.scatter_forward()
 

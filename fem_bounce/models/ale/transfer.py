@@ -30,13 +30,13 @@ import numpy as np
 import ufl
 from dolfinx import fem, geometry
 from dolfinx import mesh as dmesh
-from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, create_vector, set_bc
+from dolfinx.fem.petsc import assemble_matrix, create_vector
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from ...fem import forms
 from ...fem.functions import gather_values, scatter_values
 from ...fem.solver import FactorizedOperator
+from ..fd.fluid import lifted_rhs
 
 
 def _gather_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -119,13 +119,7 @@ class DivergenceFreeProjection:
     def project(self, function: fem.Function) -> None:
         """Replace the velocity of the mixed (u, p) `function` by its projection (its pressure is kept)."""
         self.field.x.array[:] = function.x.array
-        b = self.rhs
-        with b.localForm() as local:
-            local.set(0.0)
-        assemble_vector(b, self.L)
-        apply_lifting(b, [self.a], [self.bcs])
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(b, self.bcs)
+        b = lifted_rhs(self.rhs, self.L, self.a, self.bcs)
         self.solver.solve(b, self.field.vector)
         self.field.x.scatter_forward()
         _, velocity = function.function_space.sub(0).collapse()

@@ -36,6 +36,47 @@ EXTRAPOLATION = {1: (1.0,), 2: (2.0, -1.0), 3: (3.0, -3.0, 1.0)}
 _NORMAL_COMPONENT = {WALL: 1, TOP: 1, OUTER: 0, AXIS: 0}
 
 
+def side_constraints(facet_tags, sides: dict[int, str]) -> tuple[list[tuple[int, np.ndarray, bool]], bool]:
+    """The velocity components the named sides fix, as (component, facets, is_inflow_value), and
+    whether every side fixes the normal velocity (then the pressure level is free and must be pinned)."""
+    fixed, pinned = [], True
+    for side, kind in sides.items():
+        facets = facet_tags.find(side)
+        if kind == "no-slip":
+            fixed += [(0, facets, False), (1, facets, False)]
+        elif kind == "slip":
+            fixed.append((_NORMAL_COMPONENT[side], facets, False))
+        elif kind == "inflow":
+            fixed += [(0, facets, False), (1, facets, True)]
+        else:
+            pinned = False
+    return fixed, pinned
+
+
+def pressure_pin(W, mesh):
+    """p = 0 at the domain's far corner (largest r and z), for a pressure fixed only up to a constant."""
+    Q, _ = W.sub(1).collapse()
+    x = mesh.geometry.x
+    corner = x[:, :2].max(axis=0) if x.size else np.full(2, -np.inf)
+    corner = np.array([mesh.comm.allreduce(corner[k], op=MPI.MAX) for k in range(2)])
+    dofs = fem.locate_dofs_geometrical(
+        (W.sub(1), Q), lambda x: np.isclose(x[0], corner[0]) & np.isclose(x[1], corner[1]))
+    return fem.dirichletbc(fem.Function(Q), dofs, W.sub(1))
+
+
+def lifted_rhs(b: PETSc.Vec, L, a, bcs) -> PETSc.Vec:
+    """b = assemble(L) (nothing when L is None) lifted by the Dirichlet values of `bcs` through the
+    bilinear form a, ghosts accumulated and the boundary rows set: ready for a back-solve."""
+    with b.localForm() as local:
+        local.set(0.0)
+    if L is not None:
+        assemble_vector(b, L)
+    apply_lifting(b, [a], [bcs])
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    set_bc(b, bcs)
+    return b
+
+
 def taylor_hood_space(mesh) -> fem.FunctionSpace:
     cell = mesh.ufl_cell()
     return fem.FunctionSpace(mesh, ufl.MixedElement([ufl.VectorElement("Lagrange", cell, 2),
@@ -97,26 +138,11 @@ class FlowSolver:
             bcs.append(fem.dirichletbc(g, dofs, sub))
 
         component_bc(0, facet_tags.find(AXIS))
-        pinned = True
-        for side, kind in sides.items():
-            facets = facet_tags.find(side)
-            if kind == "no-slip":
-                component_bc(0, facets)
-                component_bc(1, facets)
-            elif kind == "slip":
-                component_bc(_NORMAL_COMPONENT[side], facets)
-            elif kind == "inflow":
-                component_bc(0, facets)
-                component_bc(1, facets, self.inflow_speed)
-            else:
-                pinned = False
-        if pinned:  # the pressure level is free: fix it at the far corner
-            Q, _ = W.sub(1).collapse()
-            corner = self.mesh.geometry.x[:, :2].max(axis=0) if self.mesh.geometry.x.size else np.zeros(2)
-            corner = np.array([self.mesh.comm.allreduce(corner[k], op=MPI.MAX) for k in range(2)])
-            dofs = fem.locate_dofs_geometrical(
-                (W.sub(1), Q), lambda x: np.isclose(x[0], corner[0]) & np.isclose(x[1], corner[1]))
-            bcs.append(fem.dirichletbc(fem.Function(Q), dofs, W.sub(1)))
+        fixed, pinned = side_constraints(facet_tags, sides)
+        for component, facets, inflow in fixed:
+            component_bc(component, facets, self.inflow_speed if inflow else 0.0)
+        if pinned:
+            bcs.append(pressure_pin(W, self.mesh))
         return bcs
 
     # -- the state ---------------------------------------------------------------------------
@@ -132,14 +158,7 @@ class FlowSolver:
 
     def predictor_rhs(self) -> PETSc.Vec:
         """b(u^n, u^{n-1}, ...): history and extrapolated convection, boundary values set."""
-        b = self.rhs
-        with b.localForm() as local:
-            local.set(0.0)
-        assemble_vector(b, self.L_history)
-        apply_lifting(b, [self.a], [self.bcs])
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(b, self.bcs)
-        return b
+        return lifted_rhs(self.rhs, self.L_history, self.a, self.bcs)
 
     def force_rhs(self, force: PETSc.Vec) -> PETSc.Vec:
         """An assembled body-force vector made ready for a response with homogeneous boundary
