@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import re
 import tomllib
 import typing
 import warnings
@@ -26,6 +27,14 @@ from typing import Any
 from . import numerics
 
 AXISYMMETRIC_RE_LIMIT = 250.0  # paper section 2.1: axisymmetric flow below Re ~ 210-250
+# An unbounded scene's largest initial gap, in diameters: far beyond any wall effect (Brenner's correction
+# ~ (9/16) D / h is then 1e-10) and still far from overflow in the force formulas (1e300 m overflowed).
+MAX_GAP_DIAMETERS = 1e10
+# A free sphere released from rest this close to neutral buoyancy barely moves: its velocity stays inside
+# the integrator's event tolerance for ~0.015 / |ratio - 1| steps of 1e-7 sqrt(D/g) (measured: 1e-6 took
+# 6,300 steps where 1e-5 took 970 on li2011-case3; ratio 1 never ends).
+NEUTRAL_BUOYANCY = 1e-5
+_PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f.][^/\\\x00-\x1f]{0,99}")
 
 
 class SceneError(ValueError):
@@ -39,8 +48,12 @@ def _positive(default: Any = dataclasses.MISSING, unit: str = "") -> Any:
     return field(default=default, metadata={"range": (0.0, None, True, False), "unit": unit})
 
 
-def _between(lo, hi, default: Any = dataclasses.MISSING, unit: str = "", open_ends=False) -> Any:
-    return field(default=default, metadata={"range": (lo, hi, open_ends, open_ends), "unit": unit})
+def _between(lo, hi, default: Any = dataclasses.MISSING, unit: str = "", open_ends=False, open_low=None,
+             note: str = "") -> Any:
+    """[lo, hi], or (lo, hi) with open_ends; open_low alone opens only the lower end.  `note` says
+    what the value means, after a range error."""
+    low = open_ends if open_low is None else open_low
+    return field(default=default, metadata={"range": (lo, hi, low, open_ends), "unit": unit, "note": note})
 
 
 def _choice(*options: str) -> Any:
@@ -72,8 +85,9 @@ def _check_fields(obj: Any, prefix: str) -> None:
             below = value <= lo if lo_open else value < lo
             above = hi is not None and (value >= hi if hi_open else value > hi)
             if below or above:
+                note = f" ({f.metadata['note']})" if f.metadata.get("note") else ""
                 raise SceneError(
-                    f"{key} = {value!r}{unit} is out of range: allowed {_allowed(lo, hi, lo_open, hi_open)}{unit}"
+                    f"{key} = {value!r}{unit} is out of range: allowed {_allowed(lo, hi, lo_open, hi_open)}{unit}{note}"
                 )
 
 
@@ -85,7 +99,7 @@ class Sphere:
     diameter: float = _positive(unit="m")
     density: float = _positive(unit="kg/m3")
     youngs_modulus: float = _positive(unit="Pa")
-    poisson_ratio: float = _between(0.0, 0.5, open_ends=True)
+    poisson_ratio: float = _between(-1.0, 0.5, open_ends=True, note="an isotropic solid's range")
 
     @property
     def radius(self) -> float:
@@ -113,7 +127,7 @@ class Liquid:
 @dataclass(frozen=True)
 class Wall:
     youngs_modulus: float = _positive(unit="Pa")
-    poisson_ratio: float = _between(0.0, 0.5, open_ends=True)
+    poisson_ratio: float = _between(-1.0, 0.5, open_ends=True, note="an isotropic solid's range")
 
 
 @dataclass(frozen=True)
@@ -132,7 +146,8 @@ class Container:
 class Contact:
     """The paper's contact model (section 4) and the choices physics.md section 3 leaves open."""
 
-    delta_sl: float = _positive(0.2)
+    delta_sl: float = _between(0.0, 0.5, 0.2, open_low=True,
+                               note="the gap, in diameters, below which the contact model supplies the near-wall force")
     delta_ss: float = _positive(0.017)
     dry_restitution: float = _between(0.0, 1.0, 0.97)
     wall_drag: str = _choice("brenner", "simple")
@@ -189,7 +204,8 @@ class Scene:
     liquid: Liquid
     wall: Wall
     initial_gap: float = _positive(unit="m")
-    gravity: float = _between(0.0, 1000.0, 9.81, unit="m/s2")
+    gravity: float = _between(0.0, 1000.0, 9.81, unit="m/s2", open_low=True,
+                              note="it pulls the sphere to the wall and sets the time unit sqrt(D/g)")
     name: str = "scene"
     description: str = ""
     container: Container = field(default_factory=Container)
@@ -244,6 +260,22 @@ class Scene:
     def validate(self) -> "Scene":
         """Check every range and the relations between fields; return self."""
         _check_fields(self, "")
+        if not _PLAIN_NAME.fullmatch(self.name):
+            raise SceneError(f"name = {self.name!r} must be a plain name of 1-100 characters, without '/' and not "
+                             "starting with '.': it names the run directory runs/NAME-MODEL")
+        diameter = self.sphere.diameter
+        if self.motion.mode == "free" and abs(self.density_ratio - 1.0) < NEUTRAL_BUOYANCY:
+            if self.sphere.density == self.liquid.density:
+                raise SceneError(f"sphere.density = {self.sphere.density:g} kg/m3 equals liquid.density: a neutrally "
+                                 "buoyant sphere released from rest never moves; make it heavier or lighter")
+            raise SceneError(f"sphere.density = {self.sphere.density:.8g} kg/m3 is within {NEUTRAL_BUOYANCY:g} of "
+                             f"liquid.density = {self.liquid.density:.8g} kg/m3 (density ratio {self.density_ratio:.8g}): "
+                             "so nearly neutrally buoyant a sphere barely moves and its integration crawls; make "
+                             f"|density ratio - 1| at least {NEUTRAL_BUOYANCY:g}")
+        if self.container.unbounded and self.initial_gap > MAX_GAP_DIAMETERS * diameter:
+            raise SceneError(f"initial_gap = {self.initial_gap:.4g} m is {self.initial_gap / diameter:.3g} diameters: "
+                             f"allowed up to {MAX_GAP_DIAMETERS:g} D = {MAX_GAP_DIAMETERS * diameter:.4g} m in an "
+                             "unbounded liquid (or give a container)")
         c = self.contact
         if c.delta_ss >= c.delta_sl:
             raise SceneError(
@@ -267,7 +299,7 @@ class Scene:
         re_max = self.reynolds(self.estimated_impact_speed() if self.motion.mode == "free" else speed)
         if re_max > AXISYMMETRIC_RE_LIMIT:
             warnings.warn(
-                f"scene {self.name!r}: estimated Re = {re_max:.0f} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
+                f"scene {self.name!r}: estimated Re = {re_max:.3g} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
                 "where the flow stops being axisymmetric (paper section 2.1)",
                 stacklevel=2,
             )
@@ -310,7 +342,8 @@ def _coerce(value: Any, expected: Any, key: str) -> Any:
             return float(value)
         if int in allowed and isinstance(value, float) and value.is_integer():
             return int(value)
-        kind = "a string" if str in allowed else "true or false" if bool in allowed else "a number"
+        kind = ("a string" if str in allowed else "true or false" if bool in allowed
+                else "an integer" if float not in allowed else "a number")
         raise SceneError(f"{key} = {value!r} must be {kind}")
     return value
 

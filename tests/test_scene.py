@@ -45,10 +45,10 @@ def test_overrides_and_files(tmp_path):
     ({"initial_gap": 0.0}, "initial_gap = 0.0 m is out of range"),
     ({"contact.delta_ss": 0.3}, "must be smaller than contact.delta_sl"),
     ({"contact.wall_drag": "exact"}, "contact.wall_drag = 'exact' is not one of 'brenner', 'simple'"),
-    ({"sphere.poisson_ratio": 0.5}, "sphere.poisson_ratio = 0.5 is out of range: allowed in (0, 0.5)"),
+    ({"sphere.poisson_ratio": 0.5}, "sphere.poisson_ratio = 0.5 is out of range: allowed in (-1, 0.5)"),
     ({"container.radius": 0.1}, "container needs both radius and height"),
-    ({"run.bounces": "two"}, "run.bounces = 'two' must be a number"),
-    ({"run.bounces": True}, "run.bounces = True must be a number"),
+    ({"run.bounces": "two"}, "run.bounces = 'two' must be an integer"),
+    ({"run.bounces": True}, "run.bounces = True must be an integer"),
     ({"numerics.fd.steady_stokes": 1}, "numerics.fd.steady_stokes = 1 must be true or false"),
 ])
 def test_bad_values_name_the_field_and_range(override, message):
