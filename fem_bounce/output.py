@@ -1,43 +1,115 @@
 """What a run leaves behind, the same for every model.
 
+    DIR/.fem-bounce-run   the marker, written first: `--force` replaces only a directory that holds it
     DIR/scene.toml        the resolved scene (runs again unchanged)
     DIR/trajectory.csv    t, gap, velocity, acceleration and each force term [SI]
-    DIR/summary.json      scene, model, impacts, rebounds, cost, versions, command
+    DIR/summary.json      scene, model, status, stop reason, impacts, rebounds, cost, versions, command
+    DIR/checkpoint/       the last checkpoint of a model that writes them: model.txt, state.json, data
     DIR/*.png             drawn from those files by fem_bounce.plots
 
-Only rank 0 writes.  A directory is never reused silently: an existing one
-needs `force=True`, which clears it first.
+Only rank 0 writes.  Nothing is lost by accident:
+
+- a directory is never reused silently: an existing non-empty one needs `force=True`, and even then
+  only a run directory (one holding the marker) is replaced; the current directory, the home directory,
+  a repository root and their parents never are;
+- a file whose half would mislead (scene.toml, summary.json, every checkpoint file) is written beside
+  its place, flushed to the disk and renamed over it, so a kill or a full disk leaves the old file or
+  the new one, never a mix;
+- trajectory rows reach the disk (flushed and fsynced) with every checkpoint, which records how many
+  there are; a restart cuts the file back to that count, so no row is lost or doubled;
+- a write that fails (disk full, no permission) becomes one OutputError naming the path and the reason,
+  and what was written before stays whole (a half-written trajectory row is cut off).
 """
 from __future__ import annotations
 
-import csv
+import contextlib
 import dataclasses
 import json
+import os
 import platform
 import shutil
 import sys
 import time
+import zipfile
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from . import __version__
 from . import scene as scenes
 
 TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_history", "f_added_mass", "f_theory",
                       "f_sim", "blend", "f_liquid", "f_elastic")
+MARKER = ".fem-bounce-run"
+MARKER_TEXT = "fem-bounce run directory: `fem-bounce run --force` may replace everything in it.\n"
 
 
 class OutputError(RuntimeError):
-    pass
+    """A run directory or one of its files cannot be used; the message names the path and the reason."""
+
+
+class CheckpointError(OutputError):
+    """A run directory's checkpoint is missing, unreadable or not this run's."""
+
+
+def _reason(err: OSError) -> str:
+    return err.strerror or str(err)
+
+
+# -- run directories -------------------------------------------------------------------------
+
+
+def _protected(path: Path) -> str | None:
+    """Why `path` may never be a run directory (or None): replacing it would destroy what the user
+    works in.  Symbolic links and '..' are resolved first, so no spelling gets around it."""
+    resolved = path.resolve()
+    if resolved == Path(resolved.anchor):
+        return "the filesystem root"
+    cwd = Path.cwd().resolve()
+    if resolved == cwd:
+        return "the current directory"
+    if resolved in cwd.parents:
+        return "a parent of the current directory"
+    with contextlib.suppress(RuntimeError, KeyError):  # no HOME and no passwd entry: nothing to protect
+        home = Path.home().resolve()
+        if resolved == home:
+            return "the home directory"
+        if resolved in home.parents:
+            return "a parent of the home directory"
+    if (resolved / ".git").exists():
+        return "a repository root (it holds .git)"
+    return None
+
+
+def is_run_directory(path: Path) -> bool:
+    return (Path(path) / MARKER).is_file()
 
 
 def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> Path:
-    """Create a fresh run directory; refuse an existing non-empty one unless forced or resuming."""
+    """Create a fresh run directory, its marker first.  An existing non-empty directory is refused
+    unless `force` and it is a run directory (then it is replaced); `resume` keeps it as it is."""
     path = Path(path)
-    if path.exists() and any(path.iterdir()) and not resume:
-        if not force:
-            raise OutputError(f"{path} exists and is not empty; pass --force to replace it, or choose --out")
-        shutil.rmtree(path)
-    path.mkdir(parents=True, exist_ok=True)
+    why = _protected(path)
+    if why is not None:
+        raise OutputError(f"{path} is {why}: it cannot be a run directory; choose another --out")
+    try:
+        if path.exists() and not path.is_dir():
+            raise OutputError(f"{path} exists and is not a directory; choose another --out")
+        if resume:
+            if not path.is_dir():
+                raise OutputError(f"{path} is not a run directory: it does not exist")
+            return path
+        if path.is_dir() and any(path.iterdir()):
+            if not force:
+                raise OutputError(f"{path} exists and is not empty; pass --force to replace it, or choose --out")
+            if not is_run_directory(path):
+                raise OutputError(f"{path} is not a fem-bounce run directory (it has no {MARKER}): --force "
+                                  "replaces only run directories; choose another --out")
+            shutil.rmtree(path)
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
+    atomic_write_text(path / MARKER, MARKER_TEXT)
     return path
 
 
@@ -50,34 +122,332 @@ def unused_directory(base: Path) -> Path:
     return candidate
 
 
-class TrajectoryWriter:
-    """Streams trajectory rows to CSV (rank 0), thinned to one row per `interval` seconds if asked."""
+# -- whole files ------------------------------------------------------------------------------
 
-    def __init__(self, path: Path | None, interval: float = 0.0, append: bool = False):
+
+def _sync_directory(path: Path) -> None:
+    """Make a rename inside `path` durable (where the file system supports it)."""
+    with contextlib.suppress(OSError):
+        fd = os.open(path, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def sync_file(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write `text` to `path` whole or not at all (write beside, fsync, rename)."""
+    path = Path(path)
+    partial = path.with_name(f".{path.name}.partial")
+    try:
+        with open(partial, "w") as stream:
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(partial, path)
+    except OSError as err:
+        with contextlib.suppress(OSError):
+            partial.unlink()
+        raise OutputError(f"cannot write {path}: {_reason(err)}") from None
+    _sync_directory(path.parent)
+
+
+def write_summary(path: Path, data: dict) -> None:
+    atomic_write_text(path, json.dumps(data, indent=2) + "\n")  # a killed run never leaves half a summary
+
+
+def write_scene(path: Path, scene) -> None:
+    atomic_write_text(path, scenes.dumps(scene))
+
+
+# -- the trajectory ---------------------------------------------------------------------------
+
+
+def _format_row(values) -> str:
+    return ",".join(f"{value:.10g}" for value in values) + "\n"
+
+
+class TrajectoryWriter:
+    """Appends trajectory rows to DIR/trajectory.csv (rank 0), thinned to one per `interval` s if asked.
+
+    Rows are buffered and reach the disk when the buffer fills, at sync() (with every checkpoint,
+    which records `rows`) and at close().  A write that fails cuts the file back to its last whole
+    row, stops writing and keeps the error in `failure`, for the run to stop on every rank alike;
+    sync() and close() raise it.  `rows` counts the data rows written (the header not included);
+    `continue_from` opens an existing file already cut back to that many rows (a restart)."""
+
+    BUFFER_BYTES = 1 << 16
+
+    def __init__(self, path: Path | None, interval: float = 0.0, continue_from: int | None = None):
+        self.path = None if path is None else Path(path)
         self.interval = interval
+        self.rows = 0 if continue_from is None else continue_from
+        self.failure: OutputError | None = None
         self._last_t = -float("inf")
-        self._file = None
-        if path is not None:
-            fresh = not (append and Path(path).exists())
-            self._file = open(path, "a" if not fresh else "w", newline="")
-            self._writer = csv.writer(self._file)
-            if fresh:
-                self._writer.writerow(TRAJECTORY_COLUMNS)
+        self._pending: list[str] = []
+        self._pending_bytes = 0
+        self._fd: int | None = None
+        if self.path is None:
+            return
+        try:
+            if continue_from is None:
+                self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+                self._write(",".join(TRAJECTORY_COLUMNS).encode() + b"\n")
+            else:
+                self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
+        except OSError as err:
+            self._fail(err)
+            raise self.failure from None
 
     def __call__(self, row: dict) -> None:
-        if self._file is None or row["t"] - self._last_t < self.interval:
+        if self._fd is None or row["t"] - self._last_t < self.interval:
             return
         self._last_t = row["t"]
-        self._writer.writerow([f"{row[c]:.10g}" for c in TRAJECTORY_COLUMNS])
+        line = _format_row(row[c] for c in TRAJECTORY_COLUMNS)
+        self._pending.append(line)
+        self._pending_bytes += len(line)
+        self.rows += 1
+        if self._pending_bytes >= self.BUFFER_BYTES:
+            self._flush()
 
-    def flush(self) -> None:
-        if self._file is not None:
-            self._file.flush()
+    def _write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            view = view[os.write(self._fd, view):]
+
+    def _flush(self) -> None:
+        if self._fd is None or not self._pending:
+            return
+        data = "".join(self._pending).encode()
+        self._pending.clear()
+        self._pending_bytes = 0
+        try:
+            self._write(data)
+        except OSError as err:
+            self._fail(err)
+
+    def _fail(self, err: OSError) -> None:
+        """Keep the file's whole rows, stop writing, remember why."""
+        self.failure = OutputError(f"cannot write {self.path}: {_reason(err)} (its rows up to the failure are kept)")
+        if self._fd is not None:
+            with contextlib.suppress(OSError):
+                _cut_after_last_newline(self._fd)
+            with contextlib.suppress(OSError):
+                os.close(self._fd)
+        self._fd = None
+        self._pending.clear()
+
+    def sync(self) -> int:
+        """Put every row on the disk; the number of rows in the file."""
+        self._flush()
+        if self._fd is not None:
+            try:
+                os.fsync(self._fd)
+            except OSError as err:
+                self._fail(err)
+        if self.failure is not None:
+            raise self.failure
+        return self.rows
 
     def close(self) -> None:
-        if self._file is not None:
-            self._file.close()
-            self._file = None
+        self._flush()
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+        if self.failure is not None:
+            raise self.failure
+
+
+def _cut_after_last_newline(fd: int) -> None:
+    """Truncate an open file after its last newline (drops a half-written row)."""
+    size = os.fstat(fd).st_size
+    end = size
+    while end > 0:
+        start = max(0, end - 65536)
+        chunk = os.pread(fd, end - start, start)
+        newline = chunk.rfind(b"\n")
+        if newline >= 0:
+            os.ftruncate(fd, start + newline + 1)
+            return
+        end = start
+    os.ftruncate(fd, 0)
+
+
+def trajectory_offset(path: Path, rows: int) -> int:
+    """The byte offset just after data row `rows` of a trajectory file (the header is not a data row);
+    OutputError if the file is missing or holds fewer whole rows."""
+    path = Path(path)
+    count, offset = -1, 0
+    try:
+        with open(path, "rb") as stream:
+            for line in stream:
+                if not line.endswith(b"\n") or count == rows:
+                    break
+                count += 1
+                offset += len(line)
+    except FileNotFoundError:
+        raise OutputError(f"{path} is missing, but the checkpoint continues a trajectory of {rows} rows: "
+                          "restore it, or start a new run") from None
+    except OSError as err:
+        raise OutputError(f"cannot read {path}: {_reason(err)}") from None
+    if count < rows:
+        raise OutputError(f"{path} holds {max(count, 0)} whole rows, but the checkpoint continues a trajectory of "
+                          f"{rows} rows: rows were lost (was it edited?); restore it, or start a new run")
+    return offset
+
+
+def cut_trajectory(path: Path, rows: int) -> None:
+    """Cut a trajectory file back to its header and first `rows` rows, for a restart to append to."""
+    offset = trajectory_offset(path, rows)
+    try:
+        os.truncate(path, offset)
+        sync_file(path)
+    except OSError as err:
+        raise OutputError(f"cannot write {path}: {_reason(err)}") from None
+
+
+# -- checkpoints --------------------------------------------------------------------------------
+#
+# DIR/checkpoint/ holds a model's last checkpoint: its data files, state.json and, written last,
+# model.txt (the model's name), so a folder holding model.txt is whole.  A new checkpoint is
+# written to checkpoint.partial, then checkpoint is renamed to checkpoint.old, checkpoint.partial
+# to checkpoint, and checkpoint.old is removed: a kill at any moment leaves at least one whole
+# folder, and the newest whole one is what a restart uses.  Every model's state.json carries the
+# shared sphere integrator's state under "integrator", and in it the run's record under "run".
+
+CHECKPOINT = "checkpoint"
+_NEWEST_FIRST = ("checkpoint.partial", "checkpoint", "checkpoint.old")
+
+
+@dataclass
+class Checkpoint:
+    folder: Path
+    model: str
+    state: dict
+    skipped: list = dataclasses.field(default_factory=list)  # newer copies that were unreadable, and why
+
+    @property
+    def run(self) -> dict | None:
+        """The run's record (scene, trajectory rows, wall time) saved with the integrator's state."""
+        integrator = self.state.get("integrator")
+        return integrator.get("run") if isinstance(integrator, dict) else None
+
+
+def _read_checkpoint_folder(folder: Path) -> Checkpoint:
+    def unreadable(name: str, reason: str) -> CheckpointError:
+        return CheckpointError(f"the checkpoint in {folder.parent} is unreadable: {folder.name}/{name}: {reason}")
+
+    try:
+        model = (folder / "model.txt").read_text().strip()
+    except (OSError, UnicodeDecodeError) as err:
+        raise unreadable("model.txt", getattr(err, "strerror", None) or str(err)) from None
+    try:
+        state = json.loads((folder / "state.json").read_text())
+    except OSError as err:
+        raise unreadable("state.json", _reason(err)) from None
+    except ValueError as err:  # JSONDecodeError, UnicodeDecodeError
+        raise unreadable("state.json", f"not valid JSON ({err})") from None
+    if not isinstance(state, dict):
+        raise unreadable("state.json", "holds no state")
+    for data in sorted(folder.glob("*.npz")):
+        try:
+            with zipfile.ZipFile(data) as archive:
+                damaged = archive.testzip()
+        except (OSError, zipfile.BadZipFile, EOFError) as err:
+            raise unreadable(data.name, getattr(err, "strerror", None) or str(err)) from None
+        if damaged is not None:
+            raise unreadable(data.name, f"{damaged} is damaged")
+    return Checkpoint(folder, model, state)
+
+
+def find_checkpoint(run_dir: Path, required: tuple = ()) -> Checkpoint:
+    """The newest whole, readable checkpoint of a run directory (`required`: data files it must hold);
+    CheckpointError if there is none."""
+    run_dir = Path(run_dir)
+    whole = [run_dir / name for name in _NEWEST_FIRST if (run_dir / name / "model.txt").is_file()]
+    if not whole:
+        found = "it does not exist" if not run_dir.exists() else "it has no checkpoint to restart from"
+        raise CheckpointError(f"cannot restart {run_dir}: {found}")
+    errors = []
+    for folder in whole:
+        try:
+            found = _read_checkpoint_folder(folder)
+            missing = [name for name in required if not (folder / name).is_file()]
+            if missing:
+                raise CheckpointError(f"the checkpoint in {run_dir} is unreadable: {folder.name}/{missing[0]}: "
+                                      "No such file or directory")
+            found.skipped = [str(e) for e in errors]
+            return found
+        except CheckpointError as err:
+            errors.append(err)
+    raise errors[0]
+
+
+def settle_checkpoint(run_dir: Path, chosen: Checkpoint) -> None:
+    """Make `chosen` the run's DIR/checkpoint again and remove the other copies (a restart does this
+    once it has checked everything, so its next checkpoint starts from the usual layout)."""
+    run_dir = Path(run_dir)
+    final = run_dir / CHECKPOINT
+    try:
+        if chosen.folder != final:
+            if final.exists():  # older than the chosen copy, or unreadable
+                shutil.rmtree(final)
+            chosen.folder.replace(final)
+            chosen.folder = final
+        for name in _NEWEST_FIRST:
+            if name != CHECKPOINT and (run_dir / name).exists():
+                shutil.rmtree(run_dir / name)
+        _sync_directory(run_dir)
+    except OSError as err:
+        raise OutputError(f"cannot restore the checkpoint in {run_dir}: {_reason(err)}") from None
+
+
+def commit_checkpoint(run_dir: Path, model: str, write: Callable[[Path], None], state: dict) -> None:
+    """Write a checkpoint: `write(folder)` puts the model's data files into the new folder, then
+    state.json and model.txt follow (each fsynced), and the folder is swapped in.  On an error the
+    previous checkpoint is kept and OutputError says why."""
+    run_dir = Path(run_dir)
+    record = state.get("integrator", {}).get("run") if isinstance(state.get("integrator"), dict) else None
+    if record and record.get("trajectory_error"):  # the rows it would claim are not on the disk
+        raise OutputError(f"{record['trajectory_error']}; no checkpoint written")
+    final = run_dir / CHECKPOINT
+    partial, old = run_dir / "checkpoint.partial", run_dir / "checkpoint.old"
+    try:
+        if partial.exists():
+            shutil.rmtree(partial)
+        partial.mkdir(parents=True)
+        write(partial)
+        for data in partial.iterdir():
+            sync_file(data)
+        for name, text in (("state.json", json.dumps(state, indent=1)), ("model.txt", model + "\n")):
+            with open(partial / name, "w") as stream:
+                stream.write(text)
+                stream.flush()
+                os.fsync(stream.fileno())
+        _sync_directory(partial)
+        if final.exists():
+            final.replace(old)
+        partial.replace(final)
+        _sync_directory(run_dir)
+        if old.exists():
+            shutil.rmtree(old)
+    except OSError as err:
+        with contextlib.suppress(OSError):
+            if partial.exists():
+                shutil.rmtree(partial)
+        kept = "the previous checkpoint is kept" if (final.exists() or old.exists()) else "no checkpoint is kept"
+        raise OutputError(f"cannot write the checkpoint in {run_dir}: {_reason(err)} ({kept})") from None
+
+
+# -- the summary ----------------------------------------------------------------------------------
 
 
 def versions() -> dict:
@@ -110,16 +480,6 @@ def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: 
         "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
         **(extra or {}),
     }
-
-
-def write_summary(path: Path, data: dict) -> None:
-    tmp = Path(path).with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(data, indent=2) + "\n")
-    tmp.replace(path)  # a killed run never leaves half a summary
-
-
-def write_scene(path: Path, scene) -> None:
-    Path(path).write_text(scenes.dumps(scene))
 
 
 class Progress:
