@@ -7,13 +7,17 @@
     fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
     fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
-Only this module and the demos touch MPI.COMM_WORLD.  Errors a user can cause
-print one line naming the field and exit with status 2.
+Only this module and the demos touch MPI.COMM_WORLD.  Errors a user can cause print one line
+(on rank 0 only under mpirun) naming the field or path and exit with status 2; a run that ends
+early prints one line and exits with 1 (diverged, or an output could not be written) or 128 + the
+signal (130 for SIGINT, 143 for SIGTERM) when interrupted.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import shlex
+import signal
 import sys
 import warnings
 from pathlib import Path
@@ -33,8 +37,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--model", default=None, help=f"one of {', '.join(models.MODELS)} (default: the best available)")
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value, e.g. --set sphere.density=8000 (repeatable)")
-    run.add_argument("--out", type=Path, default=None, help="run directory (default runs/SCENE-MODEL[-N])")
-    run.add_argument("--force", action="store_true", help="replace an existing run directory")
+    run.add_argument("--out", default=None, help="run directory (default runs/SCENE-MODEL[-N])")
+    run.add_argument("--force", action="store_true",
+                     help="replace an existing run directory (only a run directory: one holding .fem-bounce-run)")
     run.add_argument("--restart", type=Path, default=None, metavar="DIR",
                      help="continue the killed run in DIR from its last checkpoint")
     run.add_argument("--quiet", action="store_true", help="no progress line")
@@ -47,7 +52,7 @@ def _parser() -> argparse.ArgumentParser:
     cmp_.add_argument("--models", default="ode,fd,ib", help="comma-separated models (default ode,fd,ib)")
     cmp_.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                       help="override a scene value for every model (repeatable)")
-    cmp_.add_argument("--out", type=Path, default=None, help="output directory (default runs/compare-SCENE[-N])")
+    cmp_.add_argument("--out", default=None, help="output directory (default runs/compare-SCENE[-N])")
     cmp_.add_argument("--force", action="store_true", help="replace an existing output directory")
     cmp_.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -59,7 +64,7 @@ def _parser() -> argparse.ArgumentParser:
     rest.add_argument("--points", type=int, default=40, help="number of Stokes numbers, log-spaced (default 40)")
     rest.add_argument("--st-min", type=float, default=1.0)
     rest.add_argument("--st-max", type=float, default=1000.0)
-    rest.add_argument("--out", type=Path, default=Path("results/restitution"), help="directory for CSV and PNG")
+    rest.add_argument("--out", default="results/restitution", help="directory for CSV and PNG")
     rest.add_argument("--force", action="store_true", help="replace an existing output directory")
     study = sub.add_parser("study", help="studies that run many simulations (cached, resumable)")
     kinds = study.add_subparsers(dest="kind", required=True)
@@ -85,7 +90,7 @@ def _parser() -> argparse.ArgumentParser:
     figs = kinds.add_parser("figures", help="the paper's Fig. 9-12 from a model")
     figs.add_argument("--model", required=True)
     for kind in (conv, speed, stab, rest_study, figs):
-        kind.add_argument("--out", type=Path, default=None, help="study directory (default results/study-...)")
+        kind.add_argument("--out", default=None, help="study directory (default results/study-...)")
         kind.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                           help="override a value of every scene the study runs")
     return parser
@@ -96,17 +101,33 @@ def _scene_from_args(source: str | None, overrides: list[str]) -> scenes.Scene:
     return scenes.load(source or DEFAULT_SCENE, changes)
 
 
+def _out_path(text: str | None) -> Path | None:
+    """The --out directory; an empty string is refused, not read as the current directory."""
+    if text is None:
+        return None
+    if not text.strip():
+        raise output.OutputError("--out is empty: give a directory, e.g. --out runs/mine")
+    return Path(text)
+
+
 def _cmd_run(args) -> int:
     from mpi4py import MPI
 
-    from .run import RunDiverged, simulate
+    from .run import simulate
 
     comm = MPI.COMM_WORLD
     if args.restart is not None:
         if args.scene or args.overrides:
             raise scenes.SceneError("--restart takes the scene from DIR/scene.toml; drop SCENE and --set")
-        scene = scenes.load(args.restart / "scene.toml")
+        if args.out is not None:
+            raise output.OutputError("--restart continues the run in DIR and writes nowhere else: drop --out "
+                                     "(copy DIR first to keep the original)")
+        if args.force:
+            raise output.OutputError("--force does not apply to --restart: nothing is replaced")
+        if args.accuracy is not None:
+            raise scenes.SceneError("--accuracy does not apply to --restart: the scene is DIR/scene.toml")
         model = _restart_model(args.restart, args.model)
+        scene = scenes.load(args.restart / "scene.toml")
         out = args.restart
     else:
         scene = _scene_from_args(args.scene, args.overrides)
@@ -114,20 +135,15 @@ def _cmd_run(args) -> int:
         if args.accuracy is not None:
             scene, model = _scene_for_accuracy(scene, args.accuracy, args.model)
         models.get(model)  # fail early on an unknown or missing model
-        out = args.out
+        out = _out_path(args.out)
         if out is None:
             base = Path("runs") / f"{scene.name}-{model}"
             out = comm.bcast(output.unused_directory(base) if comm.rank == 0 else None, root=0)
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     if comm.rank == 0:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
-    try:
-        summary = simulate(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                           command=command, progress=not args.quiet)
-    except RunDiverged as err:
-        if comm.rank == 0:
-            print(f"fem-bounce: {err}", file=sys.stderr)
-        return 1
+    summary = simulate(scene, model, comm, out, force=args.force, restart=args.restart is not None,
+                       command=command, progress=not args.quiet)
     if comm.rank == 0:
         _print_records(summary)
     return 0
@@ -145,7 +161,7 @@ def _cmd_compare(args) -> int:
     for name in names:
         models.get(name)
     scene = _scene_from_args(args.scene, args.overrides)
-    out = args.out
+    out = _out_path(args.out)
     if out is None:
         out = comm.bcast(output.unused_directory(Path("runs") / f"compare-{scene.name}") if comm.rank == 0 else None,
                          root=0)
@@ -180,21 +196,35 @@ def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | Non
 
 
 def _restart_model(run_dir: Path, requested: str | None) -> str:
-    marker = run_dir / "checkpoint" / "model.txt"
-    if not marker.is_file():
-        raise output.OutputError(f"{run_dir} has no checkpoint to restart from")
-    model = marker.read_text().strip()
+    """The model that wrote DIR's checkpoint (it continues the run)."""
+    from .run import CHECKPOINTING
+
+    model = output.find_checkpoint(run_dir).model
+    if model not in CHECKPOINTING:
+        raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
+                                f"checkpoints (only {', '.join(CHECKPOINTING)} can --restart): it is not a checkpoint "
+                                "this version wrote")
     if requested and requested != model:
         raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
     return model
 
 
+def _number(value: float, decimals: int = 1) -> str:
+    """A dimensionless group for a person: fixed decimals, or three digits and an exponent when huge."""
+    return f"{value:.{decimals}f}" if abs(value) < 1e6 else f"{value:.3g}"
+
+
 def _print_records(summary: dict) -> None:
-    print(f"{summary['status']} in {summary['wall_time_s']:.2f} s, {summary['steps']} steps")
+    print(f"{summary['status']} in {summary['wall_time_s']:.2f} s, {summary['steps']} steps; "
+          f"stopped at {summary.get('stop_reason')}")
+    diameter = summary["scene"]["sphere"]["diameter"]
+    if not summary["impacts"]:
+        print(f"no impact: the sphere ended {summary['final']['gap'] / diameter:.4g} D above the wall "
+              f"at t = {summary['final']['time']:.4g} s")
     for k, (impact, rebound) in enumerate(zip(summary["impacts"], summary["rebounds"] + [None] * 99), 1):
         line = (f"impact {k}: t = {impact['time']:.4f} s  V_i = {impact['impact_speed']:.4f} m/s  "
-                f"Re = {impact['Re']:.1f}  St = {impact['St']:.1f}  min gap/D = "
-                f"{impact['min_gap'] / summary['scene']['sphere']['diameter']:.4f}")
+                f"Re = {_number(impact['Re'])}  St = {_number(impact['St'])}  min gap/D = "
+                f"{impact['min_gap'] / diameter:.4f}")
         if rebound is not None:
             line += f"  e = {rebound['restitution']:.3f}"
             if rebound["apex_gap"] is not None:
@@ -220,10 +250,11 @@ def _cmd_restitution(args) -> int:
 
     if args.points < 2 or not 0 < args.st_min < args.st_max:
         raise scenes.SceneError("restitution: need --points >= 2 and 0 < --st-min < --st-max")
-    output.prepare_directory(args.out, force=args.force)
+    out = _out_path(args.out)
+    output.prepare_directory(out, force=args.force)
     results = restitution.sweep(restitution.log_targets(args.st_min, args.st_max, args.points))
-    restitution.write(results, args.out)
-    print(f"{len(results)} runs -> {args.out}/restitution.csv, {args.out}/restitution.png")
+    restitution.write(results, out)
+    print(f"{len(results)} runs -> {out}/restitution.csv, {out}/restitution.png")
     return 0
 
 
@@ -238,7 +269,7 @@ def _cmd_study(args) -> int:
     for name in model_names:
         models.get(name)
     scene_name = getattr(args, "scene", None)
-    out = args.out or Path("results") / "-".join(["study", args.kind, *([scene_name] if scene_name else []),
+    out = _out_path(args.out) or Path("results") / "-".join(["study", args.kind, *([scene_name] if scene_name else []),
                                                    *model_names])
 
     def numbers(text: str | None, option: str = "--levels") -> tuple | None:
@@ -261,8 +292,7 @@ def _cmd_study(args) -> int:
         if args.record and comm.rank == 0:
             studies.speed_accuracy.record(result, Path(__file__).parent / "data")
     elif args.kind == "stability":
-        chosen = args.sweeps.split(",") if args.sweeps else None
-        sweeps = {k: v for k, v in studies.stability.SWEEPS.items() if chosen is None or k in chosen}
+        sweeps = _stability_sweeps(args.sweeps, args.model)
         studies.stability.run(scenes.load(args.scene, {"run.bounces": 1, **changes}), args.model, comm, out, sweeps)
     elif args.kind == "restitution":
         studies.restitution.run(args.model, comm, out, args.points)
@@ -273,15 +303,55 @@ def _cmd_study(args) -> int:
     return 0
 
 
+def _stability_sweeps(text: str | None, model: str) -> dict:
+    """The sweeps named by --sweeps (all that apply to the model when not given); unknown names refused."""
+    from .studies import stability
+
+    usable = stability.applicable(model)
+    if not text:
+        return {k: v for k, v in stability.SWEEPS.items() if k in usable}
+    chosen = [name.strip() for name in text.split(",") if name.strip()]
+    for name in chosen:
+        if name not in stability.SWEEPS:
+            raise scenes.SceneError(f"--sweeps: unknown sweep {name!r}: choose from {', '.join(stability.SWEEPS)}")
+        if name not in usable:
+            raise scenes.SceneError(f"--sweeps: {name} does not apply to the {model} model "
+                                    f"(it has only {', '.join(usable)})")
+    if not chosen:
+        raise scenes.SceneError(f"--sweeps {text!r}: name at least one of {', '.join(usable)}")
+    return {k: v for k, v in stability.SWEEPS.items() if k in chosen}
+
+
 def main(argv: list[str] | None = None) -> int:
+    from mpi4py import MPI
+
+    from .run import Interrupts, RunFailed, RunInterrupted, signal_name
+
+    rank = MPI.COMM_WORLD.rank
     args = _parser().parse_args(argv)
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
                "study": _cmd_study, "compare": _cmd_compare}[args.command]
-    with warnings.catch_warnings():
+
+    def say(text: str) -> None:  # once under mpirun: every rank meets the same error
+        if rank == 0:
+            print(f"fem-bounce: {text}", file=sys.stderr, flush=True)
+
+    graceful = args.command in ("run", "compare", "study")  # they stop between steps; the rest at once
+    with warnings.catch_warnings(), (Interrupts(announce=rank == 0) if graceful else contextlib.nullcontext()):
         warnings.simplefilter("always")
-        warnings.showwarning = lambda message, *a, **k: print(f"fem-bounce: warning: {message}", file=sys.stderr)
+        warnings.showwarning = lambda message, *a, **k: say(f"warning: {message}")
         try:
             return command(args)
         except (scenes.SceneError, models.ModelError, output.OutputError) as err:
-            print(f"fem-bounce: error: {err}", file=sys.stderr)
+            say(f"error: {err}")
             return 2
+        except RunInterrupted as err:
+            say(str(err))
+            return 128 + err.signum
+        except RunFailed as err:
+            say(str(err) if str(err).startswith("diverged") else f"error: {err}")
+            return 1
+        except KeyboardInterrupt as err:
+            signum = getattr(err, "signum", signal.SIGINT)
+            say(f"interrupted by {signal_name(signum)}")
+            return 128 + signum

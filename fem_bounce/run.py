@@ -2,76 +2,452 @@
 
     summary = simulate(scene, "ode", comm, out_dir=Path("runs/case3"))
 
-The model advances the flow (if any) and the shared SphereIntegrator; this
-module owns everything around it: the run directory, the trajectory rows, the
-progress line, the summary and the plots.  A run that diverges (sphere inside
-the wall, NaN, solver failure) still writes its summary with the reason and
-raises RunDiverged, keeping whatever it wrote so far.
+The model advances the flow (if any) and the shared SphereIntegrator; this module owns everything
+around it: the run directory (output.py), the trajectory rows, the progress line, the checks every
+model shares, restarts, the summary and the plots.  Before anything is written the model is built
+(it checks the scene against itself) and, for a restart, the checkpoint, the scene and the
+trajectory are checked, so a refused run changes nothing.
+
+How a run ends (summary.json "status" and "stop_reason"):
+
+- completed: end_time, the bounce limit, or a sphere lighter than the liquid stopped where it can no
+  longer be followed: risen RISE_LIMIT diameters above its release, at a container's lid, or at the
+  top of a resolved model's refined region (it never reaches the wall);
+- diverged (RunDiverged): NaN, a solver failure, the sphere inside the wall, or the sphere's energy
+  1/2 m_p V^2 + (m_p - m_l) g h above its value at release, which the liquid can only take away;
+- interrupted (RunInterrupted): SIGINT or SIGTERM, acted on between two steps on every rank together;
+  the last checkpoint is kept and `--restart` continues from it;
+- failed (RunFailed): an output could not be written (disk full, no permission).
+
+Whatever the end, the summary is written with what was computed (when the disk allows) and the files
+written so far are kept whole.
 """
 from __future__ import annotations
 
+import math
+import signal
+import sys
 import time
+import tomllib
+import warnings
 from pathlib import Path
 
+import numpy as np
+
 from . import models, output
+from . import scene as scenes
 from .contact import ContactModel
 from .sphere import PenetrationError, SphereIntegrator
 
+RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
+ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error before a gain stops the run
+CHECKPOINTING = {"fd": ("flow.npz",)}  # models that write checkpoints (and their data files): they --restart
+SERIAL = ("ode", "ib")  # models whose every MPI rank repeats the same serial computation
+# Fewer fine cells across the delta_sl gap than this and the stability study found the resolved force
+# entering the blend off by more than 5 % (README, "What the studies found").
+MIN_CELLS_ACROSS_BLEND_GAP = {"fd": 1.0, "ib": 2.0}
+# The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh
+# grows without telling anything new: a sphere reaches its terminal speed within ~10-20 D of its release.
+RESOLVED_MAX_GAP = 100.0
+RESTART_MAY_CHANGE = ("run.end_time", "run.bounces", "description")  # how long to run, not what is run
 
-class RunDiverged(RuntimeError):
+
+class RunFailed(RuntimeError):
+    """A run ended before its end; its summary.json says why."""
+
+
+class RunDiverged(RunFailed):
     pass
 
 
+class RunInterrupted(RunFailed):
+    def __init__(self, message: str, signum: int):
+        super().__init__(message)
+        self.signum = signum
+
+
+class StopNow(KeyboardInterrupt):
+    """A second SIGINT or SIGTERM: stop at once, not after the step."""
+
+    def __init__(self, signum: int):
+        super().__init__()
+        self.signum = signum
+
+
+def signal_name(signum: int) -> str:
+    return signal.Signals(signum).name
+
+
+class Interrupts:
+    """SIGINT (Ctrl-C) and SIGTERM (batch schedulers; mpirun passes both on as SIGTERM) as a request to
+    stop.  The first sets a flag that the run checks after every step, on every rank together, so it
+    ends between two steps with its summary written; a second raises StopNow at once.
+
+        with Interrupts():
+            simulate(...)        # any run inside, also through studies and the cache
+    """
+
+    active: "Interrupts | None" = None
+
+    def __init__(self, announce: bool = True):
+        self.signum = 0
+        self.announce = announce
+        self._previous: dict = {}
+
+    def __enter__(self) -> "Interrupts":
+        try:
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self._previous[signum] = signal.signal(signum, self._handle)
+        except ValueError:  # not the main thread: signals stay as they were
+            pass
+        Interrupts.active = self
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+        Interrupts.active = None
+
+    def _handle(self, signum, frame) -> None:
+        if self.signum:
+            raise StopNow(signum)
+        self.signum = signum
+        if self.announce:
+            print(f"\nfem-bounce: {signal_name(signum)} received: stopping after this step (again to stop at once)",
+                  file=sys.stderr, flush=True)
+
+
 def _on_root(comm, action):
-    """Run action on rank 0 and raise its exception on every rank, so all ranks fail alike."""
-    error = None
+    """Run action on rank 0 and raise its exception on every rank, so all ranks fail alike; its
+    result is returned on rank 0 (None elsewhere)."""
+    error, result = None, None
     if comm.rank == 0:
         try:
-            action()
+            result = action()
         except Exception as err:  # noqa: BLE001 -- re-raised on every rank below
             error = err
     error = comm.bcast(error, root=0)
     if error is not None:
         raise error
+    return result
+
+
+# -- what every step shares ----------------------------------------------------------------------
+
+
+class _RunIntegrator(SphereIntegrator):
+    """The shared sphere integrator whose checkpoint state also carries the run's record (the
+    trajectory's rows, put on the disk first; the wall time; the scene): every model that checkpoints
+    the integrator, as it must to restart, so checkpoints the run whole."""
+
+    record: "_RunRecord | None" = None
+
+    def state_dict(self) -> dict:
+        state = super().state_dict()
+        if self.record is not None:
+            state["run"] = self.record.checkpoint()
+        return state
+
+
+class _RunRecord:
+    def __init__(self, scene, model: str, writer: output.TrajectoryWriter | None, previous_wall: list):
+        self.scene_text = scenes.dumps(scene)
+        self.model = model
+        self.writer = writer
+        self.previous_wall = list(previous_wall)  # earlier segments, each up to its last checkpoint [s]
+        self.start = time.perf_counter()
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.start
+
+    def checkpoint(self) -> dict:
+        rows, error = None, None
+        if self.writer is not None:  # rank 0
+            try:
+                rows = self.writer.sync()
+            except output.OutputError as err:
+                error = str(err)  # output.commit_checkpoint refuses to commit then
+        return {"scene": self.scene_text, "model": self.model, "trajectory_rows": rows, "trajectory_error": error,
+                "wall_time_s": self.previous_wall + [self.elapsed()]}
+
+
+class _Safeguards:
+    """Checks after every integrator step (identical on every rank: the integrators are): the energy
+    bound, and where a rising sphere is stopped."""
+
+    def __init__(self, scene, integrator: SphereIntegrator, model: str, resolved_top: float):
+        self.scene, self.integrator, self.model = scene, integrator, model
+        self.free = scene.motion.mode == "free"
+        sphere, d, h0 = scene.sphere, scene.sphere.diameter, scene.initial_gap
+        self.net_weight = (sphere.mass - scene.displaced_mass) * scene.gravity  # toward the wall [N]
+        # Released from rest into a quiescent liquid, the sphere's kinetic and potential energy can never
+        # exceed their value at release: the liquid's kinetic energy and the elastic energy are >= 0 and
+        # viscosity only dissipates.
+        self.release_energy = self.net_weight * h0
+        self.tolerance = ENERGY_TOLERANCE * abs(self.net_weight) * h0
+        self.light = self.free and scene.density_ratio < 1.0
+        limits = [(h0 + RISE_LIMIT * d, f"risen {RISE_LIMIT:g} D above its release")]
+        if not scene.container.unbounded:
+            limits.append((scene.container.height - d, "reached the container's lid"))
+        if math.isfinite(resolved_top):
+            limits.append((resolved_top - d, f"reached the top of the {model} model's refined region"))
+        self.ceiling, self.where = min(limits)
+        self.stop_reason: str | None = None
+
+    def __call__(self, row: dict) -> None:
+        if not self.free:
+            return
+        h, v, d = row["gap"], row["velocity"], self.scene.sphere.diameter
+        excess = 0.5 * self.scene.sphere.mass * v * v + self.net_weight * h - self.release_energy
+        if excess > self.tolerance:
+            settings = getattr(self.scene.numerics, self.model)
+            if self.model == "ode":
+                hint = "tighten numerics.ode.rtol"
+            elif getattr(settings, "coupling", "implicit") == "explicit":
+                hint = f"numerics.{self.model}.coupling = \"explicit\" fails here: use \"implicit\""
+            else:
+                hint = f"use a smaller numerics.{self.model}.cfl"
+            raise RunDiverged(
+                f"the sphere gained energy it cannot have: at t = {row['t']:.6g} s (gap {h / d:.3g} D, "
+                f"V = {v:+.3g} m/s) its kinetic + potential energy is {excess / abs(self.net_weight * self.scene.initial_gap):.0%} "
+                f"of |m_p - m_l| g h0 above its value at release; the coupling or the time step is unstable ({hint})")
+        if self.light and h >= self.ceiling and self.stop_reason is None:
+            self.stop_reason = (f"the light sphere {self.where} (gap {h / d:.3g} D at t = {row['t']:.4g} s); "
+                                "it never reaches the wall")
+            self.integrator.done = True
+
+
+class _Monitor:
+    """What a model calls after each step as `progress`: draws the progress line and ends the run, on
+    every rank together, when a signal has arrived or rank 0 could not write the trajectory."""
+
+    def __init__(self, bar: output.Progress, comm, interrupts: Interrupts | None,
+                 writer: output.TrajectoryWriter | None):
+        self.bar, self.comm, self.interrupts, self.writer = bar, comm, interrupts, writer
+        self.steps = 0
+
+    def __call__(self, t: float, steps: int, gap: float, velocity: float, force: bool = False) -> None:
+        self.steps = steps
+        self.bar(t, steps, gap, velocity, force=force)
+        flags = np.array([self.interrupts.signum if self.interrupts is not None else 0,
+                          int(self.writer is not None and self.writer.failure is not None)])
+        if self.comm.size > 1:
+            from mpi4py import MPI
+
+            self.comm.Allreduce(MPI.IN_PLACE, flags, op=MPI.MAX)
+        if flags[1]:
+            raise RunFailed(str(self.writer.failure) if self.writer is not None and self.writer.failure
+                            else "rank 0 could not write the trajectory")
+        if flags[0]:
+            raise RunInterrupted(f"interrupted by {signal_name(int(flags[0]))} at t = {t:.6g} s", int(flags[0]))
+
+
+# -- before the run: warnings and restarts ---------------------------------------------------------
+
+
+def _warnings(scene, model: str, comm, guards: _Safeguards) -> list[str]:
+    found = []
+    d = scene.sphere.diameter
+    if guards.light:
+        found.append(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
+                     f"{scene.liquid.density:g} kg/m3: the sphere rises and never reaches the wall; the run stops "
+                     f"when it has {guards.where} (gap {guards.ceiling / d:.3g} D)")
+    if model in MIN_CELLS_ACROSS_BLEND_GAP:
+        cells = getattr(scene.numerics, model).cells_per_diameter
+        across, needed = cells * scene.contact.delta_sl, MIN_CELLS_ACROSS_BLEND_GAP[model]
+        if across < needed:
+            found.append(f"numerics.{model}.cells_per_diameter = {cells:g} puts {across:.2g} fine cells across the "
+                         f"delta_sl gap ({scene.contact.delta_sl:g} D); below {needed:g} the {model} model's force "
+                         "near the wall is off by more than 5 % (stability study): expect impact speed and apex "
+                         f"errors of 10 % or more; use at least {needed / scene.contact.delta_sl:g} cells/D")
+    if model in SERIAL and comm.size > 1:
+        found.append(f"the {model} model is serial: each of the {comm.size} ranks runs the same computation "
+                     "(no speed-up); run it without mpirun")
+    return found
+
+
+def _flatten(data: dict, prefix: str = "") -> dict:
+    flat = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            flat.update(_flatten(value, f"{prefix}{key}."))
+        else:
+            flat[f"{prefix}{key}"] = value
+    return flat
+
+
+def _scene_changes(saved_text: str, scene) -> list[str]:
+    saved, now = _flatten(tomllib.loads(saved_text)), _flatten(tomllib.loads(scenes.dumps(scene)))
+    return [f"{key} {saved.get(key, 'unset')!r} -> {now.get(key, 'unset')!r}"
+            for key in sorted(saved.keys() | now.keys())
+            if saved.get(key) != now.get(key) and key not in RESTART_MAY_CHANGE]
+
+
+def _resume(out_dir: Path, scene, model: str) -> dict:
+    """Check that DIR can continue (rank 0): a whole checkpoint of this model, the same scene, the
+    trajectory it continues; only then make its checkpoint DIR/checkpoint and cut the trajectory back."""
+    found = output.find_checkpoint(out_dir, required=CHECKPOINTING[model])
+    if found.model != model:
+        raise output.CheckpointError(f"the checkpoint in {out_dir} was written by the {found.model!r} model, "
+                                     f"not {model}")
+    record = found.run
+    if not isinstance(record, dict) or not isinstance(record.get("trajectory_rows"), int):
+        raise output.CheckpointError(f"the checkpoint in {out_dir} is unreadable: it holds no run record "
+                                     "(written by an older version?); start a new run")
+    changes = _scene_changes(record["scene"], scene)
+    if changes:
+        raise output.CheckpointError(
+            f"{out_dir}/scene.toml no longer matches its checkpoint ({'; '.join(changes)}): restore it, or start "
+            f"a new run (a restart may change only {', '.join(RESTART_MAY_CHANGE[:2])})")
+    trajectory = Path(out_dir) / "trajectory.csv"
+    output.trajectory_offset(trajectory, record["trajectory_rows"])
+    for skipped in found.skipped:
+        warnings.warn(f"{skipped}; continuing from the older copy ({found.folder.name})", stacklevel=2)
+    output.settle_checkpoint(out_dir, found)
+    output.cut_trajectory(trajectory, record["trajectory_rows"])
+    return {"trajectory_rows": record["trajectory_rows"], "wall_time_s": list(record.get("wall_time_s", []))}
+
+
+def _interruption_note(out_dir: Path | None, model: str) -> str:
+    """What the user can do after an interruption (rank 0)."""
+    if out_dir is None:
+        return ""
+    if model not in CHECKPOINTING:
+        return f"; the {model} model writes no checkpoints: run it again"
+    try:
+        state = output.find_checkpoint(out_dir).state
+    except output.CheckpointError:
+        return "; no checkpoint was written yet (numerics.fd.checkpoint_every), so it cannot be continued"
+    return (f"; continue from its last checkpoint (step {state.get('step')}, t = {state.get('time', 0.0):.6g} s) "
+            f"with: fem-bounce run --restart {out_dir}")
+
+
+# -- the run --------------------------------------------------------------------------------------
 
 
 def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: bool = False,
-             restart: bool = False, command: str = "", progress: bool = True, plots: bool = True) -> dict:
-    """Run `model` on `scene`; write DIR/{scene.toml,trajectory.csv,summary.json,*.png} if out_dir is given."""
+             restart: bool = False, command: str = "", progress: bool = True, plots: bool = True,
+             interrupts: Interrupts | None = None) -> dict:
+    """Run `model` on `scene`; write DIR/{scene.toml,trajectory.csv,summary.json,*.png} if out_dir is given.
+    Raises RunDiverged, RunInterrupted or RunFailed after writing the summary when the run ends early."""
     model_cls = models.get(model)
     root = comm.rank == 0
-    if out_dir is not None:
-        out_dir = Path(out_dir)
-        _on_root(comm, lambda: output.prepare_directory(out_dir, force=force, resume=restart))
-        if root and not restart:
-            output.write_scene(out_dir / "scene.toml", scene)
-    integrator = SphereIntegrator(scene, ContactModel(scene), resolved=model_cls.resolved)
+    interrupts = interrupts or Interrupts.active
+    out_dir = None if out_dir is None else Path(out_dir)
+    if restart:
+        if model not in CHECKPOINTING:
+            raise models.ModelError(f"the {model} model writes no checkpoints, so it cannot --restart: run it again")
+        if out_dir is None:
+            raise output.OutputError("a restart needs the run directory it continues")
+    # Everything that can refuse the run comes before anything is written.
+    if model_cls.resolved and scene.initial_gap > RESOLVED_MAX_GAP * scene.sphere.diameter:
+        raise scenes.SceneError(
+            f"initial_gap = {scene.initial_gap:.4g} m is {scene.initial_gap / scene.sphere.diameter:.3g} D: the {model} "
+            f"model meshes the whole path, allowed up to {RESOLVED_MAX_GAP:g} D (a sphere reaches its terminal speed "
+            "within ~10-20 D); start it lower, or use the ode model")
+    solver = model_cls(scene, comm)
+    integrator = _RunIntegrator(scene, ContactModel(scene), resolved=model_cls.resolved)
+    guards = _Safeguards(scene, integrator, model, solver.resolved_top())
+    if root:
+        for message in _warnings(scene, model, comm, guards):
+            warnings.warn(message, stacklevel=2)
+    resumed = {"trajectory_rows": None, "wall_time_s": []}
+    if out_dir is not None and restart:
+        resumed = comm.bcast(_on_root(comm, lambda: _resume(out_dir, scene, model)), root=0)
+    elif out_dir is not None:
+        _on_root(comm, lambda: (output.prepare_directory(out_dir, force=force),
+                                output.write_scene(out_dir / "scene.toml", scene)))
     interval = scene.numerics.ode.output_interval if model == "ode" else 0.0
-    writer = output.TrajectoryWriter(out_dir / "trajectory.csv" if (root and out_dir) else None, interval,
-                                     append=restart)
-    integrator.observers.append(writer)
+    writer = None
+    if out_dir is not None:
+        writer = _on_root(comm, lambda: output.TrajectoryWriter(out_dir / "trajectory.csv", interval,
+                                                                 continue_from=resumed["trajectory_rows"]))
+    record = _RunRecord(scene, model, writer, resumed["wall_time_s"])
+    integrator.record = record
+    if writer is not None:
+        integrator.observers.append(writer)
+    integrator.observers.append(guards)
     bar = output.Progress(scene.run.end_time, scene.sphere.diameter, enabled=progress and root)
-    start = time.perf_counter()
-    status, error = "completed", None
+    monitor = _Monitor(bar, comm, interrupts, writer)
+
+    status, kind, message, signum = "completed", None, "", 0
     result: dict = {}
     try:
-        solver = model_cls(scene, comm)
-        result = solver.run(integrator, bar, out_dir, restart) or {}
-    except (PenetrationError, FloatingPointError, RunDiverged) as err:
-        status, error = f"diverged: {err}", err
-    finally:
-        writer.close()
+        result = solver.run(integrator, monitor, out_dir, restart) or {}
+    except output.CheckpointError:
         bar.close()
-    integrator.finish()
-    wall = time.perf_counter() - start
-    data = output.summary(scene, model, integrator, wall, result.get("steps", integrator.steps), comm.size, command,
-                          status=status, sizes=result.get("sizes"), extra=result.get("extra"))
-    if root and out_dir is not None:
-        output.write_summary(out_dir / "summary.json", data)
-        if plots:
-            from . import plots as drawing
+        if writer is not None:
+            try:
+                writer.close()
+            except output.OutputError:
+                pass  # the checkpoint's error is the one to report
+        raise  # the restart could not load its checkpoint: no summary for a run that never continued
+    except (PenetrationError, FloatingPointError, RunDiverged) as err:
+        status, kind, message = f"diverged: {err}", RunDiverged, str(err)
+    except RunInterrupted as err:
+        status, kind, message, signum = "interrupted", RunInterrupted, str(err), err.signum
+    except KeyboardInterrupt as err:  # a second signal, or Ctrl-C with no Interrupts installed
+        signum = getattr(err, "signum", signal.SIGINT)
+        status, kind = "interrupted", RunInterrupted
+        message = f"interrupted by {signal_name(signum)} at t = {integrator.time:.6g} s"
+    except (RunFailed, output.OutputError) as err:
+        status, kind, message = f"failed: {err}", RunFailed, str(err)
+    bar.close()
+    if writer is not None:
+        try:
+            writer.close()
+        except output.OutputError as err:
+            if kind is None:
+                status, kind, message = f"failed: {err}", RunFailed, str(err)
+    # rank 0 alone writes, so rank 0's account of how the run ended is every rank's
+    status, message, signum = comm.bcast((status, message, signum), root=0)
+    kind = {"completed": None, "interrupted": RunInterrupted}.get(status, RunDiverged if status.startswith("diverged")
+                                                                  else RunFailed)
 
-            drawing.draw_run(out_dir)
-    if error is not None:
-        raise RunDiverged(f"{status}; outputs kept in {out_dir}" if out_dir else status) from error
-    return data
+    if status == "completed":
+        if guards.stop_reason is not None:
+            stop_reason = guards.stop_reason
+        elif integrator.done:
+            stop_reason = f"the bounce limit (run.bounces = {scene.run.bounces})"
+        else:
+            stop_reason = f"run.end_time = {scene.run.end_time:g} s"
+    else:
+        stop_reason = message
+    integrator.finish()
+    wall = record.elapsed()
+    extra = {**(result.get("extra") or {}), "stop_reason": stop_reason}
+    if resumed["wall_time_s"]:
+        extra["wall_time_segments_s"] = resumed["wall_time_s"] + [wall]
+    data = output.summary(scene, model, integrator, sum(resumed["wall_time_s"]) + wall,
+                          result.get("steps", monitor.steps or integrator.steps), comm.size, command, status=status,
+                          sizes=result.get("sizes"), extra=extra)
+    not_written = ""
+    if out_dir is not None:
+        def write_outputs():
+            output.write_summary(out_dir / "summary.json", data)
+            if plots and (status == "completed" or status.startswith("diverged")):
+                _draw(out_dir)  # not after an interruption (mpirun kills 1 s after its SIGTERM) nor a failure
+            return _interruption_note(out_dir, model) if status == "interrupted" else ""
+
+        try:
+            note = _on_root(comm, write_outputs)
+        except output.OutputError as err:
+            if kind is None:
+                raise RunFailed(str(err)) from None
+            note, not_written = "", f" ({err})"
+        message += note or ""  # rank 0's, and only rank 0 prints it
+    if kind is None:
+        return data
+    kept = f"; outputs kept in {out_dir}" if out_dir is not None and kind is not RunInterrupted else ""
+    if kind is RunInterrupted:
+        raise RunInterrupted(message + not_written, signum)
+    raise kind(f"{status}{kept}{not_written}" if kind is RunDiverged else f"{message}{kept}{not_written}")
+
+
+def _draw(out_dir: Path) -> None:
+    from . import plots as drawing
+
+    try:
+        drawing.draw_run(out_dir)
+    except OSError as err:
+        raise output.OutputError(f"cannot draw the figures in {out_dir}: {err.strerror or err}") from None

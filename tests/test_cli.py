@@ -39,8 +39,14 @@ def test_existing_directory_is_never_silently_replaced(tmp_path, capsys):
     assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(out), "--quiet"]) == 2
     assert "exists and is not empty; pass --force" in capsys.readouterr().err
     assert (out / "keep.txt").read_text() == "precious"
-    assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(out), "--quiet", "--force"]) == 0
-    assert not (out / "keep.txt").exists()
+    # --force replaces only a run directory (tests/test_bad_input.py has the other cases)
+    assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(out), "--quiet", "--force"]) == 2
+    assert (out / "keep.txt").read_text() == "precious"
+    run_dir = tmp_path / "earlier"
+    assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(run_dir), "--quiet"]) == 0
+    (run_dir / "stale.txt").write_text("from before")
+    assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(run_dir), "--quiet", "--force"]) == 0
+    assert not (run_dir / "stale.txt").exists() and (run_dir / "summary.json").is_file()
 
 
 @pytest.mark.parametrize("argv,message", [

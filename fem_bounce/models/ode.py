@@ -6,6 +6,8 @@ the paper's contact model at the wall.  Milliseconds to a second per scene.
 """
 from __future__ import annotations
 
+import math
+
 
 class OdeModel:
     name = "ode"
@@ -13,6 +15,10 @@ class OdeModel:
 
     def __init__(self, scene, comm):
         self.scene = scene
+
+    def resolved_top(self) -> float:
+        """No mesh: nothing limits how high the sphere may go [m]."""
+        return math.inf
 
     def run(self, integrator, progress, out_dir=None, restart=False) -> dict:
         end = self.scene.run.end_time

@@ -184,6 +184,10 @@ class AleModel:
             momentum_interpolated=momenta[0][1], momentum_projected=momenta[0][2], sphere_volume_old=volumes[0],
             sphere_volume=volumes[1], seconds=seconds))
 
+    def resolved_top(self) -> float:
+        """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
+        return self.domain.refined.z_max
+
     def sphere_volume(self, flow: SphereFlow) -> float:
         """The volume of the mesh's polygonal sphere: the domain's cylinder less the liquid [m^3]."""
         return math.pi * self.domain.radius**2 * self.domain.height - flow.fluid_volume()

@@ -26,6 +26,7 @@ from petsc4py import PETSc
 
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
+from ...output import CheckpointError
 from ...run import RunDiverged
 from ...scene import SceneError
 from ...sphere import FluidForce, PenetrationError
@@ -180,6 +181,10 @@ class FictitiousDomainModel:
     def time(self) -> float:
         return self.history.step * self.dt
 
+    def resolved_top(self) -> float:
+        """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
+        return self.domain.spec.refined[0].z_max
+
     # -- checkpoints and fields -------------------------------------------------------------
     def save_checkpoint(self, integrator, out_dir: Path) -> None:
         h = self.history
@@ -191,13 +196,11 @@ class FictitiousDomainModel:
     def load_checkpoint(self, integrator, out_dir: Path) -> None:
         state = checkpoint.load(out_dir, self.flow.states, tolerance=1e-6 * self.domain.fine_size)
         if not math.isclose(state["dt"], self.dt, rel_tol=1e-12):
-            raise RunDiverged(f"the checkpoint in {out_dir} was made with dt = {state['dt']:g} s, "
-                              f"this scene gives {self.dt:g} s: the scene was changed")
+            raise CheckpointError(f"the checkpoint in {out_dir} was made with dt = {state['dt']:g} s, "
+                                  f"this scene gives {self.dt:g} s: the scene was changed")
         self.history = History(self.flow.bdf, list(state["velocities"]), list(state["interiors"]), step=state["step"])
-        integrator.load_state_dict(state["integrator"])
+        integrator.load_state_dict(state["integrator"])  # the run module has cut the trajectory back to it
         self.last_checkpoint = (state["step"], state["time"])
-        if self.comm.rank == 0:
-            checkpoint.truncate_trajectory(Path(out_dir) / "trajectory.csv", state["time"])
 
     def write_fields(self, model=None) -> None:
         self.fields.write(self.flow.now, self.time)

@@ -43,6 +43,7 @@ import scipy.linalg as sla
 from petsc4py import PETSc
 
 from ...run import RunDiverged
+from ...scene import SceneError
 from ...sphere import FluidForce
 from .body import SphereSurface
 from .delta import SUPPORT, interpolation_matrix
@@ -85,16 +86,47 @@ class ImmersedBoundaryModel:
         self.surface = SphereSurface(scene.sphere.radius, self.opts.point_spacing * h,
                                      self.opts.retraction * h, exclusion)
 
+        self._check_fits(scene)
+
+    def _check_fits(self, scene) -> None:
+        """The delta kernel around the sphere must fit the uniform region before the first step; when it
+        does not, the resolution (kernel width) or the region is wrong, not the run."""
+        grid, d = self.grid, scene.sphere.diameter
+        reach = SUPPORT * grid.h
+        r_pts, z_pts = self.surface.positions(scene.initial_gap)
+        z_low = z_pts.min() - reach
+        if grid.boundaries.bottom == WALL:
+            z_low = max(z_low, 0.0)
+        if not grid.in_fine_region(0.0, r_pts.max() + reach, z_low, z_pts.max() + reach):
+            raise SceneError(
+                f"numerics.ib: at {self.opts.cells_per_diameter:g} cells/D the delta kernel reaches "
+                f"{reach / d:.3g} D beyond the sphere's points (r up to {(r_pts.max() + reach) / d:.3g} D, "
+                f"z {z_low / d:.3g}..{(z_pts.max() + reach) / d:.3g} D), past the uniform region (r <= "
+                f"{grid.fine_r / d:.3g} D, z {grid.fine_z[0] / d:.3g}..{grid.fine_z[1] / d:.3g} D): raise "
+                "numerics.ib.cells_per_diameter, or numerics.ib.fine_radius and fine_margin")
+
+    def resolved_top(self) -> float:
+        """The height [m] the sphere's top may reach with its delta kernel still in the uniform region."""
+        return self.grid.fine_z[1] - SUPPORT * self.grid.h
+
     # -- pieces of a step ------------------------------------------------------------------------
-    def _check_inside(self, r: np.ndarray, z: np.ndarray, t: float) -> None:
+    def _check_inside(self, r: np.ndarray, z: np.ndarray, t: float, gap: float) -> None:
         reach = SUPPORT * self.grid.h
         z_low = z.min() - reach
         if self.grid.boundaries.bottom == WALL:
             z_low = max(z_low, 0.0)  # the kernel's mirror image handles the wall
-        if not self.grid.in_fine_region(0.0, r.max() + reach, z_low, z.max() + reach):
-            raise RunDiverged(f"t = {t:.5g} s: the sphere left the uniform grid region "
-                              f"(z = {z.min():.4g}..{z.max():.4g} m, fine region {self.grid.fine_z}); "
-                              "raise numerics.ib.fine_margin")
+        if self.grid.in_fine_region(0.0, r.max() + reach, z_low, z.max() + reach):
+            return
+        scene, d = self.scene, self.scene.sphere.diameter
+        if (scene.motion.mode == "free" and scene.sphere.density > scene.liquid.density
+                and gap > scene.initial_gap):
+            raise RunDiverged(f"t = {t:.5g} s: the sphere rose to gap {gap / d:.3g} D, above its release at "
+                              f"{scene.initial_gap / d:.3g} D, which a sphere heavier than the liquid cannot: the "
+                              "coupling went unstable (numerics.ib.coupling = \"explicit\" fails as rho_p / rho_l "
+                              "nears 1; use \"implicit\", or a smaller numerics.ib.cfl)")
+        raise RunDiverged(f"t = {t:.5g} s: the sphere and its delta kernel (z = {z_low / d:.3g}..{(z.max() + reach) / d:.3g} D) "
+                          f"left the uniform grid region (z = {self.grid.fine_z[0] / d:.3g}..{self.grid.fine_z[1] / d:.3g} D); "
+                          "raise numerics.ib.fine_margin")
 
     def run(self, integrator, progress, out_dir: Path | None = None, restart: bool = False) -> dict:
         if restart:
@@ -142,7 +174,7 @@ class ImmersedBoundaryModel:
         # 1. the points where the sphere will be
         gap_next = gap if mode == "fixed" else gap + dt * (1.5 * v - 0.5 * warm.v_old)
         r_pts, z_pts = self.surface.positions(gap_next)
-        self._check_inside(r_pts, z_pts, t)
+        self._check_inside(r_pts, z_pts, t, gap_next)
         active = self.surface.active(gap_next)
         n_act = int(active.sum())
         E = interpolation_matrix(grid, r_pts[active], z_pts[active])
