@@ -49,12 +49,12 @@ def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT,
     """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed."""
     run_dir = Path(root) / f"{scene.name}-{model}-{run_key(scene, model)}"
     summary = run_dir / "summary.json"
-    if not summary.exists():
+    if not summary.exists() or load_summary(run_dir).get("status", "").startswith(("interrupted", "failed")):
         try:
             simulate(scene, model, comm, run_dir, force=True, progress=progress, plots=False,
                      command=command or f"cached run of {scene.name} with {model}")
         except RunDiverged:
-            pass  # recorded in summary.json; a study classifies it
+            pass  # recorded in summary.json; a study classifies it (an interrupted or failed run is redone)
     return run_dir
 
 

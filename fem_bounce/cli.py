@@ -129,6 +129,7 @@ def _cmd_run(args) -> int:
         model = _restart_model(args.restart, args.model)
         scene = scenes.load(args.restart / "scene.toml")
         out = args.restart
+        models.get(model)
     else:
         scene = _scene_from_args(args.scene, args.overrides)
         model = args.model or models.default()
@@ -139,6 +140,7 @@ def _cmd_run(args) -> int:
         if out is None:
             base = Path("runs") / f"{scene.name}-{model}"
             out = comm.bcast(output.unused_directory(base) if comm.rank == 0 else None, root=0)
+    _route_warnings()
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     if comm.rank == 0:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
@@ -160,6 +162,7 @@ def _cmd_compare(args) -> int:
         raise models.ModelError("--models needs at least one model, e.g. --models ode,ib")
     for name in names:
         models.get(name)
+    _route_warnings()
     scene = _scene_from_args(args.scene, args.overrides)
     out = _out_path(args.out)
     if out is None:
@@ -268,6 +271,7 @@ def _cmd_study(args) -> int:
     model_names = (args.models if args.kind == "speed-accuracy" else args.model).split(",")
     for name in model_names:
         models.get(name)
+    _route_warnings()
     scene_name = getattr(args, "scene", None)
     out = _out_path(args.out) or Path("results") / "-".join(["study", args.kind, *([scene_name] if scene_name else []),
                                                    *model_names])
@@ -322,36 +326,46 @@ def _stability_sweeps(text: str | None, model: str) -> dict:
     return {k: v for k, v in stability.SWEEPS.items() if k in chosen}
 
 
+_RANK = 0  # this process's MPI rank: only rank 0 speaks
+
+
+def _say(text: str) -> None:
+    """One line on stderr, once under mpirun (every rank meets the same error)."""
+    if _RANK == 0:
+        print(f"fem-bounce: {text}", file=sys.stderr, flush=True)
+
+
+def _route_warnings() -> None:
+    """Warnings as one line each.  Again after importing a model: ffcx sends warnings to logging."""
+    warnings.showwarning = lambda message, *args, **kwargs: _say(f"warning: {message}")
+
+
 def main(argv: list[str] | None = None) -> int:
+    global _RANK
     from mpi4py import MPI
 
     from .run import Interrupts, RunFailed, RunInterrupted, signal_name
 
-    rank = MPI.COMM_WORLD.rank
+    _RANK = MPI.COMM_WORLD.rank
     args = _parser().parse_args(argv)
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
                "study": _cmd_study, "compare": _cmd_compare}[args.command]
-
-    def say(text: str) -> None:  # once under mpirun: every rank meets the same error
-        if rank == 0:
-            print(f"fem-bounce: {text}", file=sys.stderr, flush=True)
-
     graceful = args.command in ("run", "compare", "study")  # they stop between steps; the rest at once
-    with warnings.catch_warnings(), (Interrupts(announce=rank == 0) if graceful else contextlib.nullcontext()):
+    with warnings.catch_warnings(), (Interrupts(announce=_RANK == 0) if graceful else contextlib.nullcontext()):
         warnings.simplefilter("always")
-        warnings.showwarning = lambda message, *a, **k: say(f"warning: {message}")
+        _route_warnings()
         try:
             return command(args)
         except (scenes.SceneError, models.ModelError, output.OutputError) as err:
-            say(f"error: {err}")
+            _say(f"error: {err}")
             return 2
         except RunInterrupted as err:
-            say(str(err))
+            _say(str(err))
             return 128 + err.signum
         except RunFailed as err:
-            say(str(err) if str(err).startswith("diverged") else f"error: {err}")
+            _say(str(err) if str(err).startswith("diverged") else f"error: {err}")
             return 1
         except KeyboardInterrupt as err:
             signum = getattr(err, "signum", signal.SIGINT)
-            say(f"interrupted by {signal_name(signum)}")
+            _say(f"interrupted by {signal_name(signum)}")
             return 128 + signum

@@ -199,10 +199,10 @@ class TrajectoryWriter:
             return
         try:
             if continue_from is None:
-                self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+                self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)  # read: to cut a half row
                 self._write(",".join(TRAJECTORY_COLUMNS).encode() + b"\n")
             else:
-                self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
+                self._fd = os.open(self.path, os.O_RDWR | os.O_APPEND)
         except OSError as err:
             self._fail(err)
             raise self.failure from None

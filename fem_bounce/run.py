@@ -112,7 +112,7 @@ class Interrupts:
         if self.signum:
             raise StopNow(signum)
         self.signum = signum
-        if self.announce:
+        if self.announce and sys.stderr.isatty():  # a person at a terminal; logs get the one final line
             print(f"\nfem-bounce: {signal_name(signum)} received: stopping after this step (again to stop at once)",
                   file=sys.stderr, flush=True)
 
