@@ -33,13 +33,12 @@ def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = Fa
     diverged runs included (their summary.json says so and the comparison shows it)."""
     from .cache import cached_run
     from .plots import draw_run
+    from .run import on_root
 
     for name in names:
         models.get(name)  # an unknown or missing model fails before anything runs
     out_dir = Path(out_dir)
-    if comm.rank == 0:
-        output.prepare_directory(out_dir, force=force)
-    comm.barrier()
+    on_root(comm, lambda: output.prepare_directory(out_dir, force=force))  # a refusal stops every rank
     runs = []
     for name in names:
         finished = cached_run(scene, name, comm, progress=progress, command=command)

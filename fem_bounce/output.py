@@ -143,15 +143,25 @@ def sync_file(path: Path) -> None:
         os.close(fd)
 
 
+def _partial(path: Path) -> Path:
+    return path.with_name(f".{path.name}.partial")
+
+
 def atomic_write_text(path: Path, text: str) -> None:
-    """Write `text` to `path` whole or not at all (write beside, fsync, rename)."""
+    """Write `text` to `path` whole or not at all (write beside, fsync, rename).  Space reserved for
+    it beforehand (reserve_space) is written into, so the write succeeds on a disk that filled since."""
     path = Path(path)
-    partial = path.with_name(f".{path.name}.partial")
+    partial, data = _partial(path), text.encode()
     try:
-        with open(partial, "w") as stream:
-            stream.write(text)
-            stream.flush()
-            os.fsync(stream.fileno())
+        fd = os.open(partial, os.O_WRONLY | os.O_CREAT, 0o644)  # no O_TRUNC: keep reserved blocks
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+            os.ftruncate(fd, len(data))
+            os.fsync(fd)
+        finally:
+            os.close(fd)
         os.replace(partial, path)
     except OSError as err:
         with contextlib.suppress(OSError):
@@ -160,12 +170,37 @@ def atomic_write_text(path: Path, text: str) -> None:
     _sync_directory(path.parent)
 
 
+SUMMARY_RESERVE_BYTES = 1 << 16  # a summary is 3-10 kB, more with many impacts or remeshes
+
+
+def reserve_space(path: Path, size: int = SUMMARY_RESERVE_BYTES) -> None:
+    """Allocate the blocks of `path`'s next atomic write now, while there is room: the summary of a run
+    that filled the disk is still written."""
+    partial = _partial(Path(path))
+    try:
+        fd = os.open(partial, os.O_WRONLY | os.O_CREAT, 0o644)
+        try:
+            os.posix_fallocate(fd, 0, size)
+        finally:
+            os.close(fd)
+    except OSError as err:
+        with contextlib.suppress(OSError):
+            partial.unlink()
+        raise OutputError(f"cannot reserve {size // 1024} kB for {path}: {_reason(err)}") from None
+
+
 def write_summary(path: Path, data: dict) -> None:
     atomic_write_text(path, json.dumps(data, indent=2) + "\n")  # a killed run never leaves half a summary
 
 
 def write_scene(path: Path, scene) -> None:
     atomic_write_text(path, scenes.dumps(scene))
+
+
+def release_space(path: Path) -> None:
+    """Give back what reserve_space took, when the write it was for will not happen."""
+    with contextlib.suppress(OSError):
+        _partial(Path(path)).unlink()
 
 
 # -- the trajectory ---------------------------------------------------------------------------

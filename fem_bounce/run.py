@@ -24,6 +24,7 @@ written so far are kept whole.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import signal
 import sys
@@ -117,7 +118,7 @@ class Interrupts:
                   file=sys.stderr, flush=True)
 
 
-def _on_root(comm, action):
+def on_root(comm, action):
     """Run action on rank 0 and raise its exception on every rank, so all ranks fail alike; its
     result is returned on rank 0 (None elsewhere)."""
     error, result = None, None
@@ -353,14 +354,16 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
             warnings.warn(message, stacklevel=2)
     resumed = {"trajectory_rows": None, "wall_time_s": []}
     if out_dir is not None and restart:
-        resumed = comm.bcast(_on_root(comm, lambda: _resume(out_dir, scene, model)), root=0)
+        resumed = comm.bcast(on_root(comm, lambda: _resume(out_dir, scene, model)), root=0)
     elif out_dir is not None:
-        _on_root(comm, lambda: (output.prepare_directory(out_dir, force=force),
+        on_root(comm, lambda: (output.prepare_directory(out_dir, force=force),
                                 output.write_scene(out_dir / "scene.toml", scene)))
+    if out_dir is not None:
+        on_root(comm, lambda: output.reserve_space(out_dir / "summary.json"))
     interval = scene.numerics.ode.output_interval if model == "ode" else 0.0
     writer = None
     if out_dir is not None:
-        writer = _on_root(comm, lambda: output.TrajectoryWriter(out_dir / "trajectory.csv", interval,
+        writer = on_root(comm, lambda: output.TrajectoryWriter(out_dir / "trajectory.csv", interval,
                                                                  continue_from=resumed["trajectory_rows"]))
     record = _RunRecord(scene, model, writer, resumed["wall_time_s"])
     integrator.record = record
@@ -370,39 +373,36 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     bar = output.Progress(scene.run.end_time, scene.sphere.diameter, enabled=progress and root)
     monitor = _Monitor(bar, comm, interrupts, writer)
 
-    status, kind, message, signum = "completed", None, "", 0
+    status, message, signum = "completed", "", 0
     result: dict = {}
     try:
         result = solver.run(integrator, monitor, out_dir, restart) or {}
     except output.CheckpointError:
+        # the restart could not load its checkpoint: no summary for a run that never continued
         bar.close()
         if writer is not None:
-            try:
+            with contextlib.suppress(output.OutputError):
                 writer.close()
-            except output.OutputError:
-                pass  # the checkpoint's error is the one to report
-        raise  # the restart could not load its checkpoint: no summary for a run that never continued
+        on_root(comm, lambda: output.release_space(out_dir / "summary.json"))
+        raise
     except (PenetrationError, FloatingPointError, RunDiverged) as err:
-        status, kind, message = f"diverged: {err}", RunDiverged, str(err)
+        status, message = f"diverged: {err}", str(err)
     except RunInterrupted as err:
-        status, kind, message, signum = "interrupted", RunInterrupted, str(err), err.signum
+        status, message, signum = "interrupted", str(err), err.signum
     except KeyboardInterrupt as err:  # a second signal, or Ctrl-C with no Interrupts installed
         signum = getattr(err, "signum", signal.SIGINT)
-        status, kind = "interrupted", RunInterrupted
-        message = f"interrupted by {signal_name(signum)} at t = {integrator.time:.6g} s"
+        status, message = "interrupted", f"interrupted by {signal_name(signum)} at t = {integrator.time:.6g} s"
     except (RunFailed, output.OutputError) as err:
-        status, kind, message = f"failed: {err}", RunFailed, str(err)
+        status, message = f"failed: {err}", str(err)
     bar.close()
     if writer is not None:
         try:
             writer.close()
         except output.OutputError as err:
-            if kind is None:
-                status, kind, message = f"failed: {err}", RunFailed, str(err)
+            if status == "completed":
+                status, message = f"failed: {err}", str(err)
     # rank 0 alone writes, so rank 0's account of how the run ended is every rank's
     status, message, signum = comm.bcast((status, message, signum), root=0)
-    kind = {"completed": None, "interrupted": RunInterrupted}.get(status, RunDiverged if status.startswith("diverged")
-                                                                  else RunFailed)
 
     if status == "completed":
         if guards.stop_reason is not None:
@@ -421,27 +421,28 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     data = output.summary(scene, model, integrator, sum(resumed["wall_time_s"]) + wall,
                           result.get("steps", monitor.steps or integrator.steps), comm.size, command, status=status,
                           sizes=result.get("sizes"), extra=extra)
-    not_written = ""
+    unwritten = ""
     if out_dir is not None:
-        def write_outputs():
+        def write_outputs() -> str:
             output.write_summary(out_dir / "summary.json", data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 _draw(out_dir)  # not after an interruption (mpirun kills 1 s after its SIGTERM) nor a failure
             return _interruption_note(out_dir, model) if status == "interrupted" else ""
 
         try:
-            note = _on_root(comm, write_outputs)
+            message += on_root(comm, write_outputs) or ""  # rank 0's note; only rank 0 prints it
         except output.OutputError as err:
-            if kind is None:
+            if status == "completed":
                 raise RunFailed(str(err)) from None
-            note, not_written = "", f" ({err})"
-        message += note or ""  # rank 0's, and only rank 0 prints it
-    if kind is None:
+            unwritten = f" ({err})"
+    if status == "completed":
         return data
-    kept = f"; outputs kept in {out_dir}" if out_dir is not None and kind is not RunInterrupted else ""
-    if kind is RunInterrupted:
-        raise RunInterrupted(message + not_written, signum)
-    raise kind(f"{status}{kept}{not_written}" if kind is RunDiverged else f"{message}{kept}{not_written}")
+    if status == "interrupted":
+        raise RunInterrupted(message + unwritten, signum)
+    kept = f"; outputs kept in {out_dir}" if out_dir is not None else ""
+    if status.startswith("diverged"):
+        raise RunDiverged(f"{status}{kept}{unwritten}")
+    raise RunFailed(f"{message}{kept}{unwritten}")
 
 
 def _draw(out_dir: Path) -> None:

@@ -188,6 +188,30 @@ def test_disk_full_keeps_whole_rows_and_says_why(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
+def test_really_full_disk_when_a_tmpfs_can_be_mounted(tmp_path):
+    """The same on a real full file system (ENOSPC): a 200 kB tmpfs.  Needs the right to mount (root in
+    a privileged container); skipped otherwise.  The summary's space is reserved when the run starts."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=200k", "tmpfs", str(disk)], capture_output=True,
+                             text=True)
+    if mounted.returncode:
+        pytest.skip(f"cannot mount a tmpfs here: {mounted.stderr.strip()}")
+    try:
+        out = disk / "run"
+        process = spawn(["run", "li2011-case3", *ODE, "--set", "run.bounces=0", "--set", "run.end_time=5",
+                         "--out", str(out)], cwd=tmp_path)
+        _, err = process.communicate(timeout=120)
+        assert process.returncode == 1
+        assert_one_line(messages(err), f"error: cannot write {out / 'trajectory.csv'}: No space left on device")
+        assert len(whole_rows(out / "trajectory.csv")) > 0
+        assert json.loads((out / "summary.json").read_text())["status"].startswith("failed: cannot write")
+    finally:
+        subprocess.run(["umount", str(disk)], check=True)
+
+
 def test_kill_and_restart_loses_and_doubles_no_row(fd_run, tmp_path, capsys):
     """After SIGKILL and --restart, rows between the last buffer flush and the checkpoint were missing,
     and always the row at the checkpoint; the summary counted only the second segment's wall time."""
