@@ -196,9 +196,14 @@ class TheoryForces:
     def reynolds(self, velocity: float) -> float:
         return self._re_per_speed * abs(velocity)
 
+    def wall_factor(self, gap: float) -> float:
+        """lambda(delta): the quasi-steady Stokes drag near the wall over 6 pi mu a V (wall_drag)."""
+        return self._lambda(gap / self.diameter)
+
     def drag(self, gap: float, velocity: float) -> float:
-        """f_D = -6 pi mu a V lambda(delta) phi(Re), or with lambda + phi - 1 when additive [N]."""
-        wall, inertia = self._lambda(gap / self.diameter), self._inertia(self.reynolds(velocity))
+        """f_D = -6 pi mu a V (lambda(delta) + phi(Re) - 1) when additive, lambda(delta) phi(Re) when
+        multiplicative ("schiller-naumann") [N]."""
+        wall, inertia = self.wall_factor(gap), self._inertia(self.reynolds(velocity))
         factor = wall + inertia - 1.0 if self._additive else wall * inertia
         return -self.stokes_drag * velocity * factor
 
@@ -220,5 +225,7 @@ class TheoryForces:
         return (self.stokes_drag * wall) * history_weights(self._weights, self.reynolds(velocity))
 
     def history(self, gap: float, velocity: float, states: np.ndarray) -> float:
-        """f_H [N]."""
-        return -float(self.history_coefficients(gap, velocity) @ states) if self.history_on else 0.0
+        """f_H [N] (0 when the history force is off or its states are not carried)."""
+        if not self.history_on or len(states) == 0:
+            return 0.0
+        return -float(self.history_coefficients(gap, velocity) @ states)

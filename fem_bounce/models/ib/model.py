@@ -140,7 +140,9 @@ class ImmersedBoundaryModel:
         mode = scene.motion.mode
         t, v, gap, dt = integrator.time, integrator.velocity, integrator.gap, solver.dt
         # 1. the points where the sphere will be
-        gap_next = gap if mode == "fixed" else gap + dt * (1.5 * v - 0.5 * warm.v_old)
+        # a free sphere's flow stops at the contact model's hold gap (it adds what the flow misses below)
+        gap_next = gap if mode == "fixed" else max(gap + dt * (1.5 * v - 0.5 * warm.v_old),
+                                                   integrator.contact.hold_gap)
         r_pts, z_pts = self.surface.positions(gap_next)
         self._check_inside(r_pts, z_pts, t)
         active = self.surface.active(gap_next)
