@@ -16,7 +16,7 @@
   F(x) = (exp(-x) - exp(-1)) / (1 - exp(-1)) on [0, 1], zero beyond.
 
 With W_o fixed during one contact, f_ss depends on position only: it stores and
-returns energy, and all dissipation comes from the liquid (physics.md 2.2).
+returns energy, and all dissipation comes from the liquid (docs/physics.md section 2).
 """
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ impact speed; halved if the measured CFL number exceeds `max_cfl`):
    V_n at the points, and the forces f1 of a unit velocity (both by CG).  The
    flow is linear in the sphere's new velocity V': f = f0 + (V' - V_n) f1;
 4. hand the sphere integrator the resolved force linearised in its
-   acceleration (implicit coupling, physics.md section 4):
+   acceleration (implicit coupling, docs/physics.md section 5):
 
        f_sim = -F(f) + m_l dV/dt,   F(f) = 2 pi rho_l sum_k f_k,z
 
