@@ -60,12 +60,12 @@ def figure(rows: list[dict], ode: list[dict] | None, model: str, path: Path, dry
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    fig, ax = plt.subplots(figsize=(8, 5))
     st = np.geomspace(0.8, 2000, 200)
     ax.axvspan(0.8, NO_REBOUND_BELOW_ST, color="0.92", zorder=0)
-    ax.text(1.0, 0.55, "Joseph et al. (2001), Li et al. (2011):\nno rebound below St ~ 10", fontsize=7, color="0.3")
+    ax.text(0.9, 0.62, "Joseph et al. (2001),\nLi et al. (2011): no\nrebound below St ~ 10", fontsize=7, color="0.3")
     ax.axvspan(DRY_ABOVE_ST, 2000, color="0.95", zorder=0)
-    ax.text(DRY_ABOVE_ST * 1.05, 0.55, "e near the dry\nvalue (Joseph\net al. 2001)", fontsize=7, color="0.3")
+    ax.text(DRY_ABOVE_ST * 1.05, 0.62, "e near the\ndry value\n(Joseph et\nal. 2001)", fontsize=7, color="0.3")
     ax.semilogx(st, dry_restitution * np.exp(-35.0 / st), "k--", lw=1,
                 label=r"Legendre et al. (2006) fit to the experiments, $e_d\,e^{-35/St}$")
     ax.axhline(dry_restitution, color="0.5", ls=":", lw=1)
@@ -87,7 +87,7 @@ def figure(rows: list[dict], ode: list[dict] | None, model: str, path: Path, dry
     ax.set_ylabel("coefficient of restitution e")
     ax.set_xlim(0.8, 2000)
     ax.set_ylim(-0.03, 1.05)
-    ax.legend(fontsize=6.5, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    ax.legend(fontsize=7, loc="lower right", ncol=2)
     ax.set_title(f"Restitution against Stokes number, Table 3 sets released 0.5-7 D ({model})", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
