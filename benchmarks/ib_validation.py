@@ -4,7 +4,7 @@
     .venv/bin/python benchmarks/ib_validation.py drag case3      # some of them
     .venv/bin/python benchmarks/ib_validation.py --cells 48 drag # another resolution
 
-Checks (targets from physics.md section 5 and the issue):
+Checks (targets from the project's reference values and the issue):
   drag        fixed sphere, Re 100 and 200: Cd against 1.087 and 0.77 (3 %); recirculation length
   tencate     ten Cate E4: peak speed against 0.1226 m/s (3 %), rms deviation from the curve
   case3       Li case 3: first impact speed against 0.393 m/s (5 %), Re_II against 55 (10 %),

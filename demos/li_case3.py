@@ -3,7 +3,8 @@
 What it solves.  The paper's section 4 model with the resolved flow: a steel sphere
 (rho_p / rho_l = 6.5) released from rest 1.6 D above a Zerodur wall in 78 %
 glycerol.  The fd model resolves the flow around the falling and rebounding sphere;
-below delta_sl = 0.2 its force is blended with the near-wall theory f_thr, and the
+below delta_sl = 0.2 its flow holds the sphere there and the contact model adds the unresolved
+lubrication and wall added-mass forces (docs/physics.md), and the
 elastic force f_ss (delta_ss = 0.017) makes it rebound.  The run stops at the apex
 after the third impact (the preset's run.bounces).
 
@@ -16,10 +17,8 @@ Run (about 2 minutes at 16 cells per diameter on one core; `--toy` about 20 s):
 
 The checks at the end: at least two rebounds and the first impact speed within 15 % of
 Table 2 (required); the issue's targets, impact speed within 5 % and Re_II within 10 %,
-are reported as PASS or MISS.  Below delta_sl the impact is governed by the shared
-near-wall theory f_thr: with its default drag (Brenner's lambda times the Schiller-Naumann
-factor) V_i comes out 9 % low and Re_II 24 % low at 16 cells per diameter; with
-`--set contact.inertial_factor=none` V_i is 1 % low and Re_II 11 % high.
+are reported as PASS or MISS; docs/validation.md has the measured numbers at each
+resolution.
 """
 import argparse
 import json

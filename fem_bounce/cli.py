@@ -3,7 +3,7 @@
     fem-bounce run [SCENE] [--model M] [--set key=value ...] [--out DIR] [--force] [--restart DIR]
     fem-bounce scenes                  list the shipped scenes
     fem-bounce scenes show NAME        print a scene as TOML (it runs unchanged as a scene file)
-    fem-bounce restitution [...]       coefficient of restitution against impact Stokes number (ODE)
+    fem-bounce restitution [--model M] coefficient of restitution against impact Stokes number
     fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
     fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
@@ -60,12 +60,15 @@ def _parser() -> argparse.ArgumentParser:
     show.add_argument("action", nargs="?", choices=["list", "show"], default="list")
     show.add_argument("name", nargs="?")
 
-    rest = sub.add_parser("restitution", help="sweep impact Stokes number; draw e(St) (ODE model)")
-    rest.add_argument("--points", type=int, default=40, help="number of Stokes numbers, log-spaced (default 40)")
+    rest = sub.add_parser("restitution", help="e against impact Stokes number over the Table 3 sets (Fig. 13-14)")
+    rest.add_argument("--model", default="ode", help="any model (default ode)")
+    rest.add_argument("--points", type=int, default=None,
+                      help="Stokes numbers, log-spaced over 1-1000 (default 40 for ode, 12 otherwise)")
     rest.add_argument("--st-min", type=float, default=1.0)
     rest.add_argument("--st-max", type=float, default=1000.0)
-    rest.add_argument("--out", default="results/restitution", help="directory for CSV and PNG")
-    rest.add_argument("--force", action="store_true", help="replace an existing output directory")
+    rest.add_argument("--out", default=None, help="directory for CSV and PNG (default results/restitution-MODEL)")
+    rest.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                      help="override a value of every scene the sweep runs")
     study = sub.add_parser("study", help="studies that run many simulations (cached, resumable)")
     kinds = study.add_subparsers(dest="kind", required=True)
     conv = kinds.add_parser("convergence", help="resolution and time-step ladders, observed orders")
@@ -249,15 +252,20 @@ def _cmd_scenes(args) -> int:
 
 
 def _cmd_restitution(args) -> int:
-    from . import restitution
+    from mpi4py import MPI
 
-    if args.points < 2 or not 0 < args.st_min < args.st_max:
+    from .studies import restitution
+
+    points = args.points or (40 if args.model == "ode" else 12)
+    if points < 2 or not 0 < args.st_min < args.st_max:
         raise scenes.SceneError("restitution: need --points >= 2 and 0 < --st-min < --st-max")
-    out = _out_path(args.out)
-    output.prepare_directory(out, force=args.force)
-    results = restitution.sweep(restitution.log_targets(args.st_min, args.st_max, args.points))
-    restitution.write(results, out)
-    print(f"{len(results)} runs -> {out}/restitution.csv, {out}/restitution.png")
+    models.get(args.model)
+    out = _out_path(args.out) or Path("results") / f"restitution-{args.model}"
+    changes = dict(scenes.parse_override(text) for text in args.overrides)
+    comm = MPI.COMM_WORLD
+    rows = restitution.run(args.model, comm, out, points, (args.st_min, args.st_max), overrides=changes)
+    if comm.rank == 0:
+        print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.png")
     return 0
 
 
@@ -299,7 +307,7 @@ def _cmd_study(args) -> int:
         sweeps = _stability_sweeps(args.sweeps, args.model)
         studies.stability.run(scenes.load(args.scene, {"run.bounces": 1, **changes}), args.model, comm, out, sweeps)
     elif args.kind == "restitution":
-        studies.restitution.run(args.model, comm, out, args.points)
+        studies.restitution.run(args.model, comm, out, args.points, overrides=changes)
     else:
         studies.figures.run(args.model, comm, out, overrides=changes)
     if comm.rank == 0:
@@ -350,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
                "study": _cmd_study, "compare": _cmd_compare}[args.command]
-    graceful = args.command in ("run", "compare", "study")  # they stop between steps; the rest at once
+    graceful = args.command != "scenes"  # runs stop between two steps; listing scenes stops at once
     with warnings.catch_warnings(), (Interrupts(announce=_RANK == 0) if graceful else contextlib.nullcontext()):
         warnings.simplefilter("always")
         _route_warnings()

@@ -39,7 +39,7 @@ from . import __version__
 from . import scene as scenes
 
 TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_history", "f_added_mass", "f_theory",
-                      "f_sim", "blend", "f_liquid", "f_elastic")
+                      "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
 MARKER = ".fem-bounce-run"
 MARKER_TEXT = "fem-bounce run directory: `fem-bounce run --force` may replace everything in it.\n"
 

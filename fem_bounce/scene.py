@@ -144,14 +144,22 @@ class Container:
 
 @dataclass(frozen=True)
 class Contact:
-    """The paper's contact model (section 4) and the choices physics.md section 3 leaves open."""
+    """The contact model: the near-wall liquid force and the paper's elastic force (section 4), with the
+    choices the paper leaves open (docs/physics.md).
 
+    near_wall: how a resolved model's force meets the near-wall theory below delta_sl.
+      "correction" (default): the flow's sphere stops approaching at delta_sl and the unresolved part of
+      the lubrication force, -6 pi mu a V [lambda(delta) - lambda(delta_sl)], is added to the resolved
+      force (Costa et al. 2015, with the resolved geometry held);  "blend": the paper's eq. 4.5,
+      f_sl = H f_thr + (1 - H) f_sim.  The ODE model uses f_thr everywhere under either."""
+
+    near_wall: str = _choice("correction", "blend")
     delta_sl: float = _between(0.0, 0.5, 0.2, open_low=True,
                                note="the gap, in diameters, below which the contact model supplies the near-wall force")
     delta_ss: float = _positive(0.017)
     dry_restitution: float = _between(0.0, 1.0, 0.97)
     wall_drag: str = _choice("brenner", "simple")
-    inertial_factor: str = _choice("schiller-naumann", "additive", "none")
+    inertial_factor: str = _choice("additive", "schiller-naumann", "none")
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")

@@ -1,13 +1,16 @@
 """The sphere's equation of motion (paper eq. 4.10), advanced with PETSc TS.
 
-    m_p dV/dt = f_sl + f_ss - (m_p - m_l) g,    f_sl = H f_thr + (1 - H) f_sim,
+    m_p dV/dt = f_sl + f_ss - (m_p - m_l) g,
 
-with V positive away from the wall.  f_thr contains the added mass
--C_M(delta) m_l dV/dt and the history force, which depends on dV/dt through
-exponential modes z_i' = dV/dt - z_i / T_i (theory.history_modes).  A resolved
-model hands in its force for the coming fluid step linearised in the sphere's
-acceleration, f_sim = explicit - added_mass dV/dt (FluidForce), so the coupling
-is implicit and stays stable for light spheres.  Everything is written as one
+with V positive away from the wall and f_sl the near-wall liquid force of the
+contact model (contact.py): f_sim plus the unresolved lubrication below delta_sl
+(the default), the paper's blend H f_thr + (1 - H) f_sim, or f_thr alone (the ODE
+model).  f_thr contains the added mass -C_M(delta) m_l dV/dt and the history
+force, which depends on dV/dt through exponential modes z_i' = dV/dt - z_i / T_i
+(theory.history_modes); the modes are carried only where f_thr is used.  A
+resolved model hands in its force for the coming fluid step linearised in the
+sphere's acceleration, f_sim = explicit - added_mass dV/dt (FluidForce), so the
+coupling is implicit and stays stable for light spheres.  Everything is written as one
 implicit system G(t, y, y') = 0, y = [h, V, z_1..z_n], for an adaptive
 Rosenbrock-W integrator (TSROSW) whose steps sub-cycle inside a fluid step: the
 elastic contact lasts microseconds, a fluid step a millisecond.
@@ -32,6 +35,9 @@ from .contact import ContactModel
 from .scene import Scene, SceneError
 
 IMPACT_WINDOW = 2e-3  # s: the paper's impact speed is the mean over the 2 ms before the minimum gap
+# A rebound whose apex stays within this many elastic-layer thicknesses delta_ss D of the wall never left
+# the lubrication film: reported as no rebound (e = 0), as the experiments report it (docs/physics.md).
+REBOUND_MIN_APEX_IN_CONTACT_LAYERS = 3.0
 
 
 @dataclass(frozen=True)
@@ -58,8 +64,9 @@ class Impact:
 class Rebound:
     """What follows an impact.  `restitution` compares like with like as a camera sees it:
     rebound_speed (mean over the 2 ms after the minimum gap) / impact_speed (mean over the
-    2 ms before it, as the paper's Table 2).  `peak_restitution` is the ratio of the peak
-    speeds, after leaving contact and on approach (physics.md section 5)."""
+    2 ms before it, as the paper's Table 2), and 0 when the sphere did not rebound: its apex
+    stayed below REBOUND_MIN_APEX_IN_CONTACT_LAYERS delta_ss D (or it never left contact).
+    `peak_restitution` is the ratio of the peak speeds, after leaving contact and on approach."""
 
     restitution: float  # 0: no rebound
     rebound_speed: float  # mean over the 2 ms after the minimum gap [m/s], >= 0
@@ -67,6 +74,7 @@ class Rebound:
     peak_restitution: float
     apex_gap: float | None  # [m]; None when the sphere never left contact
     apex_time: float | None  # [s]
+    rebounded: bool = False  # the apex rose above the contact layer (see restitution)
 
 
 class PenetrationError(RuntimeError):
@@ -84,6 +92,7 @@ class SphereIntegrator:
         self.contact = contact or ContactModel(scene)
         self.theory = self.contact.theory
         self.resolved = resolved  # f_sim comes from a flow solver (else f_sim = f_thr)
+        self.uses_theory = not resolved or scene.contact.near_wall == "blend"  # f_thr enters the balance
         self.mode = scene.motion.mode
         self.sphere_mass = scene.sphere.mass
         self.weight = (scene.sphere.mass - scene.displaced_mass) * scene.gravity  # net, toward the wall
@@ -115,7 +124,7 @@ class SphereIntegrator:
     # -- the implicit system ------------------------------------------------------------
     @property
     def n(self) -> int:
-        return 2 + self.theory.n_history
+        return 2 + (self.theory.n_history if self.uses_theory else 0)
 
     def _build_ts(self) -> None:
         n = self.n
@@ -160,14 +169,25 @@ class SphereIntegrator:
     def _terms(self, h: float, v: float, z: np.ndarray) -> dict:
         """Every force term that does not need dV/dt [N], and C_M m_l [kg]."""
         th = self.theory
-        return dict(
-            blend=self.contact.blend(h) if self.resolved else 1.0,
+        terms = dict(
+            blend=self._theory_weight(h),
             c_m=th.added_mass(h)[0],
             drag=th.drag(h, v),
             history=th.history(h, v, z),
             am_velocity=th.added_mass_velocity_term(h, v),
             elastic=self.contact.elastic(h, self.hertz_force) if self.in_contact else 0.0,
         )
+        if self.resolved:
+            terms["correction"], terms["correction_mass"] = self.contact.correction(h, v)
+        else:
+            terms["correction"], terms["correction_mass"] = 0.0, 0.0
+        return terms
+
+    def _theory_weight(self, h: float) -> float:
+        """The weight of f_thr in f_sl: 1 without a resolved flow, H(delta) under the paper's blend."""
+        if not self.resolved:
+            return 1.0
+        return self.contact.blend(h) if self.uses_theory else 0.0
 
     def _balance(self, t: float, h: float, v: float, z: np.ndarray) -> tuple[float, float]:
         """(M, R): the equation of motion reads M dV/dt = R."""
@@ -178,7 +198,8 @@ class SphereIntegrator:
         fluid = self.fluid if self.resolved else FluidForce(0.0)
         mass = self.sphere_mass + blend * f["c_m"] + (1.0 - blend) * fluid.added_mass
         rhs = blend * (f["drag"] + f["history"] + f["am_velocity"]) + (1.0 - blend) * fluid.explicit
-        return mass, rhs + f["elastic"] - self.weight
+        mass += f["correction_mass"]
+        return mass, rhs + f["correction"] + f["elastic"] - self.weight
 
     def _ifunction(self, ts, t, y, ydot, f) -> None:
         h, v, *z = y.array_r
@@ -212,8 +233,7 @@ class SphereIntegrator:
         jac[1, 1] = (g1(h, v + dv, z) - base) / dv + a * mass
         if n > 2:
             if self.mode == "free":
-                blend = self.contact.blend(h) if self.resolved else 1.0
-                jac[1, 2:] = blend * self.theory.history_coefficients(h, v)
+                jac[1, 2:] = self._theory_weight(h) * self.theory.history_coefficients(h, v)
             jac[2:, 1] = -a
             jac[2:, 2:] = np.diag(a + 1.0 / self.theory.history_times)
         P.setValues(range(n), range(n), jac.ravel())
@@ -320,10 +340,12 @@ class SphereIntegrator:
         added_mass = -f["c_m"] * accel + f["am_velocity"]
         theory = f["drag"] + f["history"] + added_mass
         sim = self.fluid.explicit - self.fluid.added_mass * accel if self.resolved else theory
+        correction = f["correction"] - f["correction_mass"] * accel
         blend = f["blend"]
         return dict(t=t, gap=h, velocity=v, acceleration=accel, f_drag=f["drag"], f_history=f["history"],
                     f_added_mass=added_mass, f_theory=theory, f_sim=sim, blend=blend,
-                    f_liquid=blend * theory + (1.0 - blend) * sim, f_elastic=f["elastic"])
+                    f_liquid=blend * theory + (1.0 - blend) * sim + correction, f_elastic=f["elastic"],
+                    f_correction=correction)
 
     # -- driving it -----------------------------------------------------------------------------
     @property
@@ -369,13 +391,15 @@ class SphereIntegrator:
         """Close the records: 2 ms rebound means, and restitution 0 for an impact that never left contact."""
         if len(self.rebounds) < len(self.impacts) and not self._left_contact:
             self.rebounds.append(self._rebound(None, None))
+        min_apex = REBOUND_MIN_APEX_IN_CONTACT_LAYERS * self.contact.contact_gap
         for impact, rebound in zip(self.impacts, self.rebounds):
             if rebound.apex_gap is None:
                 continue
             t1 = min(impact.time + IMPACT_WINDOW, self._log_t[-1])
             speed = max((self._gap_at(t1) - impact.min_gap) / max(t1 - impact.time, 1e-300), 0.0)
             rebound.rebound_speed = speed
-            rebound.restitution = speed / impact.impact_speed
+            rebound.rebounded = bool(rebound.apex_gap > min_apex)
+            rebound.restitution = speed / impact.impact_speed if rebound.rebounded else 0.0
 
     # -- checkpoints ----------------------------------------------------------------------------
     def state_dict(self) -> dict:

@@ -1,16 +1,16 @@
 """Near-wall theory forces f_thr = f_D + f_H + f_AM (paper eq. 4.1-4.4).
 
 The paper takes the coefficient functions from Yang (2006), which is not
-available; physics.md section 3 gives the standard forms used here.  Each
+available; docs/physics.md section 3 gives the standard forms used here and why.  Each
 choice is named by a scene key of `[contact]` so its effect can be measured:
 
 - `wall_drag`: lambda(delta) = Brenner (1961) exact series ("brenner"), or
   1 + 1/(2 delta) ("simple").
-- `inertial_factor`: Schiller & Naumann (1933) phi(Re) = 1 + 0.15 Re^0.687 multiplying lambda
-  ("schiller-naumann"), or added to it, lambda(delta) + phi(Re) - 1 ("additive": the wall's excess
-  over Stokes drag is lubrication, viscous at gap Reynolds numbers rho V h / mu -> 0, where inertia
-  corrects it only at O(Re_gap) (Cox & Brenner 1967), so only the far-field part carries the inertial
-  correction), or "none".
+- `inertial_factor`: the Schiller & Naumann (1933) factor phi(Re) = 1 + 0.15 Re^0.687 added to lambda,
+  lambda(delta) + phi(Re) - 1 ("additive", the default: the wall's excess over Stokes drag is
+  lubrication, viscous at gap Reynolds numbers rho V h / mu -> 0, where inertia corrects it only at
+  O(Re_gap) (Cox & Brenner 1967), so only the free-sphere part carries the inertial factor), or
+  multiplying it, lambda phi ("schiller-naumann", the earlier default), or "none".
 - `added_mass`: the wall excess W of C_M = (1 + 3 W) / 2, first image
   W = 1 / (8 (1 + 2 delta)^3), or the exact image sum ("exact").
 - `history`: the Mei & Adrian (1992) kernel, or "off";
@@ -103,7 +103,7 @@ def exact_w(delta: float) -> tuple[float, float]:
     """Exact potential-flow wall excess and its derivative: the image sum
     W = sum_{n>=2} (sinh(alpha) / sinh(n alpha))^3, cosh(alpha) = 1 + 2 delta,
     so C_M = 1/2 + (3/2) W, which gives 1/2 + (3/2)(zeta(3) - 1) = 0.803 at contact
-    (Milne-Thomson 1968, section 16.51; matches physics.md's table to 4 digits)."""
+    (Milne-Thomson 1968, section 16.51; matches the tabulated C_M to 4 digits, tests/test_theory.py)."""
     if delta < 1e-9:  # touching (or a trial state past the wall)
         return 0.20205690315959429, 0.0  # zeta(3) - 1
     alpha = math.acosh(1.0 + 2.0 * delta)
@@ -118,7 +118,7 @@ def exact_w(delta: float) -> tuple[float, float]:
 
 
 def mei_adrian_kernel(sigma: np.ndarray, reynolds: float, c1: float = 2.0, c2: float = 0.105) -> np.ndarray:
-    """K(s) with sigma = s / tau_d, tau_d = D^2 / nu (physics.md section 3):
+    """K(s) with sigma = s / tau_d, tau_d = D^2 / nu (docs/physics.md section 3.2):
     K = {(4 pi sigma)^(1/(2 c1)) + (pi Re^3 sigma^2 / f_H^3)^(1/c1)}^(-c1), f_H = 0.75 + c2 Re.
     Short times give Basset's a / sqrt(pi nu s); long times decay as s^-2."""
     f_h = 0.75 + c2 * reynolds
@@ -137,7 +137,7 @@ def history_modes(modes_per_decade: int = 3, c1: float = 2.0, c2: float = 0.105)
     relative error on sigma in HISTORY_SPAN.  With these modes the history integral
     becomes ODE states z_i' = V' - z_i / (theta_i tau_d), so each step costs O(1)
     and an adaptive implicit integrator handles the 1/sqrt(s) singularity's stiffness.
-    (physics.md suggests van Hinsberg et al.'s window plus exponential tail; a pure
+    (van Hinsberg et al. 2011 use a window plus an exponential tail; a pure
     exponential sum fits the same kernel, to under 1 % here, and needs no fixed step.)
     """
     lo, hi = (math.log10(x) for x in HISTORY_SPAN)
@@ -196,9 +196,14 @@ class TheoryForces:
     def reynolds(self, velocity: float) -> float:
         return self._re_per_speed * abs(velocity)
 
+    def wall_factor(self, gap: float) -> float:
+        """lambda(delta): the quasi-steady Stokes drag near the wall over 6 pi mu a V (wall_drag)."""
+        return self._lambda(gap / self.diameter)
+
     def drag(self, gap: float, velocity: float) -> float:
-        """f_D = -6 pi mu a V lambda(delta) phi(Re), or with lambda + phi - 1 when additive [N]."""
-        wall, inertia = self._lambda(gap / self.diameter), self._inertia(self.reynolds(velocity))
+        """f_D = -6 pi mu a V (lambda(delta) + phi(Re) - 1) when additive, lambda(delta) phi(Re) when
+        multiplicative ("schiller-naumann") [N]."""
+        wall, inertia = self.wall_factor(gap), self._inertia(self.reynolds(velocity))
         factor = wall + inertia - 1.0 if self._additive else wall * inertia
         return -self.stokes_drag * velocity * factor
 
@@ -220,5 +225,7 @@ class TheoryForces:
         return (self.stokes_drag * wall) * history_weights(self._weights, self.reynolds(velocity))
 
     def history(self, gap: float, velocity: float, states: np.ndarray) -> float:
-        """f_H [N]."""
-        return -float(self.history_coefficients(gap, velocity) @ states) if self.history_on else 0.0
+        """f_H [N] (0 when the history force is off or its states are not carried)."""
+        if not self.history_on or len(states) == 0:
+            return 0.0
+        return -float(self.history_coefficients(gap, velocity) @ states)

@@ -1,4 +1,4 @@
-"""Near-wall theory forces against physics.md section 3 and the published tables."""
+"""Near-wall theory forces against docs/physics.md section 3 and the published tables."""
 import math
 
 import numpy as np
@@ -14,7 +14,7 @@ def test_brenner_series_and_table_match_published_values(row):
 
 
 def test_lubrication_asymptote_takes_over_near_contact():
-    # physics.md: below h/a = 1e-3 the Cox-Brenner asymptote agrees to 1e-4
+    # below h/a = 1e-3 the Cox-Brenner asymptote agrees to 1e-4
     for delta in (1e-4, 2e-4, 4e-4):
         assert theory.brenner_series(delta) == pytest.approx(theory.lubrication_lambda(delta), rel=1e-4)
     # and the table hands over to it continuously
@@ -32,7 +32,7 @@ def test_added_mass_limits():
     w_touch, _ = theory.first_image_w(0.0)
     assert 0.5 * (1 + 3 * w_far) == pytest.approx(0.5)
     assert 0.5 * (1 + 3 * w_touch) == pytest.approx(0.6875)  # 1/2 + 3/16
-    assert 0.5 * (1 + 3 * theory.exact_w(0.0)[0]) == pytest.approx(0.803, abs=5e-4)  # physics.md: -> 0.80
+    assert 0.5 * (1 + 3 * theory.exact_w(0.0)[0]) == pytest.approx(0.803, abs=5e-4)  # the image sum -> 0.803
 
 
 @pytest.mark.parametrize("delta,c_m", [(0.005, 0.7749), (0.01, 0.7565), (0.025, 0.7177), (0.05, 0.6756),

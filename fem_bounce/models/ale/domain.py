@@ -81,7 +81,9 @@ def domain_for(scene: Scene) -> AleDomain:
         raise SceneError(f"numerics.ale: the domain radius {size_r:g} m leaves no fluid beside the sphere")
     if center + radius + 2.0 * fine > size_z:
         raise SceneError(f"numerics.ale: the domain height {size_z:g} m leaves no fluid above the sphere")
-    hold_gap = ale.hold_delta * diameter
+    # under the contact model's correction the mesh stops at delta_sl (contact.py); otherwise at hold_delta
+    correcting = scene.contact.near_wall == "correction" and scene.motion.mode == "free"
+    hold_gap = (scene.contact.delta_sl if correcting else ale.hold_delta) * diameter
     if scene.motion.mode == "fixed" and scene.initial_gap < hold_gap:
         raise SceneError(f"numerics.ale.hold_delta = {ale.hold_delta:g} is above the held sphere's gap "
                          f"{scene.initial_gap / diameter:g} D: lower it")

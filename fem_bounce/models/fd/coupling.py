@@ -10,7 +10,7 @@ so that the fluid inside the sphere moves with the sphere on average:
     I(u~) + I(y0) + s I(y1) = U V_phi.
 
 The force of the fluid on the sphere is minus the immersed force plus the rate
-of change of the momentum of the fluid inside it (Uhlmann 2005; physics.md 4),
+of change of the momentum of the fluid inside it (Uhlmann 2005; docs/physics.md section 5),
 here the phi-weighted momentum rho I(u) = rho U V_phi, differentiated by the
 flow's BDF formula (BDF2: c = 3 / (2 dt), (3 I_{n+1} - 4 I_n + I_{n-1}) / (2 dt)
 = c (I_{n+1} - J) with J = (4 I_n - I_{n-1}) / 3, the momentum history):

@@ -121,13 +121,14 @@ class FictitiousDomainModel:
 
     # -- one step -------------------------------------------------------------------------
     def predicted_center(self, integrator) -> float:
-        """Where the sphere will be at t_{n+1} (AB2); held spheres stay put [m]."""
+        """Where the flow's sphere will be at t_{n+1} (AB2); held spheres stay put, and a free sphere's
+        flow stops at the contact model's hold gap (below it the contact model adds what it misses) [m]."""
         if self.scene.motion.mode == "fixed":
             return self.domain.center
         v = self.history.velocities
         mean_velocity = 1.5 * v[0] - 0.5 * v[1] if len(v) > 1 else v[0]
         center = self.scene.sphere.radius + integrator.gap + self.dt * mean_velocity
-        return max(center, self.scene.sphere.radius)  # never past the wall
+        return self.scene.sphere.radius + max(center - self.scene.sphere.radius, integrator.contact.hold_gap, 0.0)
 
     def step(self, integrator) -> None:
         flow, sphere, h = self.flow, self.sphere, self.history

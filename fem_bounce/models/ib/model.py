@@ -10,7 +10,7 @@ impact speed; halved if the measured CFL number exceeds `max_cfl`):
    V_n at the points, and the forces f1 of a unit velocity (both by CG).  The
    flow is linear in the sphere's new velocity V': f = f0 + (V' - V_n) f1;
 4. hand the sphere integrator the resolved force linearised in its
-   acceleration (implicit coupling, physics.md section 4):
+   acceleration (implicit coupling, docs/physics.md section 5):
 
        f_sim = -F(f) + m_l dV/dt,   F(f) = 2 pi rho_l sum_k f_k,z
 
@@ -172,7 +172,9 @@ class ImmersedBoundaryModel:
         mode = scene.motion.mode
         t, v, gap, dt = integrator.time, integrator.velocity, integrator.gap, solver.dt
         # 1. the points where the sphere will be
-        gap_next = gap if mode == "fixed" else gap + dt * (1.5 * v - 0.5 * warm.v_old)
+        # a free sphere's flow stops at the contact model's hold gap (it adds what the flow misses below)
+        gap_next = gap if mode == "fixed" else max(gap + dt * (1.5 * v - 0.5 * warm.v_old),
+                                                   integrator.contact.hold_gap)
         r_pts, z_pts = self.surface.positions(gap_next)
         self._check_inside(r_pts, z_pts, t, gap_next)
         active = self.surface.active(gap_next)

@@ -1,0 +1,334 @@
+"""The near-wall force (issue 11): a converged resolved reference, insensitivity to delta_sl, Fig. 7, delta_ss.
+
+    python benchmarks/near_wall.py reference [--cases 1,3,4,7]   # ALE, delta_sl = 0.05, mesh and dt ladders  ~3 h
+    python benchmarks/near_wall.py insensitivity [--models ale,fd,ib]   # case 3, delta_sl = 0.1 / 0.2 / 0.3   ~1 h
+    python benchmarks/near_wall.py fig7                         # f_thr against the converged ALE force (Fig. 7) ~20 min
+    python benchmarks/near_wall.py dss [--model ale]            # cases 1-2 (St 20-40) against delta_ss (Fig. 12b)
+
+Each simulation is a `fem-bounce run` in its own process (`--jobs N` runs N at once; the machine has two
+cores), its run directory under results/near_wall/<study>/runs/ reused unless --force.  Each study writes
+a Markdown table and JSON under results/near_wall/<study>/ and appends its rows, with date, machine and
+commit, to benchmarks/history/near_wall.json.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from fem_bounce import plots, reference, theory
+from fem_bounce import scene as scenes
+
+ROOT = Path("results") / "near_wall"
+HISTORY = Path(__file__).parent / "history" / "near_wall.json"
+CFL = "numerics.ale.cfl"
+CELLS = {"ale": "numerics.ale.cells_per_diameter", "fd": "numerics.fd.cells_per_diameter",
+         "ib": "numerics.ib.cells_per_diameter"}
+
+
+def say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def run(study: str, name: str, scene: str, model: str, changes: dict, force: bool) -> Path:
+    """A `fem-bounce run` of `model` on the preset with `changes`, unless its directory has a summary."""
+    run_dir = ROOT / study / "runs" / name
+    if force or not (run_dir / "summary.json").exists():
+        command = [sys.executable, "-m", "fem_bounce", "run", scene, "--model", model, "--out", str(run_dir),
+                   "--force", "--quiet"]
+        for key, value in changes.items():
+            command += ["--set", f"{key}={value}"]
+        start = time.perf_counter()
+        done = subprocess.run(command, capture_output=True, text=True)
+        say(f"  {study}/{name}: {time.perf_counter() - start:.0f} s"
+            + ("" if done.returncode == 0 else f", exit {done.returncode}: {done.stderr.strip()[-300:]}"))
+    return run_dir
+
+
+def run_all(study: str, jobs: list[tuple], args) -> dict[str, Path]:
+    """Run (name, scene, model, changes) tuples, `args.jobs` at a time; name -> run directory."""
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        futures = {name: pool.submit(run, study, name, sc, model, changes, args.force)
+                   for name, sc, model, changes in jobs}
+    return {name: future.result() for name, future in futures.items()}
+
+
+def measures(run_dir: Path) -> dict:
+    """V_i, Re_I, Re_II, first restitution and apex of a run [SI]."""
+    summary = json.loads((run_dir / "summary.json").read_text())
+    impacts, rebounds = summary["impacts"], summary["rebounds"]
+    found = {"status": summary["status"], "wall_time_s": summary["wall_time_s"], "steps": summary["steps"]}
+    if impacts:
+        found.update(V_i=impacts[0]["impact_speed"], Re_I=impacts[0]["Re"])
+    if len(impacts) > 1:
+        found["Re_II"] = impacts[1]["Re"]
+    if rebounds:
+        found.update(e_1=rebounds[0]["restitution"], apex_1=rebounds[0]["apex_gap"])
+    return found
+
+
+def commit() -> str:
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                              cwd=Path(__file__).parent).stdout.strip()
+    except OSError:
+        return "?"
+
+
+def record(study: str, rows: list[dict], table: str) -> None:
+    folder = ROOT / study
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{study}.md").write_text(table)
+    entry = {"study": study, "date": time.strftime("%Y-%m-%d"), "machine": platform.node(), "commit": commit(),
+             "rows": rows}
+    (folder / f"{study}.json").write_text(json.dumps(entry, indent=1) + "\n")
+    history = json.loads(HISTORY.read_text()) if HISTORY.exists() else []
+    HISTORY.write_text(json.dumps(history + [entry], indent=1) + "\n")
+    print(table)
+
+
+def fmt(value, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def change(a: float | None, b: float | None) -> float | None:
+    return None if a is None or b is None else 100.0 * (a / b - 1.0)
+
+
+# -- the resolved reference -----------------------------------------------------------------------------
+
+REFERENCE_DELTA_SL = 0.05
+MESH_LADDER = (8, 16, 24)  # cells per diameter, at cfl 0.125
+CFL_LADDER = (0.25, 0.125, 0.0625)  # at 16 cells per diameter
+
+
+def reference_runs(case: int) -> list[tuple]:
+    base = {"contact.delta_sl": REFERENCE_DELTA_SL, "run.bounces": 2}
+    jobs = [(f"case{case}-ale{n}-cfl0.125", f"li2011-case{case}", "ale", {**base, CELLS["ale"]: n, CFL: 0.125})
+            for n in MESH_LADDER]
+    jobs += [(f"case{case}-ale16-cfl{c}", f"li2011-case{case}", "ale", {**base, CELLS["ale"]: 16, CFL: c})
+             for c in CFL_LADDER if c != 0.125]
+    return jobs
+
+
+def reference_study(args) -> None:
+    """ALE with delta_sl = 0.05: a mesh ladder at cfl 0.125 and a time-step ladder at 16 cells/D; the
+    finest of each is the reference, converged when its two finest levels agree within 0.5 %."""
+    cases = [int(c) for c in args.cases.split(",")]
+    jobs = [job for case in cases for job in reference_runs(case)]
+    if args.case3_delta:
+        jobs.append(("case3-ale16-cfl0.125-dsl0.025", "li2011-case3", "ale",
+                     {"contact.delta_sl": 0.025, "run.bounces": 2, CELLS["ale"]: 16, CFL: 0.125}))
+    dirs = run_all("reference", jobs, args)
+    measured = {int(r["case"]): r for r in reference.table("li2011_table2_experiments")}
+    rows, lines = [], ["| case | ladder | level | V_i (m/s) | Re_I | Re_II | e_1 | apex / D | steps | wall time |",
+                       "|---|---|---|---|---|---|---|---|---|---|"]
+    diameter = scenes.load("li2011-case3").sphere.diameter
+    for name, run_dir in dirs.items():
+        found = measures(run_dir)
+        case = int(name.split("-")[0][4:])
+        rows.append({"name": name, "case": case, **found})
+        lines.append(f"| {case} | {name.split('-', 1)[1]} | | {fmt(found.get('V_i'), '.4f')} | "
+                     f"{fmt(found.get('Re_I'), '.2f')} | {fmt(found.get('Re_II'), '.2f')} | {fmt(found.get('e_1'), '.3f')} | "
+                     f"{fmt(found.get('apex_1', 0) / diameter, '.4f')} | {found['steps']} | {found['wall_time_s']:.0f} s |")
+    lines += ["", "Convergence (the two finest levels of each ladder) and the reference against Table 2:", "",
+              "| case | mesh 16 -> 24: V_i, Re_II | dt (cfl 0.125 -> 0.0625): V_i, Re_II | reference V_i | Re_I | Re_II | "
+              "e_1 | V_i vs Table 2 | Re_II vs Table 2 |", "|---|---|---|---|---|---|---|---|---|"]
+    by_name = {r["name"]: r for r in rows}
+    for case in cases:
+        fine, mid = by_name.get(f"case{case}-ale24-cfl0.125", {}), by_name.get(f"case{case}-ale16-cfl0.125", {})
+        small = by_name.get(f"case{case}-ale16-cfl0.0625", {})
+        ref = measured[case]
+        lines.append(
+            f"| {case} | {fmt(change(fine.get('V_i'), mid.get('V_i')), '+.2f')} %, "
+            f"{fmt(change(fine.get('Re_II'), mid.get('Re_II')), '+.2f')} % | "
+            f"{fmt(change(small.get('V_i'), mid.get('V_i')), '+.2f')} %, "
+            f"{fmt(change(small.get('Re_II'), mid.get('Re_II')), '+.2f')} % | {fmt(fine.get('V_i'), '.4f')} | "
+            f"{fmt(fine.get('Re_I'), '.1f')} | {fmt(fine.get('Re_II'), '.1f')} | {fmt(fine.get('e_1'), '.3f')} | "
+            f"{fmt(change(fine.get('V_i'), ref['V_i_m_per_s']), '+.1f')} % | "
+            f"{fmt(change(fine.get('Re_II'), ref['Re_II']), '+.1f')} % |")
+    record("reference", rows, "\n".join(lines) + "\n")
+
+
+# -- insensitivity to delta_sl ---------------------------------------------------------------------------
+
+INSENSITIVITY_DELTA_SL = (0.1, 0.2, 0.3)
+INSENSITIVITY_SETTINGS = {"ale": {CELLS["ale"]: 16, CFL: 0.125}, "fd": {}, "ib": {}}
+
+
+def insensitivity_study(args) -> None:
+    """Case 3 with each resolved model at delta_sl = 0.1, 0.2, 0.3, under the default correction and, for
+    comparison, the paper's blend."""
+    models = args.models.split(",")
+    modes = args.modes.split(",")
+    jobs = []
+    for model in models:
+        settings = {**INSENSITIVITY_SETTINGS.get(model, {}), **dict(scenes.parse_override(t) for t in args.overrides)}
+        for mode in modes:
+            for delta_sl in INSENSITIVITY_DELTA_SL:
+                jobs.append((f"{model}-{mode}-dsl{delta_sl}", "li2011-case3", model,
+                             {**settings, "contact.near_wall": mode, "contact.delta_sl": delta_sl, "run.bounces": 2}))
+    dirs = run_all("insensitivity", jobs, args)
+    rows = [{"name": name, **measures(d)} for name, d in dirs.items()]
+    lines = ["| model | near_wall | delta_sl | V_i (m/s) | Re_I | Re_II | e_1 | wall time |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        model, mode, dsl = r["name"].split("-")
+        lines.append(f"| {model} | {mode} | {dsl[3:]} | {fmt(r.get('V_i'), '.4f')} | {fmt(r.get('Re_I'), '.2f')} | "
+                     f"{fmt(r.get('Re_II'), '.2f')} | {fmt(r.get('e_1'), '.3f')} | {r['wall_time_s']:.0f} s |")
+    lines += ["", "Change from delta_sl = 0.1 to 0.3 (targets: V_i < 1 %, Re_II < 3 %):", "",
+              "| model | near_wall | V_i | Re_II |", "|---|---|---|---|"]
+    by_name = {r["name"]: r for r in rows}
+    for model in models:
+        for mode in modes:
+            lo, hi = by_name[f"{model}-{mode}-dsl0.1"], by_name[f"{model}-{mode}-dsl0.3"]
+            lines.append(f"| {model} | {mode} | {fmt(change(hi.get('V_i'), lo.get('V_i')), '+.2f')} % | "
+                         f"{fmt(change(hi.get('Re_II'), lo.get('Re_II')), '+.2f')} % |")
+    record("insensitivity", rows, "\n".join(lines) + "\n")
+
+
+# -- Fig. 7: the theory force against the converged resolved force ---------------------------------------
+
+def fig7_study(args) -> None:
+    """The paper's Fig. 7.  The case-3 approach (the ODE model's path to its first contact) is prescribed;
+    the ALE model resolves the flow along it at two meshes and two steps (no hold, near_wall = blend so
+    that the runs carry f_thr's history modes); f_thr is the default theory force along the same path."""
+    import csv
+
+    folder = ROOT / "fig7"
+    folder.mkdir(parents=True, exist_ok=True)
+    ode_dir = run("fig7", "ode", "li2011-case3", "ode", {"run.bounces": 1}, args.force)
+    ode = plots.read_trajectory(ode_dir)
+    sc = scenes.load("li2011-case3")
+    diameter = sc.sphere.diameter
+    series_end = float(ode["t"][np.argmax(ode["gap"] <= sc.contact.delta_ss * diameter)])
+    end = float(ode["t"][np.argmax(ode["gap"] <= 0.03 * diameter)])
+    keep = ode["t"] <= series_end
+    series = (folder / "case3-approach.csv").resolve()
+    with open(series, "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["t", "velocity"])
+        writer.writerows(zip(ode["t"][keep], ode["velocity"][keep]))
+    path = {"motion.mode": "prescribed", "motion.series": str(series), "run.end_time": end, "run.bounces": 0,
+            "contact.near_wall": "blend", "numerics.ale.hold_delta": 0.01}
+    variants = {"ale16": {CELLS["ale"]: 16, CFL: 0.125}, "ale24": {CELLS["ale"]: 24, CFL: 0.125},
+                "ale16-dt/2": {CELLS["ale"]: 16, CFL: 0.0625}}
+    if args.fd:
+        variants["fd"] = {}
+    jobs = [(name.replace("/", "-"), "li2011-case3", "fd" if name == "fd" else "ale", {**path, **extra})
+            for name, extra in variants.items()]
+    dirs = run_all("fig7", jobs, args)
+    unit = sc.displaced_mass * sc.gravity  # the paper's force unit (4/3) pi a^3 rho_l g
+    curves = {name: plots.read_trajectory(d) for name, d in dirs.items()}
+    along = curves[next(iter(curves))]  # every run follows the same path: f_thr from any of them
+    stokes_unit = 6.0 * math.pi * sc.liquid.viscosity * sc.sphere.radius
+    stokes = np.array([-stokes_unit * v * theory.brenner_lambda(h / diameter)
+                       for h, v in zip(along["gap"], along["velocity"])])
+    multiplied = scenes.load("li2011-case3", {"contact.inertial_factor": "schiller-naumann"})
+    old_drag = theory.TheoryForces(multiplied)
+    f_thr_old = along["f_theory"] - along["f_drag"] + np.array([old_drag.drag(h, v) for h, v in
+                                                                 zip(along["gap"], along["velocity"])])
+
+    def at(delta, data, values):
+        return float(np.interp(delta, data["gap"][::-1] / diameter, values[::-1])) / unit
+
+    reference_run = "ale24"
+    rows, lines = [], ["| delta | f_thr (default) | f_thr, Schiller-Naumann multiplied | Brenner Stokes drag | "
+                       + " | ".join(f"f_sim {n}" for n in curves) + f" | f_thr / f_sim {reference_run} |",
+                       "|---|---|---|---|" + "---|" * len(curves) + "---|"]
+    for delta in (1.0, 0.5, 0.35, 0.25, 0.2, 0.15, 0.1, 0.07, 0.05, 0.04):
+        values = {n: at(delta, c, c["f_sim"]) for n, c in curves.items()}
+        thr = at(delta, along, along["f_theory"])
+        rows.append({"delta": delta, "f_thr": thr, "f_thr_multiplied": at(delta, along, f_thr_old),
+                     "stokes": at(delta, along, stokes), **{f"f_sim_{n}": v for n, v in values.items()}})
+        lines.append(f"| {delta:g} | {thr:.3f} | {at(delta, along, f_thr_old):.3f} | {at(delta, along, stokes):.3f} | "
+                     + " | ".join(f"{v:.3f}" for v in values.values())
+                     + f" | {thr / values[reference_run]:.3f} |")
+    lines.append("\nForces in units of (4/3) pi a^3 rho_l g, positive away from the wall.")
+    record("fig7", rows, "\n".join(lines) + "\n")
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.8, 4.6))
+    delta = along["gap"] / diameter
+    ax.plot(delta, along["f_theory"] / unit, "k-", lw=1.6, label=r"$f_{thr}$, default (additive inertia)")
+    ax.plot(delta, f_thr_old / unit, "k:", lw=1.2, label=r"$f_{thr}$, Brenner $\times$ Schiller-Naumann (before)")
+    ax.plot(delta, stokes / unit, "k--", lw=1.0, label=r"$6\pi\mu a|V|\lambda_{Brenner}$ (Stokes)")
+    lubrication = -stokes_unit * along["velocity"] * 0.5 / np.maximum(delta, 1e-9) / unit
+    ax.plot(delta, lubrication, color="0.6", lw=0.8, label=r"lubrication limit $6\pi\mu a|V|/(2\delta)$")
+    colors = {"ale16": "C0", "ale24": "C1", "ale16-dt/2": "C2", "fd": "C3"}
+    for name, data in curves.items():
+        ax.plot(data["gap"] / diameter, data["f_sim"] / unit, color=colors.get(name, "C4"), lw=1.2,
+                label=rf"$f_{{sim}}$ {name}")
+    ax.axvspan(0.1, 0.35, color="0.93", zorder=0, label="where the paper found overlap")
+    ax.set_xlim(0.0, 1.0)
+    ax.set_ylim(0.0, 1.25 * at(0.04, along, along["f_theory"]))
+    ax.set_xlabel(r"$\delta = h/D$")
+    ax.set_ylabel(r"force $/ (\frac{4}{3}\pi a^3 \rho_l g)$")
+    ax.set_title("Fig. 7 of Li et al. (2011): case-3 approach prescribed", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(folder / "fig7.png", dpi=130)
+    plt.close(fig)
+    say(f"figure: {folder / 'fig7.png'}")
+
+
+# -- delta_ss at low Stokes number (Fig. 12b) ------------------------------------------------------------
+
+DSS_FACTORS = (0.9, 1.0, 1.05, 1.1)
+
+
+def dss_study(args) -> None:
+    """Cases 1 and 2 (second impacts at St 20-30) with delta_ss = 0.017 times each factor: the error of the
+    rebound apex and of Re_II against Table 2, as the paper's Fig. 12(b)."""
+    model = args.model
+    settings = {"ale": {CELLS["ale"]: 16, CFL: 0.125}}.get(model, {})
+    jobs = [(f"case{case}-{model}-dss{factor}", f"li2011-case{case}", model,
+             {**settings, "contact.delta_ss": round(0.017 * factor, 6), "run.bounces": 2})
+            for case in (1, 2) for factor in DSS_FACTORS]
+    dirs = run_all("dss", jobs, args)
+    measured = {int(r["case"]): r for r in reference.table("li2011_table2_experiments")}
+    rows, lines = [], ["| case | delta_ss | V_i | Re_I | Re_II | Re_II vs Table 2 | e_1 | St of 2nd impact |",
+                       "|---|---|---|---|---|---|---|---|"]
+    for name, run_dir in dirs.items():
+        case, factor = int(name.split("-")[0][4:]), float(name.rsplit("dss", 1)[1])
+        found = measures(run_dir)
+        summary = json.loads((run_dir / "summary.json").read_text())
+        st_2 = summary["impacts"][1]["St"] if len(summary["impacts"]) > 1 else None
+        rows.append({"name": name, "case": case, "delta_ss_factor": factor, **found, "St_II": st_2})
+        lines.append(f"| {case} | 0.017 x {factor:g} | {fmt(found.get('V_i'), '.4f')} | {fmt(found.get('Re_I'), '.1f')} | "
+                     f"{fmt(found.get('Re_II'), '.1f')} | {fmt(change(found.get('Re_II'), measured[case]['Re_II']), '+.1f')} % | "
+                     f"{fmt(found.get('e_1'), '.3f')} | {fmt(st_2, '.1f')} |")
+    record("dss", rows, "\n".join(lines) + "\n")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("study", choices=["reference", "insensitivity", "fig7", "dss"])
+    parser.add_argument("--jobs", type=int, default=1, help="simulations at once (default 1)")
+    parser.add_argument("--force", action="store_true", help="re-run simulations that have a summary")
+    parser.add_argument("--cases", default="1,3,4,7", help="reference: Table 2 cases")
+    parser.add_argument("--case3-delta", action="store_true", help="reference: also case 3 at delta_sl = 0.025")
+    parser.add_argument("--models", default="ale,fd,ib", help="insensitivity: resolved models")
+    parser.add_argument("--modes", default="correction,blend", help="insensitivity: contact.near_wall values")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                        help="insensitivity: extra scene values for every run")
+    parser.add_argument("--fd", action="store_true", help="fig7: also the fd model along the same path")
+    parser.add_argument("--model", default="ale", help="dss: the model")
+    args = parser.parse_args()
+    {"reference": reference_study, "insensitivity": insensitivity_study, "fig7": fig7_study,
+     "dss": dss_study}[args.study](args)
+
+
+if __name__ == "__main__":
+    main()
