@@ -387,8 +387,9 @@ def test_light_sphere_runs_with_a_warning_and_a_stated_stop(tmp_path, capsys):
                     "the run stops when it has risen 10 D above its release")
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "completed" and "risen 10 D" in summary["stop_reason"] and not summary["impacts"]
-    d, h0 = 0.0095, 0.0152
-    assert summary["final"]["gap"] == pytest.approx(h0 + 10 * d, rel=1e-3)
+    d, h0, final = 0.0095, 0.0152, summary["final"]
+    longest_step = 0.02 * (d / 9.81) ** 0.5  # the integrator's largest step, sphere_ts_adapt_dt_max
+    assert h0 + 10 * d <= final["gap"] <= h0 + 10 * d + abs(final["velocity"]) * longest_step
 
 
 def test_light_sphere_stops_at_the_top_of_the_fd_refined_region(tmp_path, capsys):
