@@ -22,7 +22,7 @@ from fem_bounce import scene
 from fem_bounce.sphere import SphereIntegrator
 
 RATIO_OFFSETS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7)
-MAX_STEPS = 200_000
+MAX_STEPS = 50_000
 
 
 def run(offset: float) -> dict:

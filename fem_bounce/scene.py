@@ -32,7 +32,8 @@ AXISYMMETRIC_RE_LIMIT = 250.0  # paper section 2.1: axisymmetric flow below Re ~
 MAX_GAP_DIAMETERS = 1e10
 # A free sphere released from rest this close to neutral buoyancy barely moves: its velocity stays inside
 # the integrator's event tolerance for ~0.015 / |ratio - 1| steps of 1e-7 sqrt(D/g) (measured: 1e-6 took
-# 6,300 steps where 1e-5 took 970 on li2011-case3; ratio 1 never ends).
+# 6,314 steps where 1e-5 took 966 on li2011-case3; 1e-7 reached 0.19 ms in 50,000; ratio 1 never ends:
+# benchmarks/neutral_buoyancy.py).
 NEUTRAL_BUOYANCY = 1e-5
 _PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f.][^/\\\x00-\x1f]{0,99}")
 
