@@ -196,8 +196,8 @@ def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | Non
         raise scenes.SceneError(f"--accuracy {accuracy}: no recorded setting reaches it for {scene.name}")
     if requested and requested != pick["model"]:
         raise models.ModelError(f"--accuracy {accuracy} picks the {pick['model']} model, not {requested}")
-    print(f"fem-bounce: --accuracy {key}: {pick['model']} with {pick['setting']} "
-          f"(recorded error {pick['error']:.2%} on {', '.join(pick['quantities'])})", file=sys.stderr)
+    _say(f"--accuracy {key}: {pick['model']} with {pick['setting']} "
+         f"(recorded error {pick['error']:.2%} on {', '.join(pick['quantities'])})")
     return scene.replace(**pick["setting"]), pick["model"]
 
 
@@ -221,8 +221,8 @@ def _number(value: float, decimals: int = 1) -> str:
 
 
 def _print_records(summary: dict) -> None:
-    print(f"{summary['status']} in {summary['wall_time_s']:.2f} s, {summary['steps']} steps; "
-          f"stopped at {summary.get('stop_reason')}")
+    print(f"{summary['status']} in {summary['wall_time_s']:.2f} s, {summary['steps']} steps "
+          f"(stop: {summary.get('stop_reason')})")
     diameter = summary["scene"]["sphere"]["diameter"]
     if not summary["impacts"]:
         print(f"no impact: the sphere ended {summary['final']['gap'] / diameter:.4g} D above the wall "
