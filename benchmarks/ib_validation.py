@@ -175,6 +175,7 @@ def cost_at(cells: int, steps: int = 40) -> dict:
     projected cost of case 3's first bounce there (steps scale with cells per diameter)."""
     from fem_bounce.contact import ContactModel
     from fem_bounce.models.ib import ImmersedBoundaryModel
+    from fem_bounce.run import Controller
     from fem_bounce.sphere import SphereIntegrator
 
     sc = scene.load("li2011-case3", {"numerics.ib.cells_per_diameter": cells})
@@ -183,7 +184,7 @@ def cost_at(cells: int, steps: int = 40) -> dict:
     sc_short = sc.replace(**{"run.end_time": steps * model.dt})
     model = ImmersedBoundaryModel(sc_short, COMM)
     integrator = SphereIntegrator(sc_short, ContactModel(sc_short), resolved=True)
-    result = model.run(integrator, lambda *a: None)
+    result = Controller(model, integrator).run()
     wall = time.perf_counter() - start
     return {"cells_per_diameter": cells, "unknowns": result["sizes"]["unknowns"], "dt": model.dt,
             "steps_measured": result["steps"], "wall_time_s": round(wall, 2),

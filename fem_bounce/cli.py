@@ -82,7 +82,8 @@ def _parser() -> argparse.ArgumentParser:
     speed.add_argument("--levels", action="append", default=[], metavar="MODEL=V1,V2,...",
                        help="resolutions of one model (default: its ladder); repeat per model")
     speed.add_argument("--record", action="store_true",
-                       help="store the recommendations in the package for `run --accuracy`")
+                       help="store the recommendations in --out (default results/) for `run --accuracy`, which reads "
+                            "results/accuracy_recommendations.json over the record shipped with the package")
     stab = kinds.add_parser("stability", help="density ratio, time step, contact resolution and delta_sl sweeps")
     stab.add_argument("scene", nargs="?", default=DEFAULT_SCENE)
     stab.add_argument("--model", required=True)
@@ -300,7 +301,9 @@ def _cmd_study(args) -> int:
             levels[name] = numbers(values)
         result = studies.speed_accuracy.run(scenes.load(args.scene, changes), model_names, comm, out, levels)
         if args.record and comm.rank == 0:
-            studies.speed_accuracy.record(result, Path(__file__).parent / "data")
+            recorded = studies.speed_accuracy.record(result, out if args.out else studies.speed_accuracy.RECORD_DIRECTORY)
+            print(f"recommendations recorded in {recorded} (`run --accuracy` reads "
+                  f"{studies.speed_accuracy.RECORD_DIRECTORY / recorded.name})")
     elif args.kind == "stability":
         sweeps = _stability_sweeps(args.sweeps, args.model)
         studies.stability.run(scenes.load(args.scene, {"run.bounces": 1, **changes}), args.model, comm, out, sweeps)

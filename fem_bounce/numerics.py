@@ -63,6 +63,7 @@ class IbNumerics:
     # density ratio); explicit: the flow follows the old velocity (as the paper's RK2; for comparison)
     coupling: str = field(default="implicit", metadata={"choices": ("implicit", "explicit")})
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
+    checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
 
 
 @dataclass(frozen=True)

@@ -34,11 +34,13 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from petsc4py import PETSc
 
 from . import models, output
 from . import scene as scenes
 from .contact import ContactModel
 from .errors import RunDiverged, RunFailed, RunInterrupted
+from .flow_model import FlowModel, Predictor
 from .sphere import PenetrationError, SphereIntegrator
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
@@ -183,9 +185,9 @@ class _Safeguards:
         h, v, d = row["gap"], row["velocity"], self.scene.sphere.diameter
         excess = 0.5 * self.scene.sphere.mass * v * v + self.net_weight * h - self.release_energy
         if excess > self.tolerance:
-            settings = getattr(self.scene.numerics, self.model)
-            if self.model == "ode":
-                hint = "tighten numerics.ode.rtol"
+            settings, entry = getattr(self.scene.numerics, self.model), models.info(self.model)
+            if not entry.resolved:
+                hint = f"tighten {entry.resolution_key}"
             elif getattr(settings, "coupling", "implicit") == "explicit":
                 hint = f"numerics.{self.model}.coupling = \"explicit\" fails here: use \"implicit\""
             else:
@@ -307,6 +309,157 @@ def _interruption_note(out_dir: Path | None, model: str) -> str:
             f"with: fem-bounce run --restart {out_dir}")
 
 
+# -- the time loop ---------------------------------------------------------------------------------
+
+
+class Every:
+    """Call `action()` after every `every`-th step (never when every = 0)."""
+
+    def __init__(self, every: int, action):
+        self.every, self.action = every, action
+
+    def __call__(self, step: int) -> None:
+        if self.every and step % self.every == 0:
+            self.action()
+
+
+class Controller:
+    """The one time loop every model runs under: it builds the model, predicts the sphere's motion over
+    each step (AB2, flow_model.Predictor), lets the model advance its flow and hand over its linearised
+    force, advances the shared sphere integrator, and after each step calls the observers (progress, and
+    on their cadence field snapshots and checkpoints); it stops at the end time or when the integrator
+    is done (bounce limit, safeguards), and turns the model's failures into one RunDiverged that says
+    where the run can be continued from.  The trajectory rows are an observer of the integrator."""
+
+    def __init__(self, model: FlowModel, integrator: SphereIntegrator, monitor=None, out_dir: Path | None = None):
+        """`monitor(t, steps, gap, velocity, force=False)` is called after every step (the run's progress
+        line and stop requests); without `out_dir` nothing is written."""
+        self.model, self.integrator, self.comm = model, integrator, model.comm
+        self.monitor = monitor or (lambda *args, **kwargs: None)
+        self.out_dir = out_dir
+        self.entry = models.info(model.name)
+        self.last_checkpoint: tuple[int, float] | None = None
+        self.checkpoints = out_dir is not None and bool(model.checkpoint_every)
+
+    def run(self, restart: bool = False) -> dict:
+        model, integrator, out_dir = self.model, self.integrator, self.out_dir
+        end = model.scene.run.end_time
+        try:
+            model.build(integrator)
+            self.predictor = Predictor(model.initial_velocities())
+            if restart:
+                self._restore()
+            first_step = model.step
+            observers = [self._progress]
+            if out_dir is not None:
+                model.open_outputs(out_dir, restart)
+                if model.fields_every:
+                    if not restart:
+                        model.write_fields(integrator.time)
+                    observers.append(Every(model.fields_every, lambda: model.write_fields(integrator.time)))
+            if self.checkpoints:
+                observers.append(Every(model.checkpoint_every, self.save_checkpoint))
+            if model.observe_integrator_steps:
+                integrator.observers.append(
+                    lambda row: self.monitor(row["t"], integrator.steps, row["gap"], row["velocity"]))
+            start = time.perf_counter()
+            if model.steady:
+                model.solve_steady(integrator)
+                self._progress(force=True)
+            else:
+                while not model.finished(end) and not integrator.done:
+                    self.step()
+                    for observer in observers:
+                        observer(model.step)
+            model.loop_seconds = time.perf_counter() - start
+            model.steps_this_run = model.step - first_step
+            if (out_dir is not None and model.fields_every and model.fields_at_end
+                    and (model.steady or model.step % model.fields_every)):
+                model.write_fields(integrator.time)
+            steps = integrator.steps if model.observe_integrator_steps else model.step
+            report = model.report()
+            return {"steps": steps, "sizes": model.sizes(), "extra": {model.name: report} if report else {}}
+        except (PenetrationError, ArithmeticError, PETSc.Error, *model.divergences) as err:
+            raise RunDiverged(f"{self._explain(err)} ({self._where()})") from err
+        finally:
+            if out_dir is not None:
+                model.close_outputs()
+            model.destroy()
+
+    def step(self) -> None:
+        """One step of the flow and the sphere."""
+        model, integrator = self.model, self.integrator
+        prediction = self.predictor.predict(integrator.time, integrator.gap, integrator.velocity, model.time_step())
+        fluid = model.linearised_force(prediction)
+        integrator.advance(model.next_time(), fluid)
+        model.complete(integrator.velocity, integrator.time)
+        self.predictor.push(integrator.velocity)
+
+    def _progress(self, step: int | None = None, force: bool = False) -> None:
+        integrator = self.integrator
+        self.monitor(integrator.time, self.model.step, integrator.gap, integrator.velocity, force=force)
+
+    def _explain(self, err: BaseException) -> str:
+        integrator, name = self.integrator, self.model.name
+        if isinstance(err, PETSc.Error):
+            return (f"t = {integrator.time:.5g} s: a solver failed (PETSc error {err.ierr}): the coupling or the "
+                    "time step went unstable")
+        if isinstance(err, ArithmeticError) and not isinstance(err, FloatingPointError):
+            settings = getattr(self.model.scene.numerics, name)
+            hint = (f"for a light sphere use numerics.{name}.coupling = \"implicit\"; otherwise "
+                    if hasattr(settings, "coupling") else "")
+            return (f"the coupled step broke down ({type(err).__name__}: {err}) near t = {integrator.time:.6g} s "
+                    f"with the sphere at {integrator.velocity:.3g} m/s: unstable ({hint}lower numerics.{name}.cfl)")
+        return str(err)
+
+    def _where(self) -> str:
+        if not self.checkpoints:
+            return f"at step {self.model.step}"
+        if self.last_checkpoint is None:
+            return "no checkpoint yet"
+        return f"last checkpoint at step {self.last_checkpoint[0]}, t = {self.last_checkpoint[1]:.6g} s"
+
+    # -- checkpoints: the model's flow, the predictor, the integrator (which carries the run record) --
+    def save_checkpoint(self) -> None:
+        model, integrator, comm = self.model, self.integrator, self.comm
+        flow, arrays = model.checkpoint_state()  # collective; arrays on rank 0
+        state = {"step": model.step, "time": integrator.time, "ranks": comm.size,
+                 "velocities": self.predictor.velocities, "flow": flow, "integrator": integrator.state_dict()}
+
+        def commit() -> None:
+            data, = self.entry.checkpoint_files
+            output.commit_checkpoint(self.out_dir, model.name, lambda folder: np.savez(folder / data, **arrays), state)
+
+        on_root(comm, commit)
+        self.last_checkpoint = (model.step, integrator.time)
+
+    def _restore(self) -> None:
+        """Continue from DIR/checkpoint (the run module has checked it and cut the trajectory back)."""
+        found = output.find_checkpoint(self.out_dir, required=self.entry.checkpoint_files)
+        data, = self.entry.checkpoint_files
+        try:
+            with np.load(found.folder / data) as archive:
+                arrays = {name: archive[name] for name in archive.files}
+        except (OSError, ValueError) as err:
+            raise output.CheckpointError(f"the checkpoint in {self.out_dir} is unreadable: {data}: {err}") from None
+        state = found.state
+        if not isinstance(state.get("flow"), dict) or "velocities" not in state:
+            raise output.CheckpointError(f"the checkpoint in {self.out_dir} is unreadable: it was written by an "
+                                         "older version; start a new run")
+        failure = None
+        try:
+            self.model.restore(state["flow"], arrays)
+        except output.CheckpointError as err:  # on one rank (a dof of its part that fits no stored one)
+            failure = str(err)
+        failures = [f for f in self.comm.allgather(failure) if f]
+        if failures:
+            raise output.CheckpointError(f"the checkpoint in {self.out_dir} cannot continue this run: {failures[0]}")
+        self.model.step = state["step"]
+        self.predictor.velocities = list(state["velocities"])
+        self.integrator.load_state_dict(state["integrator"])
+        self.last_checkpoint = (state["step"], state["time"])
+
+
 # -- the run --------------------------------------------------------------------------------------
 
 
@@ -330,9 +483,9 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
             f"initial_gap = {scene.initial_gap:.4g} m is {scene.initial_gap / scene.sphere.diameter:.3g} D: the {model} "
             f"model meshes the whole path, allowed up to {RESOLVED_MAX_GAP:g} D (a sphere reaches its terminal speed "
             "within ~10-20 D); start it lower, or use the ode model")
-    solver = model_cls(scene, comm)
+    flow = model_cls(scene, comm)
     integrator = _RunIntegrator(scene, ContactModel(scene), resolved=model_cls.resolved)
-    guards = _Safeguards(scene, integrator, model, solver.resolved_top())
+    guards = _Safeguards(scene, integrator, model, flow.resolved_top())
     if root:
         for message in _warnings(scene, model, comm, guards):
             warnings.warn(message, stacklevel=2)
@@ -361,7 +514,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     status, message, signum = "completed", "", 0
     result: dict = {}
     try:
-        result = solver.run(integrator, monitor, out_dir, restart) or {}
+        result = Controller(flow, integrator, monitor, out_dir).run(restart)
     except output.CheckpointError:
         # the restart could not load its checkpoint: no summary for a run that never continued
         bar.close()

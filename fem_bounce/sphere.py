@@ -22,7 +22,6 @@ rebound; a small state machine turns them into Impact and Rebound records.
 from __future__ import annotations
 
 import contextlib
-import csv
 import dataclasses
 import math
 from dataclasses import dataclass
@@ -32,6 +31,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from .contact import ContactModel
+from .motion import prescribed_velocity
 from .scene import Scene, SceneError
 
 IMPACT_WINDOW = 2e-3  # s: the paper's impact speed is the mean over the 2 ms before the minimum gap
@@ -453,23 +453,3 @@ def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> flo
     s = (t - t0) / dt
     h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
     return h00 * hs[k] + h10 * dt * vs[k] + h01 * hs[k + 1] + h11 * dt * vs[k + 1]
-
-
-def prescribed_velocity(scene: Scene) -> Callable[[float], tuple[float, float]]:
-    """t -> (V, dV/dt) for fixed and prescribed motion."""
-    motion = scene.motion
-    if motion.mode != "prescribed" or not motion.series:
-        return lambda t: (motion.velocity, 0.0)
-    from scipy.interpolate import CubicSpline
-
-    with open(motion.series, newline="") as stream:
-        rows = [r for r in csv.DictReader(line for line in stream if not line.startswith("#"))]
-    try:
-        times = np.array([float(r["t"]) for r in rows])
-        velocity = np.array([float(r["velocity"]) for r in rows])
-    except (KeyError, ValueError) as err:
-        raise SceneError(f"motion.series {motion.series!r}: needs numeric columns 't' and 'velocity' ({err})")
-    keep = np.r_[True, np.diff(times) > 0.0]
-    spline = CubicSpline(times[keep], velocity[keep])
-    derivative = spline.derivative()
-    return lambda t: (float(spline(t)), float(derivative(t)))

@@ -1,15 +1,19 @@
-"""Each demo runs end to end at toy size (8 cells per diameter) and passes its own checks.
+"""Each demo runs end to end at toy size (8 cells per diameter) and passes its own checks: serial in a
+subprocess, and under `mpirun -n 2` (as the demos' headers say to run them) in the MPI pass of `make test`,
+where every rank runs the demo script in-process.
 
 The demos compare with the published references at the tolerances their headers
 state for the toy size; the pinned numbers below catch any change of the toy
 results (regression, not accuracy: update them when the numerics change on purpose).
 """
 import json
+import runpy
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from mpi4py import MPI
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
@@ -23,6 +27,15 @@ PINNED = {
 }
 
 
+def assert_pinned(demo: str, out: Path) -> None:
+    keys, pinned = PINNED[demo]
+    value = json.loads((out / "result.json").read_text())
+    for key in keys:
+        value = value[key]
+    print(demo, value)
+    assert value == pytest.approx(pinned, rel=1e-4)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("demo", sorted(PINNED))
 def test_demo_runs_at_toy_size(demo, tmp_path):
@@ -31,10 +44,23 @@ def test_demo_runs_at_toy_size(demo, tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert "FAIL" not in done.stdout
-    keys, pinned = PINNED[demo]
-    value = json.loads((out / "result.json").read_text())
-    for key in keys:
-        value = value[key]
-    print(demo, value)
-    if pinned is not None:
-        assert value == pytest.approx(pinned, rel=1e-4)
+    assert_pinned(demo, out)
+
+
+@pytest.mark.mpi
+@pytest.mark.slow
+@pytest.mark.parametrize("demo", sorted(PINNED))
+def test_demo_runs_on_every_rank_at_toy_size(demo, shared_tmp, monkeypatch, capsys):
+    """Under `mpirun -n 2 python tests/mpirun_pytest.py -m mpi`: the demo's script on both ranks; its own
+    checks pass (exit status 0 on every rank) and its toy result is the serial pin (fd: 2 ranks give the
+    serial result to solver precision)."""
+    if MPI.COMM_WORLD.size < 2:
+        pytest.skip("serial: test_demo_runs_at_toy_size runs it")
+    out = shared_tmp / demo
+    monkeypatch.setattr(sys, "argv", [f"{demo}.py", "--toy", "--out", str(out)])
+    with pytest.raises(SystemExit) as ended:
+        runpy.run_path(str(DEMOS / f"{demo}.py"), run_name="__main__")
+    assert ended.value.code == 0
+    assert "FAIL" not in capsys.readouterr().out
+    if MPI.COMM_WORLD.rank == 0:
+        assert_pinned(demo, out)

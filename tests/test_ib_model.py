@@ -69,11 +69,13 @@ def test_the_implicit_coupling_keeps_a_light_sphere_stable():
                                   "container": {"radius": 0.05, "height": 0.16}})
     from fem_bounce.contact import ContactModel
     from fem_bounce.models.ib import ImmersedBoundaryModel
+    from fem_bounce.run import Controller
     from fem_bounce.sphere import SphereIntegrator
 
     integrator = SphereIntegrator(sc, ContactModel(sc), resolved=True)
     steps = []
-    ImmersedBoundaryModel(sc, MPI.COMM_SELF).run(integrator, lambda t, n, gap, v: steps.append(v))
+    Controller(ImmersedBoundaryModel(sc, MPI.COMM_SELF), integrator,
+               monitor=lambda t, n, gap, v, force=False: steps.append(v)).run()
     velocity = np.array(steps)
     assert np.all(np.isfinite(velocity))
     assert 0.7 * sc.terminal_speed() < velocity[-1] < 1.05 * sc.terminal_speed()

@@ -1,6 +1,7 @@
 """Study machinery: the run cache, error arithmetic, classification, and each study on the ODE model."""
 import json
 import math
+from pathlib import Path
 
 import pytest
 from mpi4py import MPI
@@ -102,3 +103,23 @@ def test_figure_11_draws_from_the_run_into_the_study(tmp_path, monkeypatch):
 def test_study_numbers_that_do_not_parse_are_a_clear_error(capsys):
     assert cli.main(["study", "convergence", "li2011-case1", "--model", "ode", "--levels", "1e-3,x"]) == 2
     assert "--levels '1e-3,x': expected comma-separated numbers" in capsys.readouterr().err
+
+
+def test_record_writes_where_the_user_says_never_into_the_package(tmp_path, monkeypatch, capsys):
+    """`study speed-accuracy --record` wrote into the installed package; now into --out, or results/, which
+    `run --accuracy` then reads over the shipped record."""
+    package_data = Path(speed_accuracy.__file__).parents[1] / "data"
+    before = {p.name: p.read_bytes() for p in package_data.iterdir()}
+    monkeypatch.chdir(tmp_path)
+    args = ["study", "speed-accuracy", "li2011-case5", "--models", "ode", "--levels", "ode=1e-3,1e-4,1e-5",
+            "--record", "--set", "run.bounces=1"]
+    assert cli.main([*args, "--out", "mine"]) == 0
+    assert "li2011-case5" in json.loads((tmp_path / "mine" / speed_accuracy.RECORD).read_text())
+    assert not (tmp_path / "results" / speed_accuracy.RECORD).exists()
+    assert cli.main(args) == 0
+    assert (tmp_path / "results" / speed_accuracy.RECORD).is_file()
+    assert {p.name: p.read_bytes() for p in package_data.iterdir()} == before
+    assert "li2011-case5" in speed_accuracy.recorded()  # read from results/ in the current directory
+    capsys.readouterr()
+    assert cli.main(["run", "li2011-case5", "--accuracy", "10%", "--quiet", "--out", "acc"]) == 0
+    assert "--accuracy 10%: ode with {'numerics.ode.rtol'" in capsys.readouterr().err

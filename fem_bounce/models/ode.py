@@ -3,25 +3,37 @@
 Far from the wall f_thr is the usual far-field drag, added mass and history
 force, so this is the classical equation of a sphere in a quiescent liquid with
 the paper's contact model at the wall.  Milliseconds to a second per scene.
+
+As a FlowModel it has no flow: its one step is the whole run, which the shared
+integrator takes with adaptive steps; the run's observers see each of them.
 """
 from __future__ import annotations
 
-import math
+from ..flow_model import FlowModel
 
 
-class OdeModel:
+class OdeModel(FlowModel):
     name = "ode"
     resolved = False
+    observe_integrator_steps = True
 
-    def __init__(self, scene, comm):
-        self.scene = scene
+    def build(self, integrator) -> None:
+        self.unknowns = integrator.n
 
-    def resolved_top(self) -> float:
-        """No mesh: nothing limits how high the sphere may go [m]."""
-        return math.inf
+    def time_step(self) -> float:
+        return self.scene.run.end_time
 
-    def run(self, integrator, progress, out_dir=None, restart=False) -> dict:
-        end = self.scene.run.end_time
-        integrator.observers.append(lambda row: progress(row["t"], integrator.steps, row["gap"], row["velocity"]))
-        integrator.advance(end)
-        return {"steps": integrator.steps, "sizes": {"unknowns": integrator.n}}
+    def next_time(self) -> float:
+        return self.scene.run.end_time
+
+    def finished(self, end_time: float) -> bool:
+        return self.step >= 1
+
+    def linearised_force(self, prediction):
+        return None
+
+    def complete(self, velocity: float, time: float) -> None:
+        self.step += 1
+
+    def sizes(self) -> dict:
+        return {"unknowns": self.unknowns}

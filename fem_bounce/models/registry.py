@@ -64,7 +64,7 @@ class ModelInfo:
 
 
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
-CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "sphere.py", "run.py",
+CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "sphere.py", "motion.py", "flow_model.py", "run.py",
                 "errors.py", "output.py", "models/__init__.py")
 
 MODELS: dict[str, ModelInfo] = {
@@ -87,7 +87,8 @@ MODELS: dict[str, ModelInfo] = {
         liquid="the paper's IB projection method on a staggered grid", resolved=True,
         resolution_key="numerics.ib.cells_per_diameter", resolution_unit="cells/D",
         ladder=(16.0, 24.0, 32.0, 48.0, 64.0), time_step_key="numerics.ib.cfl",
-        serial=True, min_cells_across_blend_gap=2.0, fields_key="numerics.ib.output_every", colour="C2",
+        checkpoint_every_key="numerics.ib.checkpoint_every", checkpoint_files=("flow.npz",), serial=True,
+        min_cells_across_blend_gap=2.0, fields_key="numerics.ib.output_every", colour="C2",
         sources=("models/ib",)),
     "ale": ModelInfo(
         name="ale", module="fem_bounce.models.ale", class_name="AleModel",
@@ -95,7 +96,7 @@ MODELS: dict[str, ModelInfo] = {
         resolution_key="numerics.ale.cells_per_diameter", resolution_unit="cells/D",
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.ale.cfl",
         fields_key="numerics.ale.output_every", colour="C3",
-        sources=("models/ale", "models/fd", "fem")),  # ale still reuses fd.domain and fd.fluid
+        sources=("models/ale", "fem")),
 }
 
 BEST_FIRST = ("fd", "ib", "ode")  # the default model: the first of these that imports

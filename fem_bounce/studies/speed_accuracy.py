@@ -114,17 +114,26 @@ def figure(result: dict, path: Path) -> None:
 # -- recorded recommendations, for `fem-bounce run --accuracy` ------------------------------------
 
 RECORD = "accuracy_recommendations.json"
+RECORD_DIRECTORY = Path("results")  # where `study speed-accuracy --record` writes without --out
 
 
-def recorded() -> dict:
-    """{scene name: {"5%": {"model": ..., "setting": {...}, ...}}} shipped with the package."""
-    path = resources.files("fem_bounce") / "data" / RECORD
-    return json.loads(path.read_text()) if path.is_file() else {}
+def recorded(directory: Path = RECORD_DIRECTORY) -> dict:
+    """{scene name: {"5%": {"model": ..., "setting": {...}, ...}}}: the record shipped with the package
+    (a deliberate, committed file), overlaid by the user's own in `directory`/accuracy_recommendations.json."""
+    shipped = resources.files("fem_bounce") / "data" / RECORD
+    data = json.loads(shipped.read_text()) if shipped.is_file() else {}
+    own = Path(directory) / RECORD
+    if own.is_file():
+        data.update(json.loads(own.read_text()))
+    return data
 
 
-def record(result: dict, package_data: Path) -> None:
-    """Add one study's recommendations to the shipped record (a deliberate, committed file)."""
-    path = Path(package_data) / RECORD
+def record(result: dict, directory: Path = RECORD_DIRECTORY) -> Path:
+    """Add one study's recommendations to `directory`/accuracy_recommendations.json (never to the installed
+    package: to ship a record, copy the file into fem_bounce/data/ and commit it)."""
+    path = Path(directory) / RECORD
     data = json.loads(path.read_text()) if path.exists() else {}
     data[result["scene"]] = result["recommendations"]
+    path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+    return path

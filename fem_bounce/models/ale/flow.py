@@ -47,7 +47,7 @@ from petsc4py import PETSc
 from ...fem import forms
 from ...fem.mesh import AXIS, SPHERE
 from ...fem.solver import FactorizedOperator
-from ..fd.fluid import BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, side_constraints, taylor_hood_space
+from ...fem.taylor_hood import BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, side_constraints, taylor_hood_space
 
 
 class SphereFlow:

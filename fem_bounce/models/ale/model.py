@@ -53,9 +53,11 @@ from pathlib import Path
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
+from ...flow_model import FlowModel, Prediction
 from ...sphere import FluidForce
-from ..fd.domain import steps_to
-from .domain import AleDomain, domain_for, is_steady, is_stream, time_step
+from ...fem.domain import steps_to
+from ...motion import is_stream, start_velocity
+from .domain import AleDomain, domain_for, is_steady, time_step
 from .fields import MovingFieldWriter
 from .flow import SphereFlow
 from .motion import MeshMotion
@@ -113,20 +115,22 @@ class Statistics:
     integrator_s: float = 0.0
     remesh_s: float = 0.0
     setup_s: float = 0.0
-    steps_s: float = 0.0
     held_steps: int = 0
     min_mesh_gap: float = math.inf
     max_unknowns: int = 0
 
 
-class AleModel:
+class AleModel(FlowModel):
     name = "ale"
     resolved = True
+    divergences = (SolverError,)
+    fields_at_end = True
 
     def __init__(self, scene, comm):
-        self.scene = scene
-        self.comm = comm
+        super().__init__(scene, comm)
         self.settings = scene.numerics.ale
+        self.fields_every = self.settings.output_every
+        self.writer: MovingFieldWriter | None = None
         self.domain: AleDomain = domain_for(scene)
         self.steady = is_steady(scene)
         self.dt = time_step(scene)
@@ -136,7 +140,7 @@ class AleModel:
         self._force_file = None
 
     # -- meshes ------------------------------------------------------------------------------
-    def build(self, center: float, cache: bool = True) -> tuple:
+    def build_mesh(self, center: float, cache: bool = True) -> tuple:
         """(mesh, motion, flow) with the sphere centred at z = center [m]."""
         scene, domain = self.scene, self.domain
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec(center), cache=cache)
@@ -152,7 +156,7 @@ class AleModel:
         k = self.kinematics
         old_motion, old_flow = self.motion, self.flow
         try:
-            mesh, motion, flow = self.build(center, cache=False)
+            mesh, motion, flow = self.build_mesh(center, cache=False)
         except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception; the run ends cleanly
             delta = (center - self.domain.sphere_radius) / self.scene.sphere.diameter
             raise RunDiverged(f"remeshing at gap {delta:.4g} D failed: {err}") from err
@@ -193,21 +197,39 @@ class AleModel:
         return math.pi * self.domain.radius**2 * self.domain.height - flow.fluid_volume()
 
     # -- one step -------------------------------------------------------------------------------
-    def next_center(self, integrator) -> tuple[float, bool]:
-        """(z, held): where the mesh puts the sphere at t_{n+1} [m], AB2 from the sphere's velocities, and
+    def next_center(self, prediction: Prediction) -> tuple[float, bool]:
+        """(z, held): where the mesh puts the sphere at t_{n+1} [m], the controller's AB2 prediction, and
         whether the hold gap stopped it there; a fixed sphere stays put."""
         if self.scene.motion.mode == "fixed":
             return self.domain.initial_center, False
-        v = self.kinematics.velocities
-        mean_velocity = 1.5 * v[0] - 0.5 * v[1] if len(v) > 1 else v[0]
-        predicted = self.domain.sphere_radius + integrator.gap + self.dt * mean_velocity
+        predicted = prediction.center(self.domain.sphere_radius)
         center = self.domain.mesh_center(predicted)
         return center, center > predicted
 
-    def step(self, integrator) -> None:
+    # -- the FlowModel interface ------------------------------------------------------------------
+    def build(self, integrator) -> None:
+        start = time.perf_counter()
+        scene, domain = self.scene, self.domain
+        self.mesh, self.motion, self.flow = self.build_mesh(domain.initial_center)
+        velocity = start_velocity(scene)
+        order = self.settings.time_order
+        self.kinematics = Kinematics(self.flow.bdf, [velocity] * order, [domain.initial_center] * order)
+        self.flow.set_uniform((0.0, domain.inflow_speed))
+        self.stats.setup_s = time.perf_counter() - start
+
+    def initial_velocities(self) -> list[float]:
+        return list(self.kinematics.velocities)
+
+    def time_step(self) -> float:
+        return self.dt
+
+    def finished(self, end_time: float) -> bool:
+        return self.step >= steps_to(end_time, self.dt)
+
+    def linearised_force(self, prediction: Prediction) -> FluidForce:
         k, settings = self.kinematics, self.settings
         t_next = (k.step + 1) * self.dt
-        center, held = self.next_center(integrator)
+        center, held = self.next_center(prediction)
         gap = center - self.domain.sphere_radius
         if gap <= 0.0:
             raise RunDiverged(f"the mesh cannot follow the sphere: the step to t = {t_next:.6g} s would put it "
@@ -231,12 +253,16 @@ class AleModel:
         if not (math.isfinite(force) and math.isfinite(added_mass)):
             raise FloatingPointError(f"the fluid force became {force} N at t = {t_next:.6g} s")
         self.last_force = (force, added_mass)
-        start = time.perf_counter()
-        integrator.advance(t_next, FluidForce(explicit=force, added_mass=added_mass))
-        self.stats.integrator_s += time.perf_counter() - start
-        velocity = integrator.velocity
+        self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed)
+        self._integrator_start = time.perf_counter()
+        return FluidForce(explicit=force, added_mass=added_mass)
+
+    def complete(self, velocity: float, time_now: float) -> None:
+        self.stats.integrator_s += time.perf_counter() - self._integrator_start
+        t_next, center, gap, reference, force, slope, added_mass, quality, remeshed = self._pending
         self.flow.commit(velocity - reference)
-        k.push(velocity, center)
+        self.kinematics.push(velocity, center)
+        self.step = self.kinematics.step
         self._record_force(t_next, gap, force + slope * (velocity - reference), added_mass,
                            quality if remeshed else self.motion.quality(self.motion.shift), remeshed)
 
@@ -246,56 +272,7 @@ class AleModel:
             self._force_writer.writerow([f"{x:.10g}" for x in (t, gap, force, surface, added_mass, quality)]
                                         + [int(remeshed)])
 
-    # -- the run --------------------------------------------------------------------------------
-    def run(self, integrator, progress, out_dir=None, restart=False) -> dict:
-        if restart:
-            raise RunDiverged("the ale model writes no checkpoints: it cannot --restart")
-        start = time.perf_counter()
-        scene, domain = self.scene, self.domain
-        self.mesh, self.motion, self.flow = self.build(domain.initial_center)
-        velocity = scene.motion.velocity if scene.motion.mode != "free" else 0.0
-        order = self.settings.time_order
-        self.kinematics = Kinematics(self.flow.bdf, [velocity] * order, [domain.initial_center] * order)
-        self.flow.set_uniform((0.0, domain.inflow_speed))
-        self.stats.setup_s = time.perf_counter() - start
-        writer = None
-        root = self.comm.rank == 0
-        if out_dir is not None and self.settings.output_every:
-            writer = MovingFieldWriter(self.comm, Path(out_dir) / "fields-000.xdmf")
-        if out_dir is not None and root:
-            self._force_file = open(Path(out_dir) / "ale_forces.csv", "w", newline="")
-            self._force_writer = csv.writer(self._force_file)
-            self._force_writer.writerow(FORCE_COLUMNS)
-        try:
-            if self.steady:
-                self.solve_steady(integrator, progress)
-            else:
-                self.march(integrator, progress, writer)
-            if writer is not None and (self.steady or self.kinematics.step % self.settings.output_every):
-                writer.write(self.flow.now, integrator.time)  # the final state too
-            return {"steps": self.kinematics.step, "sizes": self.sizes(), "extra": {"ale": self.report()}}
-        except (SolverError, FloatingPointError) as err:
-            raise RunDiverged(f"{err} (at step {self.kinematics.step})") from err
-        finally:
-            if writer is not None:
-                writer.close()
-            if self._force_file is not None:
-                self._force_file.close()
-            self.flow.destroy()
-
-    def march(self, integrator, progress, writer) -> None:
-        n_steps = steps_to(self.scene.run.end_time, self.dt)
-        if writer is not None:
-            writer.write(self.flow.now, 0.0)
-        start = time.perf_counter()
-        while self.kinematics.step < n_steps and not integrator.done:
-            self.step(integrator)
-            progress(integrator.time, self.kinematics.step, integrator.gap, integrator.velocity)
-            if writer is not None and self.kinematics.step % self.settings.output_every == 0:
-                writer.write(self.flow.now, integrator.time)
-        self.stats.steps_s = time.perf_counter() - start
-
-    def solve_steady(self, integrator, progress) -> None:
+    def solve_steady(self, integrator) -> None:
         """The held sphere's steady state; the integrator then holds it to end_time with that force."""
         start = time.perf_counter()
         force = self.flow.steady(self.scene.motion.velocity, convection=is_stream(self.scene))
@@ -303,10 +280,31 @@ class AleModel:
         self.last_force = (force, 0.0)
         self.stats.min_mesh_gap = self.domain.initial_center - self.domain.sphere_radius
         integrator.advance(self.scene.run.end_time, FluidForce(explicit=force, added_mass=0.0))
-        self.kinematics.step = 1
+        self.kinematics.step = self.step = 1
         self._record_force(integrator.time, self.stats.min_mesh_gap, force, 0.0,
                            self.motion.quality(0.0), False)
-        progress(integrator.time, 1, integrator.gap, integrator.velocity, force=True)
+
+    # -- outputs ----------------------------------------------------------------------------------
+    def open_outputs(self, out_dir: Path, restart: bool) -> None:
+        if self.fields_every:
+            self.writer = MovingFieldWriter(self.comm, Path(out_dir) / "fields-000.xdmf")
+        if self.comm.rank == 0:
+            self._force_file = open(Path(out_dir) / "ale_forces.csv", "w", newline="")
+            self._force_writer = csv.writer(self._force_file)
+            self._force_writer.writerow(FORCE_COLUMNS)
+
+    def write_fields(self, time_now: float) -> None:
+        self.writer.write(self.flow.now, time_now)
+
+    def close_outputs(self) -> None:
+        if self.writer is not None:
+            self.writer.close()
+        if self._force_file is not None:
+            self._force_file.close()
+
+    def destroy(self) -> None:
+        if self.flow is not None:
+            self.flow.destroy()
 
     # -- what the summary says --------------------------------------------------------------------
     def sizes(self) -> dict:
@@ -323,9 +321,9 @@ class AleModel:
         force, added_mass = self.last_force
         return {
             "solver": "steady" if self.steady else "march",
-            "timings_s": {"setup": stats.setup_s, "steps": stats.steps_s, "factorise_and_solve": stats.factorisation_s,
+            "timings_s": {"setup": stats.setup_s, "steps": self.loop_seconds, "factorise_and_solve": stats.factorisation_s,
                           "integrator": stats.integrator_s, "remesh": stats.remesh_s},
-            "time_per_step_s": stats.steps_s / steps,
+            "time_per_step_s": self.loop_seconds / steps,
             "factorisations_per_step": 1,  # plus two per remesh (the projections)
             "remesh_count": len(stats.remeshes),
             "remeshes": [asdict(r) for r in stats.remeshes],

@@ -36,7 +36,7 @@ from mpi4py import MPI
 from ...fem import forms
 from ...fem.functions import gather_values, scatter_values
 from ...fem.solver import FactorizedOperator
-from ..fd.fluid import lifted_rhs
+from ...fem.taylor_hood import lifted_rhs
 
 
 def _gather_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:

@@ -1,8 +1,9 @@
-"""The fictitious-domain model (`--model fd`): the time loop.
+"""The fictitious-domain model (`--model fd`): one fluid step, as a FlowModel (fem_bounce.flow_model).
 
-One fluid step of length dt (fluid.FlowSolver, immersed.ImmersedSphere, coupling):
+One fluid step of length dt (fluid.FlowSolver, immersed.ImmersedSphere, coupling), driven by the run
+controller (fem_bounce.run.Controller), which owns the loop, the observers and the checkpoints:
 
-1. predict the sphere centre at t_{n+1} (AB2 from the last two velocities) and place the indicator;
+1. place the indicator where the controller predicts the sphere's centre at t_{n+1} (AB2);
 2. predictor A x~ = b(u^n, u^{n-1});
 3. responses A y0 = rho c phi (-u~), A y1 = rho c phi e_z (y1 reused while the sphere is held);
 4. the force on the sphere is affine in its new velocity U: hand F* and the numerical added
@@ -10,8 +11,8 @@ One fluid step of length dt (fluid.FlowSolver, immersed.ImmersedSphere, coupling
    f_sim with f_thr below delta_sl exactly as every model does;
 5. read back U and set the step's field u = u~ + y0 + s(U) y1.
 
-Observers act on a cadence after each step: the progress line, XDMF fields every
-`output_every` steps, a checkpoint every `checkpoint_every` steps.
+A checkpoint holds the flow's BDF history by dof coordinates (fem.functions), so a run checkpointed
+on two ranks can restart on one.
 """
 from __future__ import annotations
 
@@ -20,17 +21,16 @@ import resource
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
-from petsc4py import PETSc
-
+from ...fem.functions import CheckpointMismatch, gather_values, scatter_values
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
+from ...flow_model import FlowModel, Prediction
+from ...motion import start_velocity
 from ...output import CheckpointError
-from ...errors import RunDiverged
 from ...scene import SceneError
-from ...sphere import FluidForce, PenetrationError
-from . import checkpoint, coupling
+from ...sphere import FluidForce
+from . import coupling
 from .domain import Domain, domain_for, is_stream, steps_to, time_step
 from .fields import FieldWriter, segment_path
 from .fluid import FlowSolver
@@ -46,10 +46,8 @@ class History:
     bdf: tuple
     velocities: list
     interiors: list
-    step: int = 0
 
     def push(self, velocity: float, interior: float) -> None:
-        self.step += 1
         self.velocities = [velocity] + self.velocities[:-1]
         self.interiors = [interior] + self.interiors[:-1]
 
@@ -71,24 +69,13 @@ class History:
         return self._reference(self.interiors)
 
 
-class Every:
-    """Call `action(model)` after every `every`-th step (never when every = 0)."""
-
-    def __init__(self, every: int, action: Callable):
-        self.every, self.action = every, action
-
-    def __call__(self, model) -> None:
-        if self.every and model.history.step % self.every == 0:
-            self.action(model)
-
-
-class FictitiousDomainModel:
+class FictitiousDomainModel(FlowModel):
     name = "fd"
     resolved = True
+    divergences = (SolverError,)
 
     def __init__(self, scene, comm):
-        self.scene = scene
-        self.comm = comm
+        super().__init__(scene, comm)
         self.settings = scene.numerics.fd
         self.domain: Domain = domain_for(scene)
         self.dt = time_step(scene)
@@ -96,17 +83,19 @@ class FictitiousDomainModel:
         self.sphere: ImmersedSphere | None = None
         self.fields: FieldWriter | None = None
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
-        self.last_checkpoint: tuple[int, float] | None = None
-        self.steps_this_run = 0
         self.steady_iterations: int | None = None
         self.last_force: coupling.Linearised | None = None
+        self.steady = self.settings.steady_stokes
+        self.fields_every = self.settings.output_every
+        self.checkpoint_every = self.settings.checkpoint_every
         if self.settings.steady_stokes and (scene.motion.mode != "fixed" or is_stream(scene)):
             raise SceneError("numerics.fd.steady_stokes = true needs motion.mode = \"fixed\" without a stream")
 
     # -- set-up ---------------------------------------------------------------------------
-    def setup(self) -> None:
+    def build(self, integrator) -> None:
         start = time.perf_counter()
         scene, domain, fd = self.scene, self.domain, self.settings
+        self.hold_gap = integrator.contact.hold_gap
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
         self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
@@ -114,26 +103,33 @@ class FictitiousDomainModel:
         self.flow.set_uniform((0.0, domain.inflow_speed))
         radius = scene.sphere.radius + fd.radius_offset * domain.fine_size
         self.sphere = ImmersedSphere(self.flow, radius, fd.interface_width * domain.fine_size, domain.center)
-        velocity = scene.motion.velocity if scene.motion.mode != "free" else 0.0
+        velocity = start_velocity(scene)
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.sphere.volume] * order)
         self.timings["setup"] = time.perf_counter() - start
 
+    def initial_velocities(self) -> list[float]:
+        return list(self.history.velocities)
+
     # -- one step -------------------------------------------------------------------------
-    def predicted_center(self, integrator) -> float:
-        """Where the flow's sphere will be at t_{n+1} (AB2); held spheres stay put, and a free sphere's
-        flow stops at the contact model's hold gap (below it the contact model adds what it misses) [m]."""
+    def time_step(self) -> float:
+        return self.dt
+
+    def finished(self, end_time: float) -> bool:
+        return self.step >= steps_to(end_time, self.dt)
+
+    def predicted_center(self, prediction: Prediction) -> float:
+        """Where the flow's sphere will be at t_{n+1}; held spheres stay put, and a free sphere's flow
+        stops at the contact model's hold gap (below it the contact model adds what it misses) [m]."""
         if self.scene.motion.mode == "fixed":
             return self.domain.center
-        v = self.history.velocities
-        mean_velocity = 1.5 * v[0] - 0.5 * v[1] if len(v) > 1 else v[0]
-        center = self.scene.sphere.radius + integrator.gap + self.dt * mean_velocity
-        return self.scene.sphere.radius + max(center - self.scene.sphere.radius, integrator.contact.hold_gap, 0.0)
+        radius = self.scene.sphere.radius
+        return radius + max(prediction.center(radius) - radius, self.hold_gap, 0.0)
 
-    def step(self, integrator) -> None:
+    def linearised_force(self, prediction: Prediction) -> FluidForce:
         flow, sphere, h = self.flow, self.sphere, self.history
-        t_next = (h.step + 1) * self.dt
-        center = self.predicted_center(integrator)
+        t_next = (self.step + 1) * self.dt
+        center = self.predicted_center(prediction)
         if center != sphere.center:
             sphere.place(center)
         # predictor and (if the sphere moved) the unit response share one pass over the factors
@@ -143,26 +139,30 @@ class FictitiousDomainModel:
         else:
             flow.solve([flow.predictor_rhs()], [predicted])
         flow.solve([sphere.forcing(predicted)], [sphere.forced])
-        integrals = sphere.integrals(predicted)
+        self.integrals = integrals = sphere.integrals(predicted)
         rho, c = self.scene.liquid.density, flow.c
         linear = coupling.linearise(integrals, rho, c, h.momentum_history, h.reference_velocity)
         if not all(math.isfinite(v) for v in (linear.explicit, linear.added_mass)):
             raise FloatingPointError(f"the fluid force became {linear.explicit} N at t = {t_next:.6g} s")
         self.last_force = linear
-        start = time.perf_counter()
+        self._integrator_start = time.perf_counter()
         added_mass = linear.added_mass if self.settings.coupling == "implicit" else 0.0
-        integrator.advance(t_next, FluidForce(explicit=linear.explicit, added_mass=added_mass))
-        self.timings["integrator"] += time.perf_counter() - start
-        velocity = integrator.velocity
+        return FluidForce(explicit=linear.explicit, added_mass=added_mass)
+
+    def complete(self, velocity: float, time_now: float) -> None:
+        self.timings["integrator"] += time.perf_counter() - self._integrator_start
+        flow, sphere, integrals = self.flow, self.sphere, self.integrals
+        t_next = (self.step + 1) * self.dt
         s = coupling.rigid_amplitude(integrals, velocity)
         new = flow.work
-        predicted.vector.copy(new)
+        flow.predicted.vector.copy(new)
         new.axpy(1.0, sphere.forced.vector)
         new.axpy(s, sphere.unit.vector)
         if not math.isfinite(new.norm()):
             raise FloatingPointError(f"the flow field became non-finite at t = {t_next:.6g} s")
         flow.commit(new)
-        h.push(velocity, velocity * integrals.volume)
+        self.history.push(velocity, velocity * integrals.volume)
+        self.step += 1
 
     def solve_steady(self, integrator) -> None:
         """Jump to the steady Stokes state of the step (steady.SteadyStokes) at the end time."""
@@ -176,86 +176,61 @@ class FictitiousDomainModel:
                                               self.scene.motion.velocity)
         n_steps = steps_to(self.scene.run.end_time, self.dt)
         integrator.advance(n_steps * self.dt, FluidForce(explicit=force))
-        self.history.step = n_steps
-
-    @property
-    def time(self) -> float:
-        return self.history.step * self.dt
+        self.step = n_steps
 
     def resolved_top(self) -> float:
         """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
         return self.domain.spec.refined[0].z_max
 
     # -- checkpoints and fields -------------------------------------------------------------
-    def save_checkpoint(self, integrator, out_dir: Path) -> None:
+    def checkpoint_state(self) -> tuple[dict, dict]:
+        """The BDF history of the flow (u, p at t_n, t_{n-1}, ...) by dof coordinates, gathered on rank 0,
+        and of the sphere's velocities and interior integrals."""
         h = self.history
-        state = {"step": h.step, "time": self.time, "dt": self.dt, "ranks": self.comm.size,
-                 "velocities": h.velocities, "interiors": h.interiors, "integrator": integrator.state_dict()}
-        checkpoint.save(self.comm, out_dir, state, self.flow.states)
-        self.last_checkpoint = (h.step, self.time)
+        arrays = {}
+        for level, function in enumerate(self.flow.states):
+            for name, (coordinates, values) in (gather_values(function) or {}).items():  # None off rank 0
+                arrays[f"x_{level}_{name}"] = coordinates
+                arrays[f"v_{level}_{name}"] = values
+        return {"dt": self.dt, "velocities": h.velocities, "interiors": h.interiors}, arrays
 
-    def load_checkpoint(self, integrator, out_dir: Path) -> None:
-        state = checkpoint.load(out_dir, self.flow.states, tolerance=1e-6 * self.domain.fine_size)
+    def restore(self, state: dict, arrays) -> None:
         if not math.isclose(state["dt"], self.dt, rel_tol=1e-12):
-            raise CheckpointError(f"the checkpoint in {out_dir} was made with dt = {state['dt']:g} s, "
-                                  f"this scene gives {self.dt:g} s: the scene was changed")
-        self.history = History(self.flow.bdf, list(state["velocities"]), list(state["interiors"]), step=state["step"])
-        integrator.load_state_dict(state["integrator"])  # the run module has cut the trajectory back to it
-        self.last_checkpoint = (state["step"], state["time"])
-
-    def write_fields(self, model=None) -> None:
-        self.fields.write(self.flow.now, self.time)
-
-    # -- the run --------------------------------------------------------------------------
-    def run(self, integrator, progress, out_dir=None, restart=False) -> dict:
-        self.setup()
-        fd = self.settings
-        if restart:
-            self.load_checkpoint(integrator, out_dir)
-        observers = [lambda model: progress(integrator.time, model.history.step, integrator.gap, integrator.velocity)]
-        if out_dir is not None and fd.output_every:
-            path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
-            self.fields = FieldWriter(self.comm, self.mesh, self.flow.W, path)
-            if not restart:
-                self.write_fields()
-            observers.append(Every(fd.output_every, FictitiousDomainModel.write_fields))
-        if out_dir is not None and fd.checkpoint_every:
-            observers.append(Every(fd.checkpoint_every, lambda model: model.save_checkpoint(integrator, out_dir)))
-        n_steps = steps_to(self.scene.run.end_time, self.dt)
-        start = time.perf_counter()
-        steps_before = self.history.step
+            raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
+                                  f"{self.dt:g} s: the scene was changed")
+        tolerance = 1e-6 * self.domain.fine_size
         try:
-            if fd.steady_stokes:
-                self.solve_steady(integrator)
-                for observer in observers:
-                    observer(self)
-            while self.history.step < n_steps and not integrator.done:
-                self.step(integrator)
-                for observer in observers:
-                    observer(self)
-            self.timings["steps"] = time.perf_counter() - start
-            self.steps_this_run = self.history.step - steps_before
-            return {"steps": self.history.step, "sizes": self.sizes(), "extra": {"fd": self.report()}}
-        except (SolverError, ArithmeticError, PenetrationError, PETSc.Error) as err:
-            where = ("no checkpoint yet" if self.last_checkpoint is None else
-                     f"last checkpoint at step {self.last_checkpoint[0]}, t = {self.last_checkpoint[1]:.6g} s")
-            message = str(err)
-            if isinstance(err, ArithmeticError) and not isinstance(err, FloatingPointError):
-                message = (f"the coupled step broke down ({type(err).__name__}: {err}) near t = {integrator.time:.6g} s "
-                           f"with the sphere at {integrator.velocity:.3g} m/s: unstable (for a light sphere use "
-                           f"numerics.fd.coupling = \"implicit\"; otherwise lower numerics.fd.cfl)")
-            raise RunDiverged(f"{message} ({where})") from err
-        finally:
-            if self.fields is not None:
-                self.fields.close()
-            self.destroy()
+            for level, function in enumerate(self.flow.states):
+                names = sorted(k[len(f"x_{level}_"):] for k in arrays if k.startswith(f"x_{level}_"))
+                if not names:
+                    raise CheckpointMismatch(f"flow.npz has no flow at time level {level}")
+                scatter_values(function, {name: (arrays[f"x_{level}_{name}"], arrays[f"v_{level}_{name}"])
+                                          for name in names}, tolerance)
+        except (ValueError, KeyError, CheckpointMismatch) as err:
+            raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
+        self.history = History(self.flow.bdf, list(state["velocities"]), list(state["interiors"]))
 
+    def open_outputs(self, out_dir: Path, restart: bool) -> None:
+        if not self.fields_every:
+            return
+        path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
+        self.fields = FieldWriter(self.comm, self.mesh, self.flow.W, path)
+
+    def write_fields(self, time_now: float) -> None:
+        self.fields.write(self.flow.now, self.step * self.dt)
+
+    def close_outputs(self) -> None:
+        if self.fields is not None:
+            self.fields.close()
+
+    # -- what the summary says ----------------------------------------------------------------
     def sizes(self) -> dict:
         cells = self.mesh.topology.index_map(2).size_global
         return {"cells": cells, "unknowns": self.flow.unknowns, "dt": self.dt, "fine_size": self.domain.fine_size}
 
     def report(self) -> dict:
         """Cost and discretisation details for summary.json."""
+        self.timings["steps"] = self.loop_seconds
         steps = max(self.steps_this_run, 1)
         operator = self.flow.operator
         solves = operator.back_solves

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+from ...motion import series_speed
 from ...scene import Scene
 from .grid import INFLOW, OUTFLOW, SLIP, WALL, Boundaries, StaggeredGrid, make_grid
 
@@ -21,12 +22,7 @@ def path_range(scene: Scene) -> tuple[float, float]:
     if motion.mode == "fixed":
         return h0, h0 + d
     if motion.mode == "prescribed":
-        speed = abs(motion.velocity)
-        if motion.series:
-            import numpy as np
-
-            data = np.genfromtxt(motion.series, delimiter=",", names=True)
-            speed = float(np.max(np.abs(data["velocity"])))
+        speed = series_speed(scene) if motion.series else abs(motion.velocity)
         return max(0.0, h0 - speed * end), h0 + d + speed * end
     if scene.sphere.density >= scene.liquid.density:
         return 0.0, h0 + d  # a heavy sphere never climbs above its release height

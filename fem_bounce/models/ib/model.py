@@ -35,14 +35,15 @@ the difference, it fails as rho_p / rho_l approaches 1.
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
 import scipy.linalg as sla
-from petsc4py import PETSc
 
 from ...errors import RunDiverged
+from ...flow_model import FlowModel, Prediction
+from ...motion import series_speed
+from ...output import CheckpointError
 from ...scene import SceneError
 from ...sphere import FluidForce
 from .body import SphereSurface
@@ -61,23 +62,24 @@ def time_step(scene, h: float) -> tuple[float, float]:
         speed = scene.estimated_impact_speed()
     else:
         speed = max(abs(motion.velocity), abs(motion.stream_velocity))
-        if motion.mode == "prescribed" and motion.series:
-            data = np.genfromtxt(motion.series, delimiter=",", names=True)
-            speed = max(speed, float(np.max(np.abs(data["velocity"]))))
+        speed = max(speed, series_speed(scene))
     speed = max(speed, 1e-12)
     nu = scene.liquid.kinematic_viscosity
     dt = min(opts.cfl * h / speed, opts.viscous_cfl * h * h / nu, scene.run.end_time / 20.0)
     return dt, speed
 
 
-class ImmersedBoundaryModel:
+class ImmersedBoundaryModel(FlowModel):
     name = "ib"
     resolved = True
 
     def __init__(self, scene, comm):
-        self.scene = scene
-        self.comm = comm
+        super().__init__(scene, comm)
         self.opts = scene.numerics.ib
+        self.fields_every = self.opts.output_every
+        self.checkpoint_every = self.opts.checkpoint_every
+        self.solver: FlowSolver | None = None
+        self.writer: SnapshotWriter | None = None
         self.grid = build_grid(scene)
         self.ops = AxisymmetricOperators(self.grid)
         self.dt, self.speed_scale = time_step(scene, self.grid.h)
@@ -128,53 +130,39 @@ class ImmersedBoundaryModel:
                           f"left the uniform grid region (z = {self.grid.fine_z[0] / d:.3g}..{self.grid.fine_z[1] / d:.3g} D); "
                           "raise numerics.ib.fine_margin")
 
-    def run(self, integrator, progress, out_dir: Path | None = None, restart: bool = False) -> dict:
-        if restart:
-            raise RunDiverged("the ib model writes no checkpoints: rerun without --restart")
-        scene, opts, grid = self.scene, self.opts, self.grid
-        solver = FlowSolver(self.ops, scene.liquid.kinematic_viscosity, self.dt)
-        stats = StepStatistics(calm_limit=0.5 * opts.max_cfl)
-        preconditioner = ForcePreconditioner(grid.h)
-        warm = WarmStarts(self.surface.n_points)
-        writer = None
-        if out_dir is not None and opts.output_every and self.comm.rank == 0:
-            writer = SnapshotWriter(out_dir, grid.R, grid.Z)
-        drag_history: list[tuple[float, float]] = []
-        end = scene.run.end_time
-        start = time.perf_counter()
-        try:
-            if writer is not None:
-                self._snapshot(writer, solver, integrator.time)
-            while integrator.time < end * (1.0 - 1e-12) and not integrator.done:
-                fluid = self._step(integrator, solver, preconditioner, warm, stats)
-                drag_history.append((integrator.time, fluid.explicit))
-                self._adapt_time_step(solver, preconditioner, stats)
-                progress(integrator.time, stats.steps, integrator.gap, integrator.velocity)
-                if writer is not None and stats.steps % opts.output_every == 0:
-                    self._snapshot(writer, solver, integrator.time)
-            wake = self._recirculation_length(solver)
-        finally:
-            if writer is not None:
-                writer.close()
-            solver.destroy()
-        extra = {"dt": self.dt, "final_dt": solver.dt, "speed_scale": self.speed_scale,
-                 **stats.summary(time.perf_counter() - start), "grid": grid.describe(),
-                 "lagrangian_points": self.surface.n_points, "snapshots": writer.count if writer is not None else 0,
-                 "force_tables_assembled": preconditioner.assembled, **self._drag_summary(drag_history), **wake}
-        sizes = {"unknowns": grid.n_psi, "cells": grid.n_cells, "fine_cells_per_diameter": opts.cells_per_diameter,
-                 "lagrangian_points": self.surface.n_points}
-        return {"steps": stats.steps, "sizes": sizes, "extra": {"ib": extra}}
+    # -- the FlowModel interface ----------------------------------------------------------------
+    def build(self, integrator) -> None:
+        opts = self.opts
+        self.hold_gap = integrator.contact.hold_gap
+        self.solver = FlowSolver(self.ops, self.scene.liquid.kinematic_viscosity, self.dt)
+        self.stats = StepStatistics(calm_limit=0.5 * opts.max_cfl)
+        self.preconditioner = ForcePreconditioner(self.grid.h)
+        self.warm = WarmStarts(self.surface.n_points)
+        self.drag_history: list[tuple[float, float]] = []
+        self.time = integrator.time
+        self._start_velocity = integrator.velocity
 
-    def _step(self, integrator, solver: FlowSolver, preconditioner: ForcePreconditioner, warm: "WarmStarts",
-              stats: "StepStatistics") -> FluidForce:
-        """One fluid step coupled to the sphere (steps 1-5 of the module docstring)."""
-        scene, opts, grid = self.scene, self.opts, self.grid
+    def initial_velocities(self) -> list[float]:
+        return [self._start_velocity, self.warm.v_old]
+
+    def time_step(self) -> float:
+        return self.solver.dt
+
+    def next_time(self) -> float:
+        return self.time + self.solver.dt
+
+    def finished(self, end_time: float) -> bool:
+        return not self.time < end_time * (1.0 - 1e-12)
+
+    def linearised_force(self, prediction: Prediction) -> FluidForce:
+        """Steps 1-4 of the module docstring: the flow for the predicted points and the resolved force,
+        linearised in the sphere's acceleration."""
+        scene, opts, grid, solver = self.scene, self.opts, self.grid, self.solver
         mode = scene.motion.mode
-        t, v, gap, dt = integrator.time, integrator.velocity, integrator.gap, solver.dt
+        t, v, gap, dt = prediction.time, prediction.velocity_now, prediction.gap_now, solver.dt
         # 1. the points where the sphere will be
         # a free sphere's flow stops at the contact model's hold gap (it adds what the flow misses below)
-        gap_next = gap if mode == "fixed" else max(gap + dt * (1.5 * v - 0.5 * warm.v_old),
-                                                   integrator.contact.hold_gap)
+        gap_next = gap if mode == "fixed" else max(prediction.gap, self.hold_gap)
         r_pts, z_pts = self.surface.positions(gap_next)
         self._check_inside(r_pts, z_pts, t, gap_next)
         active = self.surface.active(gap_next)
@@ -182,15 +170,16 @@ class ImmersedBoundaryModel:
         E = interpolation_matrix(grid, r_pts[active], z_pts[active])
         EC = (E @ solver.curl).tocsr()
         # 2. the flow without immersed forces; 3. the forces for V_n and for a unit velocity
-        prediction = solver.predict()
+        prediction_flow = solver.predict()
         v_ref = scene.motion.velocity if mode == "fixed" else v
         zeros, ones = np.zeros(n_act), np.ones(n_act)
-        S, keys = preconditioner.build(solver, gap_next + self.surface.radius, self._force_rows(solver))
+        S, keys = self.preconditioner.build(solver, gap_next + self.surface.radius, self._force_rows(solver))
         sel = np.concatenate([active, active])
         factor = sla.cho_factor(S[np.ix_(sel, sel)])
         apply = lambda res: sla.cho_solve(factor, res)  # noqa: E731
+        warm = self.warm
         try:
-            base = solver.solve_forces(EC, np.concatenate([zeros, v_ref * ones]) - E @ prediction.q,
+            base = solver.solve_forces(EC, np.concatenate([zeros, v_ref * ones]) - E @ prediction_flow.q,
                                        warm.base[sel], opts.force_tolerance * self.speed_scale, apply)
             unit = None
             if mode != "fixed" and opts.coupling == "implicit":
@@ -198,9 +187,9 @@ class ImmersedBoundaryModel:
                                            apply)
         except ForceSolveError as err:
             raise RunDiverged(f"t = {t:.5g} s: {err}") from err
-        if max(base.iterations, unit.iterations if unit else 0) > preconditioner.stale_after:
-            preconditioner.mark_stale(keys)
-        # 4. the resolved force, linearised in the sphere's acceleration; the integrator's step
+        if max(base.iterations, unit.iterations if unit else 0) > self.preconditioner.stale_after:
+            self.preconditioner.mark_stale(keys)
+        # 4. the resolved force, linearised in the sphere's acceleration
         to_newton = 2.0 * math.pi * scene.liquid.density  # kinematic ring forces / 2 pi -> N
         explicit = -to_newton * base.forces[n_act:].sum()
         if mode == "fixed":
@@ -210,22 +199,89 @@ class ImmersedBoundaryModel:
         else:
             added = to_newton * unit.forces[n_act:].sum() * dt - scene.displaced_mass
             fluid = FluidForce(explicit=explicit, added_mass=added)
-        try:
-            integrator.advance(t + dt, fluid)
-        except PETSc.Error as err:  # NaN from an unstable coupling, seen first by TS
-            raise RunDiverged(f"t = {t:.5g} s: the sphere integrator failed "
-                              f"(PETSc error {err.ierr}): the coupling went unstable") from err
-        # 5. the flow for the velocity the sphere actually reached
-        change = integrator.velocity - v_ref
+        self._pending = (prediction_flow, E, sel, base, unit, v_ref, v, fluid)
+        return fluid
+
+    def complete(self, velocity: float, time_now: float) -> None:
+        """Step 5: the flow for the velocity the sphere actually reached; then the time step's adaptation."""
+        solver, stats = self.solver, self.stats
+        prediction_flow, E, sel, base, unit, v_ref, v, fluid = self._pending
+        change = velocity - v_ref
         forces, psi = base.forces, base.psi
         if unit is not None:
             forces, psi = base.forces + change * unit.forces, base.psi + change * unit.psi
-        solver.accept(prediction, psi, E.T @ forces)
-        warm.store(sel, forces, unit.forces if unit is not None else None, v)
+        solver.accept(prediction_flow, psi, E.T @ forces)
+        self.warm.store(sel, forces, unit.forces if unit is not None else None, v)
         stats.record(base, unit, solver.cfl())
-        if not (np.isfinite(integrator.velocity) and np.all(np.isfinite(solver.q))):
-            raise RunDiverged(f"t = {t:.5g} s: the flow or the sphere became NaN")
-        return fluid
+        if not (np.isfinite(velocity) and np.all(np.isfinite(solver.q))):
+            raise RunDiverged(f"t = {self.time:.5g} s: the flow or the sphere became NaN")
+        self.time = time_now
+        self.step = stats.steps
+        self.drag_history.append((time_now, fluid.explicit))
+        self._adapt_time_step(solver, self.preconditioner, stats)
+
+    # -- checkpoints: everything the next step reads, so a restart continues to the same numbers --
+    def checkpoint_state(self) -> tuple[dict, dict]:
+        solver, stats, warm, tables = self.solver, self.stats, self.warm, self.preconditioner.tables
+        state = {"time": self.time, "dt": solver.dt, "dt_old": solver._dt_old, "v_old": warm.v_old,
+                 "statistics": vars(stats), "force_tables_assembled": self.preconditioner.assembled,
+                 "force_table_keys": sorted(tables)}
+        arrays = {"psi": solver.psi, "q": solver.q, "w_top": solver.w_top, "q_boundary": solver.q_boundary,
+                  "forcing": solver.forcing, "last_rhs": solver.last_rhs, "warm_base": warm.base,
+                  "warm_unit": warm.unit, "drag_history": np.array(self.drag_history).reshape(-1, 2),
+                  **{f"force_table_{k}": table for k, table in tables.items()}}
+        if solver._conv_old is not None:
+            arrays["convection_old"] = solver._conv_old
+        return state, arrays
+
+    def restore(self, state: dict, arrays) -> None:
+        solver, warm = self.solver, self.warm
+        if solver.psi.shape != arrays["psi"].shape:
+            raise CheckpointError(f"the checkpoint's grid has {arrays['psi'].size} stream-function unknowns, this "
+                                  f"scene's {solver.psi.size}: the scene was changed")
+        if state["dt"] != solver.dt:
+            solver.set_time_step(state["dt"])
+        solver._dt_old = state["dt_old"]
+        solver.psi, solver.q, solver.w_top = arrays["psi"], arrays["q"], arrays["w_top"]
+        solver.q_boundary, solver.forcing, solver.last_rhs = arrays["q_boundary"], arrays["forcing"], arrays["last_rhs"]
+        solver._conv_old = arrays.get("convection_old")
+        warm.base, warm.unit, warm.v_old = arrays["warm_base"], arrays["warm_unit"], state["v_old"]
+        self.preconditioner.tables = {k: arrays[f"force_table_{k}"] for k in state["force_table_keys"]}
+        self.preconditioner.assembled = state["force_tables_assembled"]
+        for key, value in state["statistics"].items():
+            setattr(self.stats, key, value)
+        self.drag_history = [tuple(row) for row in arrays["drag_history"]]
+        self.time = state["time"]
+
+    def open_outputs(self, out_dir: Path, restart: bool) -> None:
+        if self.fields_every and self.comm.rank == 0:
+            self.writer = SnapshotWriter(out_dir, self.grid.R, self.grid.Z,
+                                         continue_until=self.time if restart else None)
+
+    def write_fields(self, time_now: float) -> None:
+        if self.writer is not None:
+            self._snapshot(self.writer, self.solver, time_now)
+
+    def close_outputs(self) -> None:
+        if self.writer is not None:
+            self.writer.close()
+
+    def sizes(self) -> dict:
+        grid = self.grid
+        return {"unknowns": grid.n_psi, "cells": grid.n_cells, "fine_cells_per_diameter": self.opts.cells_per_diameter,
+                "lagrangian_points": self.surface.n_points}
+
+    def report(self) -> dict:
+        return {"dt": self.dt, "final_dt": self.solver.dt, "speed_scale": self.speed_scale,
+                **self.stats.summary(self.loop_seconds), "grid": self.grid.describe(),
+                "lagrangian_points": self.surface.n_points,
+                "snapshots": self.writer.count if self.writer is not None else 0,
+                "force_tables_assembled": self.preconditioner.assembled, **self._drag_summary(self.drag_history),
+                **self._recirculation_length(self.solver)}
+
+    def destroy(self) -> None:
+        if self.solver is not None:
+            self.solver.destroy()
 
     def _force_rows(self, solver: FlowSolver):
         """z_centre -> E C for all points of a sphere centred at z_centre (for the force tables)."""

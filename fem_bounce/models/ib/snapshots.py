@@ -44,15 +44,24 @@ class SnapshotWriter:
     """Writes one time series (rank 0 only).  The XDMF file is rewritten after every
     snapshot, so a run that is killed still leaves a readable series."""
 
-    def __init__(self, run_dir: Path, r_nodes: np.ndarray, z_nodes: np.ndarray):
+    def __init__(self, run_dir: Path, r_nodes: np.ndarray, z_nodes: np.ndarray, continue_until: float | None = None):
+        """`continue_until`: a restart from time t [s] keeps the series' snapshots up to t and appends."""
         import h5py
 
         self.run_dir = Path(run_dir)
         self.points, self.triangles = node_mesh(r_nodes, z_nodes)
-        self._h5 = h5py.File(self.run_dir / FIELDS_FILE.replace(".xdmf", ".h5"), "w")
+        self.times: list[float] = []
+        h5_path = self.run_dir / FIELDS_FILE.replace(".xdmf", ".h5")
+        if continue_until is not None and (self.run_dir / FIELDS_FILE).is_file() and h5_path.is_file():
+            kept = [s.time for s in read_snapshots(self.run_dir) if s.time <= continue_until * (1.0 + 1e-12)]
+            self._h5 = h5py.File(h5_path, "a")
+            for name in [n for n in self._h5 if n.startswith("step") and int(n[4:]) >= len(kept)]:
+                del self._h5[name]  # written after the checkpoint: the restart writes them again
+            self.times = kept
+            return
+        self._h5 = h5py.File(h5_path, "w")
         self._h5.create_dataset("geometry", data=self.points)
         self._h5.create_dataset("topology", data=self.triangles)
-        self.times: list[float] = []
 
     @property
     def count(self) -> int:

@@ -1,0 +1,71 @@
+"""The pieces of an axisymmetric Taylor-Hood (P2/P1) flow that every finite-element model shares (the fd
+model's fixed mesh, the ale model's moving one): the mixed space, the BDF and extrapolation coefficients,
+the side conditions named by the mesh's facet tags, the pressure pin and the lifted right-hand side.
+
+Boundaries: "no-slip" (u = 0), "slip" (zero normal velocity, free tangential), "inflow" (u = (0, U_in)),
+"outflow" (do nothing: mu du/dn - p n = 0); the axis always has u_r = 0.  When every side fixes the normal
+velocity the pressure is pinned at one far corner.
+"""
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import apply_lifting, assemble_vector, set_bc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .mesh import AXIS, OUTER, TOP, WALL
+
+SIDE_KINDS = ("no-slip", "slip", "inflow", "outflow")
+# du/dt ~ sum_j BDF[k][j] u^{n+1-j} / dt and u* = sum_j EXTRAPOLATION[k][j] u^{n-j} (Karniadakis et al. 1991)
+BDF = {1: (1.0, -1.0), 2: (1.5, -2.0, 0.5), 3: (11.0 / 6.0, -3.0, 1.5, -1.0 / 3.0)}
+EXTRAPOLATION = {1: (1.0,), 2: (2.0, -1.0), 3: (3.0, -3.0, 1.0)}
+_NORMAL_COMPONENT = {WALL: 1, TOP: 1, OUTER: 0, AXIS: 0}
+
+
+def side_constraints(facet_tags, sides: dict[int, str]) -> tuple[list[tuple[int, np.ndarray, bool]], bool]:
+    """The velocity components the named sides fix, as (component, facets, is_inflow_value), and
+    whether every side fixes the normal velocity (then the pressure level is free and must be pinned)."""
+    fixed, pinned = [], True
+    for side, kind in sides.items():
+        facets = facet_tags.find(side)
+        if kind == "no-slip":
+            fixed += [(0, facets, False), (1, facets, False)]
+        elif kind == "slip":
+            fixed.append((_NORMAL_COMPONENT[side], facets, False))
+        elif kind == "inflow":
+            fixed += [(0, facets, False), (1, facets, True)]
+        else:
+            pinned = False
+    return fixed, pinned
+
+
+def pressure_pin(W, mesh):
+    """p = 0 at the domain's far corner (largest r and z), for a pressure fixed only up to a constant."""
+    Q, _ = W.sub(1).collapse()
+    x = mesh.geometry.x
+    corner = x[:, :2].max(axis=0) if x.size else np.full(2, -np.inf)
+    corner = np.array([mesh.comm.allreduce(corner[k], op=MPI.MAX) for k in range(2)])
+    dofs = fem.locate_dofs_geometrical(
+        (W.sub(1), Q), lambda x: np.isclose(x[0], corner[0]) & np.isclose(x[1], corner[1]))
+    return fem.dirichletbc(fem.Function(Q), dofs, W.sub(1))
+
+
+def lifted_rhs(b: PETSc.Vec, L, a, bcs) -> PETSc.Vec:
+    """b = assemble(L) (nothing when L is None) lifted by the Dirichlet values of `bcs` through the
+    bilinear form a, ghosts accumulated and the boundary rows set: ready for a back-solve."""
+    with b.localForm() as local:
+        local.set(0.0)
+    if L is not None:
+        assemble_vector(b, L)
+    apply_lifting(b, [a], [bcs])
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    set_bc(b, bcs)
+    return b
+
+
+def taylor_hood_space(mesh) -> fem.FunctionSpace:
+    cell = mesh.ufl_cell()
+    return fem.FunctionSpace(mesh, ufl.MixedElement([ufl.VectorElement("Lagrange", cell, 2),
+                                                     ufl.FiniteElement("Lagrange", cell, 1)]))

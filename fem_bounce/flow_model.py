@@ -1,0 +1,151 @@
+"""What a model is to the run: the FlowModel interface, and the sphere's predicted motion it is given.
+
+The run controller (fem_bounce.run) owns the time loop; a model owns its flow.  One step of length dt:
+
+    prediction = predictor.predict(integrator, model.time_step())   # AB2: where the sphere will be
+    fluid = model.linearised_force(prediction)   # advance the flow; f_sim = F* - m_a dV/dt (or None: f_thr)
+    integrator.advance(model.next_time(), fluid) # the shared sphere integrator sub-cycles to t_{n+1}
+    model.complete(integrator.velocity)          # the step's flow for the velocity the sphere reached
+    predictor.push(integrator.velocity)
+
+then the observers (progress, trajectory rows, fields, checkpoints) and the stop conditions.  A model
+that holds the sphere at a steady state (`steady`) is solved once by `solve_steady` instead.
+
+Adding a model means writing one FlowModel and its entry in models/registry.py, nothing else.
+"""
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from pathlib import Path
+
+from .sphere import FluidForce
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Where the sphere will be at the end of the coming fluid step: from its gap now, the step and its
+    mean velocity over the step, 1.5 V_n - 0.5 V_{n-1} (Adams-Bashforth 2) [SI]."""
+
+    time: float  # t_n [s]
+    gap_now: float  # h(t_n) [m]
+    velocity_now: float  # V(t_n) [m/s]
+    dt: float  # [s]
+    mean_velocity: float  # over [t_n, t_n + dt] [m/s]
+
+    @property
+    def gap(self) -> float:
+        """h(t_n + dt) [m]."""
+        return self.gap_now + self.dt * self.mean_velocity
+
+    def center(self, radius: float) -> float:
+        """The sphere centre's height at t_n + dt [m]."""
+        return radius + self.gap_now + self.dt * self.mean_velocity
+
+
+class Predictor:
+    """The sphere's last velocities, newest first (order 2: AB2; order 1: the last velocity held)."""
+
+    def __init__(self, velocities: list[float]):
+        self.velocities = list(velocities)
+
+    def predict(self, time: float, gap: float, velocity: float, dt: float) -> Prediction:
+        v = self.velocities
+        mean_velocity = 1.5 * v[0] - 0.5 * v[1] if len(v) > 1 else v[0]
+        return Prediction(time, gap, velocity, dt, mean_velocity)
+
+    def push(self, velocity: float) -> None:
+        self.velocities = [velocity] + self.velocities[:-1]
+
+
+class FlowModel(ABC):
+    """A model of the liquid around the sphere.  Built for one scene (`__init__` checks it against the
+    model and does nothing costly); `build` makes the meshes and solvers; then the controller steps it.
+
+    Class facts (name, resolution, restarts, colour, ...) live in models/registry.py."""
+
+    name: str = ""
+    resolved: bool = True  # f_sim comes from this flow (False: f_thr everywhere)
+    steady: bool = False  # a held sphere solved for its steady state in one go (solve_steady)
+    observe_integrator_steps: bool = False  # one step is the whole run: observers see every integrator step
+    divergences: tuple = ()  # exception types of the model's solvers that mean the run diverged
+    fields_at_end: bool = False  # the final state also goes to the field files
+    fields_every: int = 0  # field snapshots every N steps (0: none)
+    checkpoint_every: int = 0  # checkpoints every N steps (0: none)
+
+    def __init__(self, scene, comm):
+        self.scene = scene
+        self.comm = comm
+        self.step = 0  # fluid steps completed
+        self.loop_seconds = 0.0  # set by the controller: wall time of this segment's time loop [s]
+        self.steps_this_run = 0  # set by the controller: steps taken in this segment (after a restart: since it)
+
+    # -- set-up -----------------------------------------------------------------------------------
+    def resolved_top(self) -> float:
+        """The height [m] up to which the flow is resolved finely: a rising sphere is stopped there."""
+        return math.inf
+
+    @abstractmethod
+    def build(self, integrator) -> None:
+        """Make the meshes and solvers and set the liquid at rest (or in its stream); collective.  The
+        shared sphere integrator is given for what the flow needs of it (its contact model's hold gap)."""
+
+    def initial_velocities(self) -> list[float]:
+        """The predictor's history at the start, newest first [m/s]."""
+        return [0.0]
+
+    # -- one step ---------------------------------------------------------------------------------
+    @abstractmethod
+    def time_step(self) -> float:
+        """The length of the coming step [s]."""
+
+    def next_time(self) -> float:
+        """The end of the coming step [s]."""
+        return (self.step + 1) * self.time_step()
+
+    def finished(self, end_time: float) -> bool:
+        """No step is left before end_time."""
+        return self.step >= max(1, math.ceil(end_time / self.time_step() - 1e-9))
+
+    @abstractmethod
+    def linearised_force(self, prediction: Prediction) -> FluidForce | None:
+        """Advance the flow to the predicted sphere position and return the force on the sphere over the
+        step, linearised in its acceleration (None: no resolved force)."""
+
+    @abstractmethod
+    def complete(self, velocity: float, time: float) -> None:
+        """Finish the step with the velocity the sphere reached at `time` [m/s, s]."""
+
+    def solve_steady(self, integrator) -> None:
+        """For a `steady` model: solve the held sphere's steady state and hold it to the end time."""
+        raise NotImplementedError(f"the {self.name} model has no steady solve")
+
+    # -- outputs ----------------------------------------------------------------------------------
+    def open_outputs(self, out_dir: Path, restart: bool) -> None:
+        """Open the model's own files in the run directory (field snapshots when fields_every); collective.
+        `restart`: continue what an earlier segment wrote."""
+
+    def write_fields(self, time: float) -> None:
+        """One snapshot of the flow now (collective)."""
+
+    def close_outputs(self) -> None:
+        pass
+
+    def checkpoint_state(self) -> tuple[dict, dict]:
+        """(JSON-able state, arrays gathered on rank 0) that make this flow continue exactly; collective."""
+        raise NotImplementedError(f"the {self.name} model writes no checkpoints")
+
+    def restore(self, state: dict, arrays) -> None:
+        """Set the flow from checkpoint_state's (state, arrays), read on every rank."""
+        raise NotImplementedError(f"the {self.name} model writes no checkpoints")
+
+    def sizes(self) -> dict:
+        return {}
+
+    def report(self) -> dict:
+        """Cost and discretisation details for summary.json (under the model's name)."""
+        return {}
+
+    def destroy(self) -> None:
+        """Free the solvers' PETSc objects."""

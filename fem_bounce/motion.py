@@ -1,0 +1,63 @@
+"""How the sphere moves (scene [motion]), in one place: free (it falls and bounces), fixed (held at its
+initial gap, its surface moving at `velocity`, possibly in a stream entering through z = 0) or
+prescribed (it moves with `velocity`, or along the (t, velocity) CSV `series`).
+
+The sphere integrator, the flow models and their domains ask these questions here instead of each
+branching on motion.mode.
+"""
+from __future__ import annotations
+
+import csv
+from typing import Callable
+
+import numpy as np
+
+from .scene import Scene, SceneError
+
+
+def is_free(scene: Scene) -> bool:
+    return scene.motion.mode == "free"
+
+
+def is_held(scene: Scene) -> bool:
+    """Fixed at its initial gap (its surface may still move: a quasi-steady approach)."""
+    return scene.motion.mode == "fixed"
+
+
+def is_stream(scene: Scene) -> bool:
+    """A held sphere in a stream entering through z = 0 (no wall there)."""
+    return is_held(scene) and scene.motion.stream_velocity != 0.0
+
+
+def start_velocity(scene: Scene) -> float:
+    """The sphere's velocity the flow starts with [m/s]: at rest when free, the imposed one otherwise."""
+    return scene.motion.velocity if not is_free(scene) else 0.0
+
+
+def series_speed(scene: Scene) -> float:
+    """The largest speed in a prescribed motion's series [m/s] (0 without one)."""
+    motion = scene.motion
+    if motion.mode != "prescribed" or not motion.series:
+        return 0.0
+    data = np.genfromtxt(motion.series, delimiter=",", names=True)
+    return float(np.max(np.abs(data["velocity"])))
+
+
+def prescribed_velocity(scene: Scene) -> Callable[[float], tuple[float, float]]:
+    """t -> (V, dV/dt) for fixed and prescribed motion."""
+    motion = scene.motion
+    if motion.mode != "prescribed" or not motion.series:
+        return lambda t: (motion.velocity, 0.0)
+    from scipy.interpolate import CubicSpline
+
+    with open(motion.series, newline="") as stream:
+        rows = [r for r in csv.DictReader(line for line in stream if not line.startswith("#"))]
+    try:
+        times = np.array([float(r["t"]) for r in rows])
+        velocity = np.array([float(r["velocity"]) for r in rows])
+    except (KeyError, ValueError) as err:
+        raise SceneError(f"motion.series {motion.series!r}: needs numeric columns 't' and 'velocity' ({err})")
+    keep = np.r_[True, np.diff(times) > 0.0]
+    spline = CubicSpline(times[keep], velocity[keep])
+    derivative = spline.derivative()
+    return lambda t: (float(spline(t)), float(derivative(t)))

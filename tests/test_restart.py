@@ -1,0 +1,73 @@
+"""Restarts that survive a real kill, for every model that writes checkpoints: a run in a subprocess is
+SIGKILLed after a checkpoint (or stopped with Ctrl-C), continued with --restart, and its summary and
+trajectory (no row lost or doubled) compared with an uninterrupted run's.  Toy sizes, seconds each."""
+import json
+import signal
+
+import pytest
+
+from fem_bounce import cli
+from fem_bounce.models.registry import MODELS
+from test_bad_input import assert_one_line, assert_same_trajectory, messages, spawn, wait_for
+
+TOY = {
+    "fd": ["--set", "numerics.fd.cells_per_diameter=6", "--set", "run.end_time=0.03",
+           "--set", "numerics.fd.checkpoint_every=10"],
+    "ib": ["--set", "numerics.ib.cells_per_diameter=10", "--set", "run.end_time=0.06",
+           "--set", "numerics.ib.checkpoint_every=10", "--set", "numerics.ib.output_every=7"],
+}
+
+
+def arguments(model: str) -> list[str]:
+    return ["li2011-case3", "--model", model, "--quiet", *TOY[model]]
+
+
+def test_every_model_that_writes_checkpoints_is_tested_here():
+    assert sorted(TOY) == sorted(name for name, entry in MODELS.items() if entry.restarts)
+
+
+@pytest.fixture(scope="module", params=sorted(TOY))
+def straight(request, tmp_path_factory):
+    """An uninterrupted toy run of each model: the reference every restart is compared with."""
+    out = tmp_path_factory.mktemp(request.param) / "straight"
+    assert cli.main(["run", *arguments(request.param), "--out", str(out)]) == 0
+    return request.param, out
+
+
+def assert_same_run(reference, continued) -> None:
+    assert_same_trajectory(reference / "trajectory.csv", continued / "trajectory.csv")
+    a, b = (json.loads((path / "summary.json").read_text()) for path in (reference, continued))
+    assert b["status"] == "completed" and b["steps"] == a["steps"]
+    assert b["final"]["gap"] == pytest.approx(a["final"]["gap"], rel=1e-10)
+    assert b["final"]["velocity"] == pytest.approx(a["final"]["velocity"], rel=1e-9, abs=1e-12)
+    assert [i["impact_speed"] for i in b["impacts"]] == pytest.approx([i["impact_speed"] for i in a["impacts"]])
+
+
+def test_sigkill_after_a_checkpoint_then_restart_gives_the_uninterrupted_run(straight, tmp_path, capsys):
+    model, reference = straight
+    killed = tmp_path / "killed"
+    process = spawn(["run", *arguments(model), "--out", str(killed)], cwd=tmp_path)
+    wait_for(lambda: (killed / "checkpoint" / "model.txt").is_file(), process)
+    process.send_signal(signal.SIGKILL)
+    process.communicate()
+    assert not (killed / "summary.json").exists(), "the run finished before it was killed"
+    assert cli.main(["run", "--restart", str(killed), "--quiet"]) == 0
+    assert messages(capsys.readouterr().err) == []
+    assert_same_run(reference, killed)
+    summary = json.loads((killed / "summary.json").read_text())
+    segments = summary["wall_time_segments_s"]
+    assert len(segments) == 2 and summary["wall_time_s"] == pytest.approx(sum(segments))
+
+
+def test_ctrl_c_leaves_a_run_directory_that_restarts(straight, tmp_path, capsys):
+    model, reference = straight
+    out = tmp_path / "run"
+    process = spawn(["run", *arguments(model), "--out", str(out)], cwd=tmp_path)
+    wait_for(lambda: (out / "checkpoint" / "model.txt").is_file(), process)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130
+    assert_one_line(messages(err), "interrupted by SIGINT", f"with: fem-bounce run --restart {out}")
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+    assert cli.main(["run", "--restart", str(out), "--quiet"]) == 0
+    assert_same_run(reference, out)
