@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from fem_bounce import plots, reference, theory
+from fem_bounce import output, reference, theory
 from fem_bounce import scene as scenes
 from fem_bounce.errors import RunDiverged
 from fem_bounce.run import simulate
@@ -129,7 +129,7 @@ def tencate(args) -> None:
         run_dir = run(f"n{cells:g}", "tencate", "tencate2002-e4", {"numerics.ale.cells_per_diameter": cells},
                       force=args.force)
         data = summary(run_dir)
-        trajectory = plots.read_trajectory(run_dir)
+        trajectory = output.read_trajectory(run_dir)
         peak = -trajectory["velocity"].min()
         t_exp, u_exp = reference.velocity_curve("tencate2002_E4")
         model = np.interp(t_exp, trajectory["t"], trajectory["velocity"])
@@ -207,7 +207,7 @@ def fig7(args) -> None:
     folder = ROOT / "fig7"
     ode_dir = run("ode", "fig7", "li2011-case3", {"run.bounces": 1}, model="ode", force=args.force)
     series = folder / "case3-approach.csv"
-    ode = plots.read_trajectory(ode_dir)
+    ode = output.read_trajectory(ode_dir)
     scene = scenes.load("li2011-case3")
     # the approach down to delta_ss: the contact itself (microseconds) is no flow problem, and a spline
     # through its velocity jump would wiggle.  The runs stop at delta = 0.025, so that their last step,
@@ -233,7 +233,7 @@ def fig7(args) -> None:
         run_dir = run(name.replace("/", "-"), "fig7", "li2011-case3", {**changes, **extra}, model=model,
                       force=args.force)
         # every run follows the same prescribed path: any run's rows (all sub-steps) give f_thr along it
-        path = plots.read_trajectory(run_dir)
+        path = output.read_trajectory(run_dir)
         curves[name] = at_fluid_steps(path, summary(run_dir)["sizes"]["dt"])
     unit = scene.displaced_mass * scene.gravity  # (4/3) pi a^3 rho_l g, the paper's force unit
     diameter = scene.sphere.diameter
@@ -297,7 +297,7 @@ def density(args) -> None:
                    "run.end_time": 0.05, "run.bounces": 1}
         run_dir = run(f"ratio{ratio:g}", "density", "li2011-case3", changes, force=args.force)
         data = summary(run_dir)
-        trajectory = plots.read_trajectory(run_dir)
+        trajectory = output.read_trajectory(run_dir)
         speed = np.abs(trajectory["velocity"]).max()
         # inviscid bound: released from rest with acceleration |rho_p - rho_l| g / (rho_p + rho_l / 2)
         bound = abs(ratio - 1.0) * base.gravity / (ratio + 0.5) * data["final"]["time"]

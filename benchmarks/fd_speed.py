@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from fem_bounce import plots, scene
+from fem_bounce import output, scene
 from fem_bounce.errors import RunDiverged
 from fem_bounce.run import simulate
 
@@ -66,7 +66,7 @@ def density(comm, out: Path, ratios=(1.167, 1.1, 1.01, 0.5, 0.3, 0.1, 0.01, 0.00
                 status = simulate(sc, "fd", comm, folder, force=True, progress=False, plots=False)["status"]
             except RunDiverged as err:
                 status = f"diverged: {err}"
-            velocity = plots.read_trajectory(folder)["velocity"]
+            velocity = output.read_trajectory(folder)["velocity"]
             accel = np.diff(velocity)
             turns = int(np.sum(np.diff(np.sign(accel[np.abs(accel) > 1e-12])) != 0))
             rows.append({"coupling": coupling, "density_ratio": ratio, "status": status[:200],

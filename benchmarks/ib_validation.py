@@ -37,7 +37,7 @@ import numpy as np
 from mpi4py import MPI
 
 from fem_bounce import reference, scene
-from fem_bounce.plots import read_summary, read_trajectory
+from fem_bounce.output import read_summary, read_trajectory
 from fem_bounce.errors import RunDiverged
 from fem_bounce.run import simulate
 

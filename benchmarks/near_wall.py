@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fem_bounce import plots, reference, theory
+from fem_bounce import output, reference, theory
 from fem_bounce import scene as scenes
 
 ROOT = Path("results") / "near_wall"
@@ -206,7 +206,7 @@ def fig7_study(args) -> None:
     folder = ROOT / "fig7"
     folder.mkdir(parents=True, exist_ok=True)
     ode_dir = run("fig7", "ode", "li2011-case3", "ode", {"run.bounces": 1}, args.force)
-    ode = plots.read_trajectory(ode_dir)
+    ode = output.read_trajectory(ode_dir)
     sc = scenes.load("li2011-case3")
     diameter = sc.sphere.diameter
     series_end = float(ode["t"][np.argmax(ode["gap"] <= sc.contact.delta_ss * diameter)])
@@ -227,7 +227,7 @@ def fig7_study(args) -> None:
             for name, extra in variants.items()]
     dirs = run_all("fig7", jobs, args)
     unit = sc.displaced_mass * sc.gravity  # the paper's force unit (4/3) pi a^3 rho_l g
-    curves = {name: plots.read_trajectory(d) for name, d in dirs.items()}
+    curves = {name: output.read_trajectory(d) for name, d in dirs.items()}
     along = curves[next(iter(curves))]  # every run follows the same path: f_thr from any of them
     stokes_unit = 6.0 * math.pi * sc.liquid.viscosity * sc.sphere.radius
     stokes = np.array([-stokes_unit * v * theory.brenner_lambda(h / diameter)

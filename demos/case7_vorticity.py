@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from fem_bounce import fields, plots, validation
+from fem_bounce import fields, output, validation
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("--toy", action="store_true", help="8 cells per diameter, one bounce: for the test suite")
@@ -43,9 +43,9 @@ if MPI.COMM_WORLD.rank == 0:
     # sphere with negative omega (u_z < 0 at its surface, 0 far away), and the fluid squeezed out
     # along the wall has made a layer of the opposite sign there.
     diameter, t_unit = 0.0095, (0.0095 / 9.81) ** 0.5
-    summary = plots.read_summary(args.out)
+    summary = output.read_summary(args.out)
     impact = summary["impacts"][0]["time"]
-    trajectory = plots.read_trajectory(args.out)
+    trajectory = output.read_trajectory(args.out)
     snap = min(fields.read_snapshots(args.out), key=lambda s: abs(s.time - (impact - 1e-3)))
     center = np.interp(snap.time, trajectory["t"], trajectory["gap"]) + diameter / 2
     r, z = snap.points[:, 0], snap.points[:, 1]

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import json
 from pathlib import Path
 
 from . import models
+from .output import read_summary
 from . import scene as scenes
 from .errors import RunDiverged
 from .models.registry import CORE_SOURCES
@@ -49,7 +49,7 @@ def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT,
     """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed."""
     run_dir = Path(root) / f"{scene.name}-{model}-{run_key(scene, model)}"
     summary = run_dir / "summary.json"
-    if not summary.exists() or load_summary(run_dir).get("status", "").startswith(("interrupted", "failed")):
+    if not summary.exists() or read_summary(run_dir).get("status", "").startswith(("interrupted", "failed")):
         try:
             simulate(scene, model, comm, run_dir, force=True, progress=progress, plots=False,
                      command=command or f"cached run of {scene.name} with {model}")
@@ -58,5 +58,3 @@ def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT,
     return run_dir
 
 
-def load_summary(run_dir: Path) -> dict:
-    return json.loads((Path(run_dir) / "summary.json").read_text())

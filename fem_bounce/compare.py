@@ -53,10 +53,8 @@ def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = Fa
 
 def table_rows(run_dirs: list[Path]) -> list[dict]:
     """One row per run directory (from summary.json), plus the scene's measured reference."""
-    from .plots import read_summary
-
     rows = []
-    summaries = [read_summary(d) for d in run_dirs]
+    summaries = [output.read_summary(d) for d in run_dirs]
     for summary in summaries:
         sizes = summary.get("sizes") or {}
         row = {"model": summary["model"], "status": summary["status"], "wall_time_s": round(summary["wall_time_s"], 3),
@@ -118,16 +116,16 @@ def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     from . import reference
-    from .plots import read_summary, read_trajectory, units
+    from .plots import units
 
     fig, axes = plt.subplots(2, 3, figsize=(14, 7.5))
     (ax_gap, ax_vel, ax_cost), (ax_imp, ax_apex, ax_e) = axes
-    summaries = [read_summary(d) for d in run_dirs]
+    summaries = [output.read_summary(d) for d in run_dirs]
     scene = summaries[0]["scene"]
     diameter, t_unit, v_unit = units(scene)
     for k, (run_dir, summary) in enumerate(zip(run_dirs, summaries)):
         color, name = f"C{k}", summary["model"]
-        traj = read_trajectory(run_dir)
+        traj = output.read_trajectory(run_dir)
         ax_gap.plot(traj["t"] / t_unit, traj["gap"] / diameter, color=color, lw=1.2, label=name)
         ax_vel.plot(traj["t"] / t_unit, traj["velocity"] / v_unit, color=color, lw=1.2, label=name)
         numbers = list(range(1, len(summary["impacts"]) + 1))

@@ -1,4 +1,5 @@
-"""Flow-field snapshots an fd or ale run wrote (DIR/fields-KKK.xdmf + .h5), and the paper's Fig. 11 drawn from them.
+"""Flow-field snapshots a run wrote, and the paper's Fig. 11 drawn from them: the fd and ale models write
+DIR/fields-KKK.xdmf + .h5 (dolfinx's writer, one segment per restart), the ib model DIR/fields.xdmf + .h5.
 
     snapshots = read_snapshots("runs/li2011-case7-fd")
     snapshots[0].time, snapshots[0].points (N, 2) in (r, z) [m], snapshots[0].triangles (M, 3),
@@ -65,23 +66,24 @@ def _read_segment(path: Path) -> list[Snapshot]:
     for series in (g for g in grids if g.get("GridType") == "Collection"):
         for grid in series.findall("Grid"):
             t = float(grid.find("Time").get("Value"))
-            attribute = grid.find("Attribute")
-            values = _data_item(folder, attribute.find("DataItem"))
-            name = attribute.get("Name")
-            if name == "velocity":
-                values = values[:, :2]
-            elif values.ndim == 2:
-                values = values[:, 0]
             snapshot = by_time.setdefault(t, Snapshot(t, *mesh_of(grid)))
-            snapshot.fields[name] = values
+            for attribute in grid.findall("Attribute"):  # dolfinx writes one per grid, the ib model three
+                values = _data_item(folder, attribute.find("DataItem"))
+                name = attribute.get("Name")
+                if name == "velocity":
+                    values = values[:, :2]
+                elif values.ndim == 2:
+                    values = values[:, 0]
+                snapshot.fields[name] = values
     return [by_time[t] for t in sorted(by_time)]
 
 
 def read_snapshots(run_dir: Path) -> list[Snapshot]:
     """Every snapshot of a run, in time order, restart segments merged."""
-    segments = sorted(Path(run_dir).glob("fields-*.xdmf"))
+    segments = sorted(Path(run_dir).glob("fields-*.xdmf")) or sorted(Path(run_dir).glob("fields.xdmf"))
     if not segments:
-        raise FileNotFoundError(f"{run_dir} has no fields-*.xdmf (run with numerics.<model>.output_every > 0)")
+        raise FileNotFoundError(f"{run_dir} has no fields-*.xdmf or fields.xdmf (run with "
+                                "numerics.<model>.output_every > 0)")
     snapshots: list[Snapshot] = []
     for path in segments:
         later = _read_segment(path)
@@ -120,10 +122,10 @@ def vorticity_figure(run_dir: Path, times: list[float] | None = None, path: Path
     from matplotlib.patches import Wedge
     from matplotlib.tri import Triangulation
 
-    from . import plots
+    from . import output, plots
 
     run_dir = Path(run_dir)
-    summary, trajectory = plots.read_summary(run_dir), plots.read_trajectory(run_dir)
+    summary, trajectory = output.read_summary(run_dir), output.read_trajectory(run_dir)
     diameter, t_unit, _ = plots.units(summary["scene"])
     snapshots = read_snapshots(run_dir)
     available = np.array([s.time for s in snapshots])

@@ -482,6 +482,26 @@ def commit_checkpoint(run_dir: Path, model: str, write: Callable[[Path], None], 
         raise OutputError(f"cannot write the checkpoint in {run_dir}: {_reason(err)} ({kept})") from None
 
 
+# -- reading a run directory (plots, studies, comparisons and tests read through these) ------------
+
+
+def read_trajectory(run_dir: Path) -> dict:
+    """DIR/trajectory.csv as {column: numpy array} [SI]."""
+    import csv
+
+    import numpy as np
+
+    with open(Path(run_dir) / "trajectory.csv", newline="") as stream:
+        rows = list(csv.reader(stream))
+    data = np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
+    return {name: data[:, k] for k, name in enumerate(rows[0])}
+
+
+def read_summary(run_dir: Path) -> dict:
+    """DIR/summary.json."""
+    return json.loads((Path(run_dir) / "summary.json").read_text())
+
+
 # -- the summary ----------------------------------------------------------------------------------
 
 

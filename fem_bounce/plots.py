@@ -6,8 +6,6 @@ Units follow the paper: time in sqrt(D/g), velocity in sqrt(g D), gap in D.
 """
 from __future__ import annotations
 
-import csv
-import json
 import sys
 from pathlib import Path
 
@@ -18,17 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from . import reference  # noqa: E402
-
-
-def read_trajectory(run_dir: Path) -> dict[str, np.ndarray]:
-    with open(Path(run_dir) / "trajectory.csv", newline="") as stream:
-        rows = list(csv.reader(stream))
-    data = np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
-    return {name: data[:, k] for k, name in enumerate(rows[0])}
-
-
-def read_summary(run_dir: Path) -> dict:
-    return json.loads((Path(run_dir) / "summary.json").read_text())
+from .output import read_summary, read_trajectory  # noqa: E402,F401 -- also read from here by older scripts
 
 
 def units(scene: dict) -> tuple[float, float, float]:

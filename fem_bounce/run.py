@@ -559,6 +559,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     data = output.summary(scene, model, integrator, sum(resumed["wall_time_s"]) + wall,
                           result.get("steps", monitor.steps or integrator.steps), comm.size, command, status=status,
                           sizes=result.get("sizes"), extra=extra)
+    integrator.destroy()
     unwritten = ""
     if out_dir is not None:
         def write_outputs() -> str:

@@ -141,7 +141,7 @@ class SphereIntegrator:
         opts = self.scene.numerics.ode
         # Without f_ss lubrication stops the sphere ~1e-11 m from the wall: the gap's absolute
         # tolerance is 1e-6 of the others so the relative one governs down there.
-        atol = self.y.duplicate()
+        atol = self._atol = self.y.duplicate()
         atol.set(opts.atol)
         atol.setValue(0, 1e-6 * opts.atol)
         ts.setTolerances(rtol=opts.rtol, atol=atol)
@@ -350,15 +350,15 @@ class SphereIntegrator:
     # -- driving it -----------------------------------------------------------------------------
     @property
     def time(self) -> float:
-        return self.ts.getTime()
+        return self.ts.getTime() if self.ts is not None else self._final[0]
 
     @property
     def gap(self) -> float:
-        return float(self.y.array_r[0])
+        return float(self.y.array_r[0]) if self.ts is not None else self._final[1]
 
     @property
     def velocity(self) -> float:
-        return float(self.y.array_r[1])
+        return float(self.y.array_r[1]) if self.ts is not None else self._final[2]
 
     def current_row(self) -> dict:
         h, v, *z = self.y.array_r
@@ -400,6 +400,15 @@ class SphereIntegrator:
             rebound.rebound_speed = speed
             rebound.rebounded = bool(rebound.apex_gap > min_apex)
             rebound.restitution = speed / impact.impact_speed if rebound.rebounded else 0.0
+
+    def destroy(self) -> None:
+        """Free the PETSc objects (the records, and the last state as plain numbers, stay)."""
+        if self.ts is None:
+            return
+        self._final = (self.ts.getTime(), float(self.y.array_r[0]), float(self.y.array_r[1]))
+        for obj in (self.ts, self._jac, self._atol, self.y):
+            obj.destroy()
+        self.ts = None
 
     # -- checkpoints ----------------------------------------------------------------------------
     def state_dict(self) -> dict:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import plots, reference
+from . import output, reference
 from . import scene as scenes
 from .run import simulate
 
@@ -62,7 +62,7 @@ def _run(comm, name: str, out_dir: Path, overrides: dict | None, model: str = "f
         warnings.simplefilter("ignore")  # Re warnings: these scenes are chosen deliberately
         scene = scenes.load(name, {**changes, **(overrides or {})})
     summary = simulate(scene, model, comm, out_dir, force=True, progress=False)
-    return scene, summary, plots.read_trajectory(out_dir)
+    return scene, summary, output.read_trajectory(out_dir)
 
 
 def brenner_drag(comm, out_dir: Path, deltas=(1.0, 0.5, 0.25), overrides: dict | None = None) -> list[dict]:

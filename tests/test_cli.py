@@ -4,7 +4,7 @@ import json
 import pytest
 from mpi4py import MPI
 
-from fem_bounce import cli, plots
+from fem_bounce import cli, output
 
 CONTRACT_SUMMARY = {"scene", "model", "impacts", "rebounds", "wall_time_s", "steps", "ranks", "versions", "command"}
 
@@ -23,7 +23,7 @@ def test_run_writes_the_contracted_files(shared_tmp):
     assert len(summary["impacts"]) == 2 and len(summary["rebounds"]) == 2
     assert {"time", "impact_speed", "peak_speed", "Re", "St", "min_gap"} <= set(summary["impacts"][0])
     assert {"restitution", "rebound_speed", "apex_gap", "apex_time"} <= set(summary["rebounds"][0])
-    trajectory = plots.read_trajectory(out)
+    trajectory = output.read_trajectory(out)
     assert trajectory["gap"][0] == 0.0152 and trajectory["t"][-1] == pytest.approx(summary["final"]["time"])
     # the resolved scene runs again unchanged
     again = shared_tmp / "again"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from fem_bounce import cli, fields, plots, scene
+from fem_bounce import cli, fields, output, scene
 from fem_bounce.errors import RunDiverged
 from fem_bounce.run import simulate
 
@@ -25,8 +25,8 @@ def test_two_ranks_give_the_serial_trajectory(shared_tmp):
     parallel = run(shared_tmp / "parallel", comm=comm)
     serial = run(shared_tmp / f"serial-{comm.rank}", comm=MPI.COMM_SELF)
     assert parallel["ranks"] == comm.size and serial["ranks"] == 1
-    a = plots.read_trajectory(shared_tmp / "parallel")
-    b = plots.read_trajectory(shared_tmp / f"serial-{comm.rank}")
+    a = output.read_trajectory(shared_tmp / "parallel")
+    b = output.read_trajectory(shared_tmp / f"serial-{comm.rank}")
     assert len(a["t"]) == len(b["t"])
     assert np.allclose(a["velocity"], b["velocity"], rtol=1e-7, atol=1e-10)
     assert np.allclose(a["f_sim"], b["f_sim"], rtol=1e-6, atol=1e-9)
@@ -50,7 +50,7 @@ def test_restart_continues_to_the_same_result(shared_tmp):
     comm.barrier()
     assert cli.main(["run", "--restart", str(killed), "--quiet"]) == 0
     comm.barrier()
-    a, b = plots.read_trajectory(shared_tmp / "straight"), plots.read_trajectory(killed)
+    a, b = output.read_trajectory(shared_tmp / "straight"), output.read_trajectory(killed)
     assert np.array_equal(a["t"], b["t"])  # no duplicated or missing rows
     assert np.allclose(a["velocity"], b["velocity"], rtol=1e-9, atol=1e-12)
     resumed = json.loads((killed / "summary.json").read_text())
@@ -98,7 +98,7 @@ def test_implicit_coupling_is_stable_for_light_spheres(tmp_path, ratio):
     out = tmp_path / "fd"
     summary = run(out, name="tencate2002-e4", **{"sphere.density": 960.0 * ratio, "run.end_time": 0.05})
     assert summary["status"] == "completed"
-    trajectory = plots.read_trajectory(out)
+    trajectory = output.read_trajectory(out)
     accel = np.diff(trajectory["velocity"])
     assert np.all(np.sign(accel[np.abs(accel) > 1e-12]) == np.sign(1.0 - ratio))  # monotonic
     sc = scene.load("tencate2002-e4", {"sphere.density": 960.0 * ratio})

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from fem_bounce import cli, plots, scene
-from fem_bounce.models.ib import read_snapshots
+from fem_bounce import cli, fields, output, scene
 from fem_bounce.run import simulate
 
 # coarse settings: 8-12 cells per diameter, a near far field, fast-growing cells
@@ -31,9 +30,9 @@ def test_ib_run_writes_the_shared_outputs_and_field_snapshots(shared_tmp):
     assert summary["model"] == "ib" and summary["status"] == "completed"
     assert len(summary["impacts"]) == 1 and summary["rebounds"][0]["apex_gap"] > 0.1 * 0.0095
     assert summary["sizes"]["unknowns"] > 0 and summary["ib"]["cg_iterations_mean"] < 20
-    trajectory = plots.read_trajectory(out)
+    trajectory = output.read_trajectory(out)
     assert np.all(np.isfinite(trajectory["f_sim"])) and trajectory["f_sim"][5] > 0.0  # drag opposes the fall
-    snapshots = read_snapshots(out)
+    snapshots = fields.read_snapshots(out)
     assert len(snapshots) == summary["ib"]["snapshots"] >= 2
     first, last = snapshots[0], snapshots[-1]
     n = first.points.shape[0]

@@ -6,7 +6,7 @@ import signal
 
 import pytest
 
-from fem_bounce import cli
+from fem_bounce import cli, fields
 from fem_bounce.models.registry import MODELS
 from test_bad_input import assert_one_line, assert_same_trajectory, messages, spawn, wait_for
 
@@ -41,6 +41,9 @@ def assert_same_run(reference, continued) -> None:
     assert b["final"]["gap"] == pytest.approx(a["final"]["gap"], rel=1e-10)
     assert b["final"]["velocity"] == pytest.approx(a["final"]["velocity"], rel=1e-9, abs=1e-12)
     assert [i["impact_speed"] for i in b["impacts"]] == pytest.approx([i["impact_speed"] for i in a["impacts"]])
+    if list(reference.glob("fields*.xdmf")):  # the field snapshots continue as one series, none doubled
+        times = [snapshot.time for snapshot in fields.read_snapshots(continued)]
+        assert times == pytest.approx([snapshot.time for snapshot in fields.read_snapshots(reference)])
 
 
 def test_sigkill_after_a_checkpoint_then_restart_gives_the_uninterrupted_run(straight, tmp_path, capsys):

@@ -12,9 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import plots, reference
+from .. import reference
 from .. import scene as scenes
-from ..cache import cached_run, load_summary
+from ..cache import cached_run
+from ..output import read_summary, read_trajectory
 from ..models.registry import MODELS
 
 
@@ -56,18 +57,18 @@ CFL_LADDER = (0.8, 0.4, 0.2, 0.1)
 
 def quantities(scene: scenes.Scene, run_dir: Path) -> dict:
     """The numbers a study compares, for the kind of scene this is [SI]."""
-    summary = load_summary(run_dir)
+    summary = read_summary(run_dir)
     found: dict = {"wall_time_s": summary["wall_time_s"], "status": summary["status"]}
     motion = scene.motion
     if motion.mode == "fixed":
-        force = plots.read_trajectory(run_dir)["f_sim"][-1]
+        force = read_trajectory(run_dir)["f_sim"][-1]
         a, rho, mu = scene.sphere.radius, scene.liquid.density, scene.liquid.viscosity
         if motion.stream_velocity:
             found["drag_coefficient"] = force / (0.5 * rho * motion.stream_velocity**2 * math.pi * a**2)
         if motion.velocity:
             found["wall_drag_factor"] = -force / (6 * math.pi * mu * a * motion.velocity)
         return found
-    trajectory = plots.read_trajectory(run_dir)
+    trajectory = read_trajectory(run_dir)
     found["peak_speed"] = float(max(0.0, -trajectory["velocity"].min()))
     impacts, rebounds = summary["impacts"], summary["rebounds"]
     if impacts:

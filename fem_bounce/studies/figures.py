@@ -15,7 +15,8 @@ from pathlib import Path
 
 from .. import models, plots, reference
 from .. import scene as scenes
-from ..cache import cached_run, load_summary
+from ..cache import cached_run
+from ..output import read_summary, read_trajectory
 from .common import StudyDirectory
 
 DELTA_SS = (0.015, 0.017, 0.019)
@@ -39,8 +40,8 @@ def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dic
     made = {}
     if comm.rank == 0:
         made["fig9"] = figure_9(fig9, out / "fig09_case3_delta_ss.png")
-        summary = load_summary(fig9[0.017])
-        made["fig10"] = plots.velocity_gap_figure(plots.read_trajectory(fig9[0.017]), summary,
+        summary = read_summary(fig9[0.017])
+        made["fig10"] = plots.velocity_gap_figure(read_trajectory(fig9[0.017]), summary,
                                                   out / "fig10_case3_velocity_gap.png")
         made["fig12"] = figure_12(fig12, fig12b, out / "fig12_relative_error.png")
     snapshots_key = models.info(model).fields_key
@@ -59,7 +60,7 @@ def figure_9(runs: dict, path: Path) -> Path:
 
     fig, ax = plt.subplots(figsize=(7, 4))
     for k, (dss, run_dir) in enumerate(runs.items()):
-        traj, summary = plots.read_trajectory(run_dir), load_summary(run_dir)
+        traj, summary = read_trajectory(run_dir), read_summary(run_dir)
         diameter, t_unit, _ = plots.units(summary["scene"])
         ax.plot(traj["t"] / t_unit, traj["gap"] / diameter, color=f"C{k}", lw=1.2,
                 label=rf"$\delta_{{ss}}$ = {dss:g}")
@@ -81,7 +82,7 @@ def figure_12(runs: dict, low_st: dict, path: Path) -> Path:
     fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(10, 4))
     model = None
     for case, run_dir in runs.items():
-        summary = load_summary(run_dir)
+        summary = read_summary(run_dir)
         model = summary["model"]
         impacts = summary["impacts"]
         for k, (key, name) in enumerate((("Re_I", "first impact"), ("Re_II", "second impact"))):
@@ -98,7 +99,7 @@ def figure_12(runs: dict, low_st: dict, path: Path) -> Path:
     ax_a.set_title(f"(a) cases 1-7 ({model})", fontsize=9)
     ax_a.legend(fontsize=8)
     for k, case in enumerate(sorted({c for c, _ in low_st})):
-        points = sorted((dss, load_summary(d)) for (c, dss), d in low_st.items() if c == case)
+        points = sorted((dss, read_summary(d)) for (c, dss), d in low_st.items() if c == case)
         xs = [dss for dss, s in points if len(s["impacts"]) > 1]
         ys = [100 * (s["impacts"][1]["Re"] / table[case]["Re_II"] - 1) for _, s in points if len(s["impacts"]) > 1]
         ax_b.plot(xs, ys, "o-", color=f"C{k}", label=f"case {case}, second impact")

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import restitution
 from .. import scene as scenes
-from ..cache import load_summary
+from ..output import read_summary
 from .common import StudyDirectory, run_and_measure
 
 NO_REBOUND_BELOW_ST = 10.0  # Joseph et al. (2001); the paper's runs 25-29
@@ -35,7 +35,7 @@ def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), o
     for name, target, gap in planned:
         trial = restitution.bounce_scene(scenes.load(name, overrides), gap)
         row = run_and_measure(trial, model, comm, study, f"{name} St ~ {target:.3g}")
-        summary = load_summary(Path(row["run_dir"]))
+        summary = read_summary(Path(row["run_dir"]))
         impact = summary["impacts"][0] if summary["impacts"] else None
         rebound = summary["rebounds"][0] if summary["rebounds"] else None
         rows.append({"scene": name, "target_St": target, "gap_over_D": gap / trial.sphere.diameter,

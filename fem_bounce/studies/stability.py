@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import plots
+from ..output import read_trajectory
 from .. import scene as scenes
 from .common import LADDERS, StudyDirectory, run_and_measure
 
@@ -48,7 +48,7 @@ def scene_for(base: scenes.Scene, model: str, sweep: str, value: float) -> scene
 
 
 def energy_grew(scene: scenes.Scene, run_dir: Path) -> bool:
-    trajectory = plots.read_trajectory(run_dir)
+    trajectory = read_trajectory(run_dir)
     net = (scene.sphere.mass - scene.displaced_mass) * scene.gravity
     energy = 0.5 * scene.sphere.mass * trajectory["velocity"] ** 2 + net * trajectory["gap"]
     return bool(np.nanmax(energy) - energy[0] > ENERGY_SLACK * abs(net) * scene.initial_gap)

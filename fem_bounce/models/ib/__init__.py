@@ -7,6 +7,5 @@ step with implicit forces), snapshots (field output), model (time loop and
 coupling to the shared sphere integrator).
 """
 from .model import ImmersedBoundaryModel
-from .snapshots import Snapshot, read_snapshots
 
-__all__ = ["ImmersedBoundaryModel", "Snapshot", "read_snapshots"]
+__all__ = ["ImmersedBoundaryModel"]

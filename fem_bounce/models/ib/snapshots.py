@@ -1,4 +1,4 @@
-"""Flow-field snapshots: XDMF + HDF5 in the run directory, and a reader.
+"""Flow-field snapshots: XDMF + HDF5 in the run directory (read back by fem_bounce.fields.read_snapshots).
 
     DIR/fields.xdmf, DIR/fields.h5     velocity (r, z components) [m/s], pressure [Pa],
                                        azimuthal vorticity du/dz - dw/dr [1/s]
@@ -11,18 +11,10 @@ XDMF layout is meshio's (ParaView opens it).  Written with h5py directly: meshio
 from __future__ import annotations
 
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 
 FIELDS_FILE = "fields.xdmf"
-
-
-class Snapshot(NamedTuple):
-    time: float  # [s]
-    points: np.ndarray  # (N, 2): r, z [m]
-    triangles: np.ndarray  # (M, 3) point indices
-    fields: dict  # 'velocity' (N, 2), 'pressure' (N,), 'vorticity' (N,)
 
 
 def node_mesh(r_nodes: np.ndarray, z_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -53,6 +45,8 @@ class SnapshotWriter:
         self.times: list[float] = []
         h5_path = self.run_dir / FIELDS_FILE.replace(".xdmf", ".h5")
         if continue_until is not None and (self.run_dir / FIELDS_FILE).is_file() and h5_path.is_file():
+            from ...fields import read_snapshots
+
             kept = [s.time for s in read_snapshots(self.run_dir) if s.time <= continue_until * (1.0 + 1e-12)]
             self._h5 = h5py.File(h5_path, "a")
             for name in [n for n in self._h5 if n.startswith("step") and int(n[4:]) >= len(kept)]:
@@ -113,26 +107,3 @@ class SnapshotWriter:
         if self._h5 is not None:
             self._h5.close()
             self._h5 = None
-
-
-def read_snapshots(run_dir: Path) -> list[Snapshot]:
-    """Every snapshot a run wrote, oldest first."""
-    import xml.etree.ElementTree as ET
-
-    import h5py
-
-    path = Path(run_dir) / FIELDS_FILE
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: this run wrote no field snapshots (set numerics.ib.output_every)")
-    root = ET.parse(path).getroot()
-    series = root.find("Domain/Grid[@Name='fields']")
-    out = []
-    with h5py.File(Path(run_dir) / FIELDS_FILE.replace(".xdmf", ".h5"), "r") as h5:
-        points, triangles = np.asarray(h5["geometry"]), np.asarray(h5["topology"])
-        for step in series.findall("Grid"):
-            fields = {}
-            for attribute in step.findall("Attribute"):
-                location = attribute.find("DataItem").text.split(":", 1)[1]
-                fields[attribute.get("Name")] = np.asarray(h5[location])
-            out.append(Snapshot(float(step.find("Time").get("Value")), points, triangles, fields))
-    return out
