@@ -4,7 +4,7 @@
     python benchmarks/fd_validation.py brenner drag --cells 32
     mpirun -n 2 python benchmarks/fd_validation.py cases
 
-Sections (each a function of fem_bounce.validation, runs under runs/fd-validation/):
+Sections (each a function of fem_bounce.studies.validation, runs under runs/fd-validation/):
   brenner   Stokes wall drag lambda at delta = 1, 0.5, 0.25 vs Brenner (1961)      ~1 min
   drag      Cd of a held sphere at Re = 100, 200 vs 1.087, 0.77, 3 s of flow       ~10 min at 16 cells
   tencate   ten Cate E4 peak speed vs 0.1226 m/s                                     ~5 min
@@ -25,7 +25,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fem_bounce import validation
+from fem_bounce.studies import validation
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_validation.json"

@@ -17,7 +17,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fem_bounce import restitution, scene
+from fem_bounce import scene
+from fem_bounce.studies import restitution_planning as restitution
 from fem_bounce.run import simulate
 from fem_bounce.sphere import SphereIntegrator
 

@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from fem_bounce import fields, output, validation
+from fem_bounce import fields, output
+from fem_bounce.studies import validation
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("--toy", action="store_true", help="8 cells per diameter, one bounce: for the test suite")

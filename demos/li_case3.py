@@ -27,7 +27,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fem_bounce import scene, validation
+from fem_bounce import scene
+from fem_bounce.studies import validation
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("--toy", action="store_true", help="8 cells per diameter, two bounces: for the test suite")

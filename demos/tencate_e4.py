@@ -25,7 +25,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fem_bounce import validation
+from fem_bounce.studies import validation
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("--toy", action="store_true", help="8 cells per diameter: for the test suite")

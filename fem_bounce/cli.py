@@ -158,7 +158,7 @@ def _cmd_run(args) -> int:
 def _cmd_compare(args) -> int:
     from mpi4py import MPI
 
-    from . import compare
+    from .studies import compare
 
     comm = MPI.COMM_WORLD
     names = [name.strip() for name in args.models.split(",") if name.strip()]

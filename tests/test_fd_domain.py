@@ -3,7 +3,8 @@ import io
 
 import pytest
 
-from fem_bounce import scene, validation
+from fem_bounce import scene
+from fem_bounce.studies import validation
 from fem_bounce.fem.mesh import OUTER, TOP, WALL
 from fem_bounce.models.fd import domain
 

@@ -2,7 +2,8 @@
 0.5-7 D, e from 2 ms means and 0 when the sphere stays in the contact layer."""
 import pytest
 
-from fem_bounce import restitution, scene
+from fem_bounce import scene
+from fem_bounce.studies import restitution_planning as restitution
 from fem_bounce.sphere import REBOUND_MIN_APEX_IN_CONTACT_LAYERS
 
 

@@ -4,7 +4,7 @@
     fem-bounce restitution --model ale --points 12 --set numerics.ale.cells_per_diameter=8
 
 The Table 3 material sets released from 0.5-7 diameters, release gaps planned by the ODE model so that
-the impact Stokes numbers spread over 1-1000 (fem_bounce.restitution.plan), delta_ss = 0.017; plus the
+the impact Stokes numbers spread over 1-1000 (studies.restitution_planning.plan), delta_ss = 0.017; plus the
 paper's runs 30-35 (85 % glycerol, delta_ss + 5 %) over the part of that set's band.  Writes
 restitution.csv and restitution.png (e against St with the ODE curve, the paper's statements and the
 experiments' range); every run goes through the study cache.
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import restitution
+from . import restitution_planning as restitution
 from .. import scene as scenes
 from ..output import read_summary
 from .common import StudyDirectory, run_and_measure

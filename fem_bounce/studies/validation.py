@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import output, reference
-from . import scene as scenes
-from .run import simulate
+from .. import output, reference
+from .. import scene as scenes
+from ..run import simulate
 
 
 @dataclass(frozen=True)

@@ -23,8 +23,8 @@ import warnings
 
 import numpy as np
 
-from . import scene as scenes
-from .sphere import SphereIntegrator
+from .. import scene as scenes
+from ..sphere import SphereIntegrator
 
 # Table 3, runs 1-29, in the order a Stokes number is assigned to a set that reaches it
 MATERIAL_SETS = (
