@@ -17,12 +17,12 @@ elastic contact lasts microseconds, a fluid step a millisecond.
 
 TS events locate the gap crossing delta_ss (W_o is fixed there from the
 crossing speed) and delta_sl, the minimum gap (impact) and the apex after a
-rebound; a small state machine turns them into Impact and Rebound records.
+rebound; the run's bookkeeping (bounces.BounceRecord) turns them into Impact and
+Rebound records.  The integrator owns its PETSc objects: destroy() frees them.
 """
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -30,14 +30,11 @@ from typing import Callable
 import numpy as np
 from petsc4py import PETSc
 
+from .bounces import IMPACT_WINDOW, BounceRecord, Impact, Rebound  # noqa: F401 -- the integrator's records
 from .contact import ContactModel
 from .motion import prescribed_velocity
 from .scene import Scene, SceneError
 
-IMPACT_WINDOW = 2e-3  # s: the paper's impact speed is the mean over the 2 ms before the minimum gap
-# A rebound whose apex stays within this many elastic-layer thicknesses delta_ss D of the wall never left
-# the lubrication film: reported as no rebound (e = 0), as the experiments report it (docs/physics.md).
-REBOUND_MIN_APEX_IN_CONTACT_LAYERS = 3.0
 
 
 @dataclass(frozen=True)
@@ -47,34 +44,6 @@ class FluidForce:
 
     explicit: float
     added_mass: float = 0.0
-
-
-@dataclass
-class Impact:
-    time: float  # of the minimum gap [s]
-    impact_speed: float  # mean speed over the 2 ms before the minimum gap [m/s]
-    peak_speed: float  # largest approach speed since the previous apex [m/s]
-    contact_speed: float  # speed when the gap fell to delta_ss (sets W_o) [m/s]
-    Re: float  # from impact_speed
-    St: float  # from impact_speed
-    min_gap: float  # [m]
-
-
-@dataclass
-class Rebound:
-    """What follows an impact.  `restitution` compares like with like as a camera sees it:
-    rebound_speed (mean over the 2 ms after the minimum gap) / impact_speed (mean over the
-    2 ms before it, as the paper's Table 2), and 0 when the sphere did not rebound: its apex
-    stayed below REBOUND_MIN_APEX_IN_CONTACT_LAYERS delta_ss D (or it never left contact).
-    `peak_restitution` is the ratio of the peak speeds, after leaving contact and on approach."""
-
-    restitution: float  # 0: no rebound
-    rebound_speed: float  # mean over the 2 ms after the minimum gap [m/s], >= 0
-    peak_rebound_speed: float  # largest speed away from the wall after the impact [m/s]
-    peak_restitution: float
-    apex_gap: float | None  # [m]; None when the sphere never left contact
-    apex_time: float | None  # [s]
-    rebounded: bool = False  # the apex rose above the contact layer (see restitution)
 
 
 class PenetrationError(RuntimeError):
@@ -100,25 +69,9 @@ class SphereIntegrator:
         self._prescribed = prescribed_velocity(scene)
         self.fluid = FluidForce(0.0, 0.0)
         self.observers: list[Callable[[dict], None]] = []
-        self.impacts: list[Impact] = []
-        self.rebounds: list[Rebound] = []
-        self.blend_crossings: list[dict] = []  # the gap passing delta_sl: time, "in"/"out", speed
+        self.bounces = BounceRecord(scene, self.contact, stop_after_impacts)  # impacts, rebounds, the step log
         self.done = False  # the scene's bounce limit (or stop_after_impacts) was reached
-        self.stop_after_impacts = stop_after_impacts
-        self._stop_at = math.inf
         self.steps = 0
-        # contact and bounce state machine
-        self.in_contact = False
-        self.hertz_force = 0.0  # W_o of the current contact [N]
-        self._contact_speed = 0.0
-        self._phase = "approach"  # or "rebound"
-        self._entered_contact = False  # during this approach
-        self._left_contact = False  # since the last impact
-        self._peak_speed = 0.0
-        self._rebound_speed = 0.0
-        self._log_t: list[float] = []
-        self._log_h: list[float] = []
-        self._log_v: list[float] = []
         self._build_ts()
 
     # -- the implicit system ------------------------------------------------------------
@@ -254,79 +207,24 @@ class SphereIntegrator:
         h, v = y.array_r[:2]
         for event in events:
             if event == 0:
-                self._contact_crossing(h, v)
+                self.bounces.contact_crossing(h, v)
             elif event == 1:
-                self._turning_point(t, h)
+                self.bounces.turning_point(t, h)
             elif event == 2:
-                self._blend_crossing(t, v)
+                self.bounces.blend_crossing(t, v)
             else:
                 raise PenetrationError(f"the sphere reached the wall at t = {t:.6g} s (gap {h:.3g} m)")
-
-    def _contact_crossing(self, h: float, v: float) -> None:
-        if not self.in_contact and v < 0.0:
-            self.in_contact = True
-            self._entered_contact = True
-            self._contact_speed = -v
-            self.hertz_force = self.contact.hertz_force(-v)
-        elif self.in_contact and v > 0.0:
-            self.in_contact = False
-            self._left_contact = True
-
-    def _blend_crossing(self, t: float, v: float) -> None:
-        """The gap passing delta_sl, where f_thr and f_sim weigh equally (recorded once per crossing)."""
-        direction = "in" if v < 0.0 else "out"
-        if not self.blend_crossings or self.blend_crossings[-1]["direction"] != direction:
-            self.blend_crossings.append({"time": t, "direction": direction, "speed": abs(v)})
-
-    def _turning_point(self, t: float, h: float) -> None:
-        """A sign change of V: the minimum gap of an impact, or the apex of a rebound.
-        PETSc may report one crossing more than once; the phases make that harmless."""
-        if self._phase == "approach" and self._entered_contact:
-            impact_speed = self._mean_speed_before(t)
-            self.impacts.append(Impact(
-                time=t, impact_speed=impact_speed, peak_speed=self._peak_speed, contact_speed=self._contact_speed,
-                Re=self.scene.reynolds(impact_speed), St=self.scene.stokes(impact_speed), min_gap=h,
-            ))
-            self._phase, self._left_contact, self._rebound_speed = "rebound", False, 0.0
-            if self.stop_after_impacts and len(self.impacts) >= self.stop_after_impacts:
-                self._stop_at = t
-        elif self._phase == "rebound" and self._left_contact:
-            self.rebounds.append(self._rebound(apex_gap=h, apex_time=t))
-            self._phase, self._entered_contact, self._peak_speed = "approach", False, 0.0
-            bounces = self.scene.run.bounces
-            if bounces and len(self.rebounds) >= bounces:
-                self._stop_at = self.impacts[-1].time + IMPACT_WINDOW  # complete the rebound's 2 ms window
-
-    def _rebound(self, apex_gap: float | None, apex_time: float | None) -> Rebound:
-        impact = self.impacts[-1]
-        return Rebound(restitution=0.0, rebound_speed=0.0, peak_rebound_speed=self._rebound_speed,
-                       peak_restitution=self._rebound_speed / impact.peak_speed, apex_gap=apex_gap,
-                       apex_time=apex_time)
-
-    def _gap_at(self, t: float) -> float:
-        return _hermite(self._log_t, self._log_h, self._log_v, t)
-
-    def _mean_speed_before(self, t: float) -> float:
-        """(h(t - 2 ms) - h(t)) / 2 ms from the step log (cubic Hermite between steps)."""
-        t0 = max(t - IMPACT_WINDOW, self._log_t[0])
-        return (self._gap_at(t0) - self._gap_at(t)) / max(t - t0, 1e-300)
 
     def _post_step(self, ts) -> None:
         t = ts.getTime()
         h, v, *z = ts.getSolution().array_r
         self.steps += 1
-        self._log_t.append(t)
-        self._log_h.append(h)
-        self._log_v.append(v)
-        if self._phase == "approach":
-            self._peak_speed = max(self._peak_speed, -v)
-        else:
-            self._rebound_speed = max(self._rebound_speed, v)
+        self.bounces.log(t, h, v)
         if self.observers:
             row = self.row(t, h, v, np.asarray(z))
             for observer in self.observers:
                 observer(row)
-        if t >= self._stop_at:
+        if t >= self.bounces.stop_at:
             self.done = True
         if self.done:
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
@@ -381,25 +279,34 @@ class SphereIntegrator:
     def _post_step_initial(self) -> None:
         """Log and report the initial state as the first row."""
         h, v, *z = self.y.array_r
-        self._log_t.append(0.0)
-        self._log_h.append(h)
-        self._log_v.append(v)
+        self.bounces.log(0.0, h, v, initial=True)
         for observer in self.observers:
             observer(self.row(0.0, h, v, np.asarray(z)))
 
     def finish(self) -> None:
         """Close the records: 2 ms rebound means, and restitution 0 for an impact that never left contact."""
-        if len(self.rebounds) < len(self.impacts) and not self._left_contact:
-            self.rebounds.append(self._rebound(None, None))
-        min_apex = REBOUND_MIN_APEX_IN_CONTACT_LAYERS * self.contact.contact_gap
-        for impact, rebound in zip(self.impacts, self.rebounds):
-            if rebound.apex_gap is None:
-                continue
-            t1 = min(impact.time + IMPACT_WINDOW, self._log_t[-1])
-            speed = max((self._gap_at(t1) - impact.min_gap) / max(t1 - impact.time, 1e-300), 0.0)
-            rebound.rebound_speed = speed
-            rebound.rebounded = bool(rebound.apex_gap > min_apex)
-            rebound.restitution = speed / impact.impact_speed if rebound.rebounded else 0.0
+        self.bounces.finish()
+
+    # -- the records, read through the integrator ---------------------------------------------------
+    @property
+    def impacts(self) -> list[Impact]:
+        return self.bounces.impacts
+
+    @property
+    def rebounds(self) -> list[Rebound]:
+        return self.bounces.rebounds
+
+    @property
+    def blend_crossings(self) -> list[dict]:
+        return self.bounces.blend_crossings
+
+    @property
+    def in_contact(self) -> bool:
+        return self.bounces.in_contact
+
+    @property
+    def hertz_force(self) -> float:
+        return self.bounces.hertz_force
 
     def destroy(self) -> None:
         """Free the PETSc objects (the records, and the last state as plain numbers, stay)."""
@@ -412,27 +319,18 @@ class SphereIntegrator:
 
     # -- checkpoints ----------------------------------------------------------------------------
     def state_dict(self) -> dict:
-        names = ["in_contact", "hertz_force", "_contact_speed", "_phase", "_entered_contact", "_left_contact",
-                 "_peak_speed", "_rebound_speed", "_stop_at", "done", "steps"]
-        return dict(
-            time=self.time, y=self.y.array_r.tolist(), step_size=self.ts.getTimeStep(),
-            machine={k: getattr(self, k) for k in names},
-            log=[self._log_t, self._log_h, self._log_v],
-            impacts=[dataclasses.asdict(i) for i in self.impacts],
-            rebounds=[dataclasses.asdict(r) for r in self.rebounds],
-            blend_crossings=self.blend_crossings,
-        )
+        state = dict(time=self.time, y=self.y.array_r.tolist(), step_size=self.ts.getTimeStep(),
+                     machine={"done": self.done, "steps": self.steps})
+        self.bounces.save(state)
+        return state
 
     def load_state_dict(self, state: dict) -> None:
         self.ts.setTime(state["time"])
         self.ts.setTimeStep(state["step_size"])
         self.y.setArray(state["y"])
-        for key, value in state["machine"].items():
-            setattr(self, key, value)
-        self._log_t, self._log_h, self._log_v = (list(x) for x in state["log"])
-        self.impacts = [Impact(**i) for i in state["impacts"]]
-        self.rebounds = [Rebound(**r) for r in state["rebounds"]]
-        self.blend_crossings = list(state["blend_crossings"])
+        machine = dict(state["machine"])
+        self.done, self.steps = machine.pop("done"), machine.pop("steps")
+        self.bounces.load(state)
 
 
 @contextlib.contextmanager
@@ -450,15 +348,3 @@ def _options_for_one_solver(defaults: dict):
             options.delValue(name)
 
 
-def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> float:
-    """Gap at time t, cubic Hermite between logged steps (h and dh/dt = V are both known)."""
-    k = int(np.clip(np.searchsorted(ts, t) - 1, 0, len(ts) - 2)) if len(ts) > 1 else 0
-    if len(ts) == 1:
-        return hs[0]
-    t0, t1 = ts[k], ts[k + 1]
-    dt = t1 - t0
-    if dt <= 0.0:
-        return hs[k + 1]
-    s = (t - t0) / dt
-    h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
-    return h00 * hs[k] + h10 * dt * vs[k] + h01 * hs[k + 1] + h11 * dt * vs[k + 1]

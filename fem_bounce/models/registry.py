@@ -64,8 +64,8 @@ class ModelInfo:
 
 
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
-CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "sphere.py", "motion.py", "flow_model.py", "run.py",
-                "errors.py", "output.py", "models/__init__.py")
+CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "sphere.py", "bounces.py", "motion.py", "flow_model.py",
+                "run.py", "errors.py", "output.py", "models/__init__.py")
 
 MODELS: dict[str, ModelInfo] = {
     "ode": ModelInfo(
