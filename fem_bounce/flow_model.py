@@ -59,6 +59,11 @@ class Predictor:
         self.velocities = [velocity] + self.velocities[:-1]
 
 
+def steps_to(end_time: float, dt: float) -> int:
+    """The number of steps of length dt that reach end_time."""
+    return max(1, math.ceil(end_time / dt - 1e-9))
+
+
 class FlowModel(ABC):
     """A model of the liquid around the sphere.  Built for one scene (`__init__` checks it against the
     model and does nothing costly); `build` makes the meshes and solvers; then the controller steps it.
@@ -96,9 +101,9 @@ class FlowModel(ABC):
         return [0.0]
 
     # -- one step ---------------------------------------------------------------------------------
-    @abstractmethod
     def time_step(self) -> float:
-        """The length of the coming step [s]."""
+        """The length of the coming step [s] (a model with a fixed step sets self.dt)."""
+        return self.dt
 
     def next_time(self) -> float:
         """The end of the coming step [s]."""
@@ -106,7 +111,7 @@ class FlowModel(ABC):
 
     def finished(self, end_time: float) -> bool:
         """No step is left before end_time."""
-        return self.step >= max(1, math.ceil(end_time / self.time_step() - 1e-9))
+        return self.step >= steps_to(end_time, self.time_step())
 
     @abstractmethod
     def linearised_force(self, prediction: Prediction) -> FluidForce | None:

@@ -83,3 +83,4 @@ class AleNumerics:
     hold_delta: float = _setting(0.02, 0.0, 0.5)  # the mesh stops following the sphere at this gap / D
     fixed_solver: str = field(default="steady", metadata={"choices": ("steady", "march")})  # held sphere
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
+    checkpoint_every: int = _setting(100, 0, 10**9)  # 0: no checkpoints

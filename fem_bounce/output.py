@@ -122,25 +122,31 @@ def unused_directory(base: Path) -> Path:
     return candidate
 
 
+def segment_path(out_dir: Path) -> Path:
+    """The first unused DIR/fields-KKK.xdmf: each segment of a run (one more per --restart) writes its
+    own field file, so a restart never rewrites what an earlier segment wrote."""
+    k = 0
+    while (Path(out_dir) / f"fields-{k:03d}.xdmf").exists():
+        k += 1
+    return Path(out_dir) / f"fields-{k:03d}.xdmf"
+
+
 # -- whole files ------------------------------------------------------------------------------
 
 
-def _sync_directory(path: Path) -> None:
-    """Make a rename inside `path` durable (where the file system supports it)."""
-    with contextlib.suppress(OSError):
-        fd = os.open(path, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-
 def sync_file(path: Path) -> None:
+    """fsync a file (or a directory: the renames inside it)."""
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
     finally:
         os.close(fd)
+
+
+def _sync_directory(path: Path) -> None:
+    """Make a rename inside `path` durable (where the file system supports it)."""
+    with contextlib.suppress(OSError):
+        sync_file(path)
 
 
 def _partial(path: Path) -> Path:

@@ -247,6 +247,10 @@ class Scene:
     def reynolds(self, speed: float) -> float:
         return self.liquid.density * self.sphere.diameter * abs(speed) / self.liquid.viscosity
 
+    def drag_coefficient(self, force, speed: float):
+        """Cd = F / (rho_l U^2 pi a^2 / 2) of a force F [N] (a number or an array) at the speed U [m/s]."""
+        return force / (0.5 * self.liquid.density * speed**2 * math.pi * self.sphere.radius**2)
+
     def stokes(self, speed: float) -> float:
         """St = (1/9) (rho_p / rho_l) Re (paper section 1)."""
         return self.density_ratio * self.reynolds(speed) / 9.0

@@ -14,7 +14,6 @@ model's `[numerics.*]` settings (refined_radius, wake_length, far_field), all in
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from ..motion import is_stream, prescribed_velocity
@@ -83,8 +82,3 @@ def speed_scale(scene: Scene, model: str = "fd") -> float:
         raise SceneError(f"numerics.{model}: a fixed or prescribed sphere needs a nonzero motion.velocity or "
                          "motion.stream_velocity to set the time step")
     return speed
-
-
-def steps_to(end_time: float, dt: float) -> int:
-    """The number of steps of length dt that reach end_time."""
-    return max(1, math.ceil(end_time / dt - 1e-9))

@@ -62,9 +62,9 @@ def quantities(scene: scenes.Scene, run_dir: Path) -> dict:
     motion = scene.motion
     if motion.mode == "fixed":
         force = read_trajectory(run_dir)["f_sim"][-1]
-        a, rho, mu = scene.sphere.radius, scene.liquid.density, scene.liquid.viscosity
+        a, mu = scene.sphere.radius, scene.liquid.viscosity
         if motion.stream_velocity:
-            found["drag_coefficient"] = force / (0.5 * rho * motion.stream_velocity**2 * math.pi * a**2)
+            found["drag_coefficient"] = scene.drag_coefficient(force, motion.stream_velocity)
         if motion.velocity:
             found["wall_drag_factor"] = -force / (6 * math.pi * mu * a * motion.velocity)
         return found

@@ -87,8 +87,7 @@ def drag_coefficient(comm, out_dir: Path, reynolds: int = 100, overrides: dict |
     rows = {int(r["Re"]): r for r in reference.table("sphere_drag_reference")}
     scene, summary, trajectory = _run(comm, f"sphere-drag-re{reynolds}", out_dir, overrides)
     speed = scene.motion.stream_velocity
-    dynamic = 0.5 * scene.liquid.density * speed**2 * math.pi * scene.sphere.radius**2
-    cd = trajectory["f_sim"] / dynamic
+    cd = scene.drag_coefficient(trajectory["f_sim"], speed)
     late = trajectory["t"] >= 0.9 * trajectory["t"][-1]
     target = rows[reynolds]["Cd_reference"]
     return {"Re": scene.reynolds(speed), "Cd": float(cd[-1]), "reference": target, "error": cd[-1] / target - 1.0,

@@ -50,12 +50,13 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from ...fem.functions import CheckpointMismatch, gather_values, scatter_values
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction
+from ...output import CheckpointError, segment_path
 from ...sphere import FluidForce
-from ...fem.domain import steps_to
 from ...motion import is_stream, start_velocity
 from .domain import AleDomain, domain_for, is_steady, time_step
 from .fields import MovingFieldWriter
@@ -130,6 +131,7 @@ class AleModel(FlowModel):
         super().__init__(scene, comm)
         self.settings = scene.numerics.ale
         self.fields_every = self.settings.output_every
+        self.checkpoint_every = self.settings.checkpoint_every
         self.writer: MovingFieldWriter | None = None
         self.domain: AleDomain = domain_for(scene)
         self.steady = is_steady(scene)
@@ -138,6 +140,7 @@ class AleModel(FlowModel):
         self.stats = Statistics()
         self.last_force = (0.0, 0.0)
         self._force_file = None
+        self._force_rows = 0  # rows of ale_forces.csv (every rank counts them; rank 0 writes)
 
     # -- meshes ------------------------------------------------------------------------------
     def build_mesh(self, center: float, cache: bool = True) -> tuple:
@@ -220,12 +223,6 @@ class AleModel(FlowModel):
     def initial_velocities(self) -> list[float]:
         return list(self.kinematics.velocities)
 
-    def time_step(self) -> float:
-        return self.dt
-
-    def finished(self, end_time: float) -> bool:
-        return self.step >= steps_to(end_time, self.dt)
-
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         k, settings = self.kinematics, self.settings
         t_next = (k.step + 1) * self.dt
@@ -268,6 +265,7 @@ class AleModel(FlowModel):
 
     def _record_force(self, t, gap, force, added_mass, quality, remeshed) -> None:
         surface = self.flow.surface_force()
+        self._force_rows += 1
         if self._force_file is not None:
             self._force_writer.writerow([f"{x:.10g}" for x in (t, gap, force, surface, added_mass, quality)]
                                         + [int(remeshed)])
@@ -284,14 +282,63 @@ class AleModel(FlowModel):
         self._record_force(integrator.time, self.stats.min_mesh_gap, force, 0.0,
                            self.motion.quality(0.0), False)
 
+    # -- checkpoints: the mesh's reference centre (remade by gmsh on restart), the flow's history by dof
+    # coordinates on the mesh where it is now, the mesh's and the sphere's past, the statistics -----
+    def checkpoint_state(self) -> tuple[dict, dict]:
+        k = self.kinematics
+        arrays = {}
+        for level, function in enumerate(self.flow.states):
+            for name, (coordinates, values) in (gather_values(function) or {}).items():  # None off rank 0
+                arrays[f"x_{level}_{name}"] = coordinates
+                arrays[f"v_{level}_{name}"] = values
+        stats = asdict(self.stats)
+        state = {"dt": self.dt, "mesh_center": self.motion.reference_center, "velocities": k.velocities,
+                 "centers": k.centers, "kinematics_step": k.step, "last_force": list(self.last_force),
+                 "statistics": stats, "force_rows": self._force_rows}
+        return state, arrays
+
+    def restore(self, state: dict, arrays) -> None:
+        if not math.isclose(state["dt"], self.dt, rel_tol=1e-12):
+            raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
+                                  f"{self.dt:g} s: the scene was changed")
+        if state["mesh_center"] != self.motion.reference_center:  # remeshed: gmsh makes the same mesh again
+            self.flow.destroy()
+            self.mesh, self.motion, self.flow = self.build_mesh(state["mesh_center"], cache=False)
+        k = self.kinematics = Kinematics(self.flow.bdf, list(state["velocities"]), list(state["centers"]),
+                                         step=state["kinematics_step"])
+        self.motion.move_to(k.centers[0])
+        tolerance = 1e-6 * self.domain.fine_size
+        try:
+            for level, function in enumerate(self.flow.states):
+                names = sorted(key[len(f"x_{level}_"):] for key in arrays if key.startswith(f"x_{level}_"))
+                if not names:
+                    raise CheckpointMismatch(f"flow.npz has no flow at time level {level}")
+                scatter_values(function, {name: (arrays[f"x_{level}_{name}"], arrays[f"v_{level}_{name}"])
+                                          for name in names}, tolerance)
+        except (ValueError, KeyError, CheckpointMismatch) as err:
+            raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
+        statistics = dict(state["statistics"])
+        statistics["remeshes"] = [Remesh(**r) for r in statistics["remeshes"]]
+        self.stats = Statistics(**statistics)
+        self.last_force = tuple(state["last_force"])
+        self._force_rows = state["force_rows"]
+
     # -- outputs ----------------------------------------------------------------------------------
     def open_outputs(self, out_dir: Path, restart: bool) -> None:
         if self.fields_every:
-            self.writer = MovingFieldWriter(self.comm, Path(out_dir) / "fields-000.xdmf")
+            path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
+            self.writer = MovingFieldWriter(self.comm, path)
         if self.comm.rank == 0:
-            self._force_file = open(Path(out_dir) / "ale_forces.csv", "w", newline="")
-            self._force_writer = csv.writer(self._force_file)
-            self._force_writer.writerow(FORCE_COLUMNS)
+            forces = Path(out_dir) / "ale_forces.csv"
+            if restart and forces.is_file():  # cut back to the checkpoint's rows, then continue
+                lines = forces.read_text().splitlines(keepends=True)[: 1 + self._force_rows]
+                forces.write_text("".join(lines))
+                self._force_file = open(forces, "a", newline="")
+                self._force_writer = csv.writer(self._force_file)
+            else:
+                self._force_file = open(forces, "w", newline="")
+                self._force_writer = csv.writer(self._force_file)
+                self._force_writer.writerow(FORCE_COLUMNS)
 
     def write_fields(self, time_now: float) -> None:
         self.writer.write(self.flow.now, time_now)

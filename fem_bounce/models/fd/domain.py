@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ...fem.domain import extent, is_stream, speed_scale, steps_to  # noqa: F401 -- the fd model's names for them
+from ...fem.domain import extent, speed_scale
 from ...fem.mesh import HalfPlane
 from ...scene import Scene
 

@@ -22,14 +22,6 @@ from petsc4py import PETSc
 from ...fem import forms
 
 
-def segment_path(out_dir: Path) -> Path:
-    """The first unused DIR/fields-KKK.xdmf."""
-    k = 0
-    while (Path(out_dir) / f"fields-{k:03d}.xdmf").exists():
-        k += 1
-    return Path(out_dir) / f"fields-{k:03d}.xdmf"
-
-
 class FieldWriter:
     """Writes (velocity, pressure, vorticity) of a Taylor-Hood state to one XDMF time series."""
 

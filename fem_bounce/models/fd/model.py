@@ -25,14 +25,14 @@ from pathlib import Path
 from ...fem.functions import CheckpointMismatch, gather_values, scatter_values
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel, Prediction
-from ...motion import start_velocity
-from ...output import CheckpointError
+from ...flow_model import FlowModel, Prediction, steps_to
+from ...motion import is_stream, start_velocity
+from ...output import CheckpointError, segment_path
 from ...scene import SceneError
 from ...sphere import FluidForce
 from . import coupling
-from .domain import Domain, domain_for, is_stream, steps_to, time_step
-from .fields import FieldWriter, segment_path
+from .domain import Domain, domain_for, time_step
+from .fields import FieldWriter
 from .fluid import FlowSolver
 from .immersed import ImmersedSphere
 from .steady import SteadyStokes
@@ -112,12 +112,6 @@ class FictitiousDomainModel(FlowModel):
         return list(self.history.velocities)
 
     # -- one step -------------------------------------------------------------------------
-    def time_step(self) -> float:
-        return self.dt
-
-    def finished(self, end_time: float) -> bool:
-        return self.step >= steps_to(end_time, self.dt)
-
     def predicted_center(self, prediction: Prediction) -> float:
         """Where the flow's sphere will be at t_{n+1}; held spheres stay put, and a free sphere's flow
         stops at the contact model's hold gap (below it the contact model adds what it misses) [m]."""

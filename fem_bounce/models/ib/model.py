@@ -311,8 +311,7 @@ class ImmersedBoundaryModel(FlowModel):
         if scene.motion.mode != "fixed" or not u or len(history) < 20:
             return {}
         t, f = np.array(history).T
-        scale = 0.5 * scene.liquid.density * u * u * math.pi * scene.sphere.radius**2
-        cd = np.sign(u) * f / scale
+        cd = np.sign(u) * scene.drag_coefficient(f, u)
         last, before = t > t[-1] - 0.1 * t[-1], (t > t[-1] - 0.2 * t[-1]) & (t <= t[-1] - 0.1 * t[-1])
         return {"drag_coefficient": float(cd[last].mean()),
                 "drag_coefficient_drift": float(cd[last].mean() - cd[before].mean())}
