@@ -66,6 +66,9 @@ class RunInterrupted(RunFailed):
         super().__init__(message)
         self.signum = signum
 
+    def __reduce__(self):  # pickled whole: a study's worker process hands it back to the study
+        return type(self), (str(self), self.signum)
+
 
 class StopNow(KeyboardInterrupt):
     """A second SIGINT or SIGTERM: stop at once, not after the step."""
