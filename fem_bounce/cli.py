@@ -375,6 +375,10 @@ def main(argv: list[str] | None = None) -> int:
     global _RANK
     from mpi4py import MPI
 
+    from .mpi_pool import petsc_on_self, under_mpi_futures
+
+    if under_mpi_futures():
+        petsc_on_self()  # rank 0 of an mpi4py.futures pool: the workers never join PETSc's COMM_WORLD
     from .run import Interrupts, RunFailed, RunInterrupted, signal_name
     from .studies.runner import RunnerError
 

@@ -23,17 +23,20 @@ import concurrent.futures as cf
 import multiprocessing
 import os
 import signal
-import sys
-import warnings
 from pathlib import Path
 from typing import Iterator
 
 from .. import scene as scenes
 from ..cache import DEFAULT_ROOT, cached_run, finished, run_directory
+from ..mpi_pool import run_one, start_worker, under_mpi_futures
 from ..run import Interrupts, RunFailed, RunInterrupted, signal_name
 
 EXECUTORS = ("local", "mpi")
 POLL_SECONDS = 0.2  # how often the study looks for a signal while its workers run
+
+
+class RunnerError(ValueError):
+    """--jobs or --executor cannot be used as asked; the message says what to do instead."""
 
 
 class RunnerError(ValueError):
@@ -110,14 +113,15 @@ class Runner:
         if self.executor == "mpi":
             from mpi4py.futures import MPIPoolExecutor
 
-            return MPIPoolExecutor(initializer=_start_worker)
+            # main=False: a worker must not import __main__, which is the study itself under `-m fem_bounce`
+            return MPIPoolExecutor(main=False, initializer=start_worker)
         # spawn, not fork: the study's process has initialised MPI, which a forked child must not inherit;
         # one thread per worker, so that N workers use N cores (a worker imports numpy after this).
         previous = {name: os.environ.get(name) for name in _ONE_THREAD}
         os.environ.update({name: "1" for name in _ONE_THREAD if previous[name] is None})
         try:
             return cf.ProcessPoolExecutor(self.jobs, mp_context=multiprocessing.get_context("spawn"),
-                                          initializer=_start_worker)
+                                          initializer=start_worker)
         finally:
             for name, value in previous.items():
                 if value is None:
@@ -125,7 +129,7 @@ class Runner:
 
     def _in_pool(self, pending: dict) -> Iterator[tuple[int, Path]]:
         pool = self._pool()
-        futures = {pool.submit(_run_one, scene, model, str(self.root)): (run_dir, indices)
+        futures = {pool.submit(run_one, scene, model, str(self.root)): (run_dir, indices)
                    for run_dir, ((scene, model), indices) in pending.items()}
         interrupts = Interrupts.active
         signum, failure = 0, None
@@ -174,21 +178,3 @@ class Runner:
 
 
 _ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-def _start_worker() -> None:
-    """In each worker: SIGTERM stops the current run between two steps (it is recorded as interrupted);
-    SIGINT from a terminal's Ctrl-C is left to the study's process, which passes it on as SIGTERM;
-    warnings are one line each."""
-    Interrupts(announce=False).__enter__()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    warnings.simplefilter("always")
-    warnings.showwarning = lambda message, *args, **kwargs: print(
-        f"fem-bounce: worker {os.getpid()}: warning: {message}", file=sys.stderr, flush=True)
-
-
-def _run_one(scene: scenes.Scene, model: str, root: str) -> str:
-    """One run, serial, in a worker process."""
-    from mpi4py import MPI
-
-    return str(cached_run(scene, model, MPI.COMM_SELF, root=Path(root)))
