@@ -43,7 +43,8 @@ def start_worker() -> None:
 
     Interrupts(announce=False).__enter__()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    warnings.simplefilter("always")
+    warnings.simplefilter("default")
+    warnings.simplefilter("ignore", ResourceWarning)  # the form compiler's JIT leaves files to the collector
     warnings.showwarning = lambda message, *args, **kwargs: print(
         f"fem-bounce: worker {os.getpid()}: warning: {message}", file=sys.stderr, flush=True)
 
