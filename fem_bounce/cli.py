@@ -285,17 +285,23 @@ def _cmd_restitution(args) -> int:
     out = _out_path(args.out) or Path("results") / f"restitution-{args.model}"
     changes = dict(scenes.parse_override(text) for text in args.overrides)
     comm, runner = _study_runner(args)
-    rows = restitution.run(args.model, comm, out, points, (args.st_min, args.st_max), overrides=changes,
-                           runner=runner)
+    with runner:
+        rows = restitution.run(args.model, comm, out, points, (args.st_min, args.st_max), overrides=changes,
+                               runner=runner)
     if comm.rank == 0:
         print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.png")
     return 0
 
 
 def _cmd_study(args) -> int:
+    comm, runner = _study_runner(args)
+    with runner:  # its worker processes end with the study
+        return _study(args, comm, runner)
+
+
+def _study(args, comm, runner) -> int:
     from . import studies
 
-    comm, runner = _study_runner(args)
     changes = dict(scenes.parse_override(text) for text in args.overrides)
     model_names = (args.models if args.kind == "speed-accuracy" else args.model).split(",")
     for name in model_names:
