@@ -39,19 +39,6 @@ class RunnerError(ValueError):
     """--jobs or --executor cannot be used as asked; the message says what to do instead."""
 
 
-class RunnerError(ValueError):
-    """--jobs or --executor cannot be used as asked; the message says what to do instead."""
-
-
-def under_mpi_futures() -> bool:
-    """True on the master of `python -m mpi4py.futures` with at least one worker rank.  mpi4py 3.1 has
-    no public query for it; its shared pool is the attribute that the `-m mpi4py.futures` launcher sets."""
-    from mpi4py import MPI
-    from mpi4py.futures import _lib
-
-    return getattr(_lib, "SharedPool", None) is not None and MPI.COMM_WORLD.size > 1
-
-
 class Runner:
     """Runs (scene, model) pairs through the cache and yields (index, run directory) as each finishes."""
 
