@@ -19,7 +19,8 @@ from pathlib import Path
 from mpi4py import MPI
 
 from fem_bounce import reference, scene
-from fem_bounce.run import RunDiverged, simulate
+from fem_bounce.errors import RunDiverged
+from fem_bounce.run import simulate
 
 
 def run_case(case: int, model: str, out: Path, overrides: dict, force: bool, comm) -> dict:

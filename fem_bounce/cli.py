@@ -203,12 +203,10 @@ def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | Non
 
 def _restart_model(run_dir: Path, requested: str | None) -> str:
     """The model that wrote DIR's checkpoint (it continues the run)."""
-    from .run import CHECKPOINTING
-
     model = output.find_checkpoint(run_dir).model
-    if model not in CHECKPOINTING:
+    if model not in models.registry.restarting():
         raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
-                                f"checkpoints (only {', '.join(CHECKPOINTING)} can --restart): it is not a checkpoint "
+                                f"checkpoints (only {', '.join(models.registry.restarting())} can --restart): it is not a checkpoint "
                                 "this version wrote")
     if requested and requested != model:
         raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
@@ -352,7 +350,8 @@ def main(argv: list[str] | None = None) -> int:
     global _RANK
     from mpi4py import MPI
 
-    from .run import Interrupts, RunFailed, RunInterrupted, signal_name
+    from .errors import RunFailed, RunInterrupted
+    from .run import Interrupts, signal_name
 
     _RANK = MPI.COMM_WORLD.rank
     args = _parser().parse_args(argv)

@@ -13,14 +13,13 @@ from __future__ import annotations
 import importlib
 from pathlib import Path
 
-from .. import plots, reference
+from .. import models, plots, reference
 from .. import scene as scenes
 from ..cache import cached_run, load_summary
 from .common import StudyDirectory
 
 DELTA_SS = (0.015, 0.017, 0.019)
 DELTA_SS_LOW_ST = (0.017, 0.01785, 0.0187)
-SNAPSHOT_KEY = {"fd": "numerics.fd.output_every", "ib": "numerics.ib.output_every", "ale": "numerics.ale.output_every"}
 
 
 def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dict | None = None) -> dict:
@@ -44,7 +43,7 @@ def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dic
         made["fig10"] = plots.velocity_gap_figure(plots.read_trajectory(fig9[0.017]), summary,
                                                   out / "fig10_case3_velocity_gap.png")
         made["fig12"] = figure_12(fig12, fig12b, out / "fig12_relative_error.png")
-    snapshots_key = SNAPSHOT_KEY.get(model)
+    snapshots_key = models.info(model).fields_key
     if snapshots_key:
         case7 = run_case(7, **{snapshots_key: 20})
         if comm.rank == 0:
