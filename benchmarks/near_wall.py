@@ -38,10 +38,18 @@ def say(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
 
+def finished(run_dir: Path) -> bool:
+    """The run directory holds a run that completed (an interrupted or failed one is done again)."""
+    try:
+        return json.loads((run_dir / "summary.json").read_text())["status"] == "completed"
+    except (OSError, ValueError, KeyError):
+        return False
+
+
 def run(study: str, name: str, scene: str, model: str, changes: dict, force: bool) -> Path:
-    """A `fem-bounce run` of `model` on the preset with `changes`, unless its directory has a summary."""
+    """A `fem-bounce run` of `model` on the preset with `changes`, unless its directory has a completed run."""
     run_dir = ROOT / study / "runs" / name
-    if force or not (run_dir / "summary.json").exists():
+    if force or not finished(run_dir):
         command = [sys.executable, "-m", "fem_bounce", "run", scene, "--model", model, "--out", str(run_dir),
                    "--force", "--quiet"]
         for key, value in changes.items():
