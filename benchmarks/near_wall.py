@@ -329,6 +329,29 @@ def dss_study(args) -> None:
                      f"{fmt(found.get('e_1'), '.3f')} | {fmt(st_2, '.1f')} |")
     record("dss", rows, "\n".join(lines) + "\n")
 
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.6, 3.8))
+    for case, marker in ((1, "o"), (2, "s")):
+        mine = sorted((r for r in rows if r["case"] == case and r.get("Re_II")), key=lambda r: r["delta_ss_factor"])
+        for key, style in (("Re_I", "--"), ("Re_II", "-")):
+            ax.plot([0.017 * r["delta_ss_factor"] for r in mine],
+                    [change(r.get(key), measured[case][key]) for r in mine], style, marker=marker,
+                    label=f"case {case}, {key.replace('_', ' ')}")
+    ax.axhline(0.0, color="0.5", lw=0.8)
+    ax.axvline(0.017 * 1.05, color="0.7", ls=":", label=r"the paper's $\delta_{ss}$ + 5 %")
+    ax.set_xlabel(r"$\delta_{ss}$")
+    ax.set_ylabel("error against Table 2 (%)")
+    ax.set_title(f"Fig. 12(b) of Li et al. (2011): {model} model", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(ROOT / "dss" / "dss.png", dpi=130)
+    plt.close(fig)
+    say(f"figure: {ROOT / 'dss' / 'dss.png'}")
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
