@@ -4,8 +4,8 @@
     mpirun -n 2 python benchmarks/table2.py --model fd           # minutes to hours, see README
 
 Writes results/table2-MODEL/{table2.md,table2.json} and keeps each case's run directory beside them
-(re-running reuses finished runs unless --force).  A run of all seven cases with the scenes as shipped
-(no --set) also goes to benchmarks/history/table2_MODEL.json, with date, machine and commit.
+(re-running reuses finished runs unless --force).  A run of all seven cases also goes to
+benchmarks/history/<out's name>.json (table2-MODEL.json by default), with its --set, date, machine and commit.
 """
 from __future__ import annotations
 
@@ -98,8 +98,8 @@ def main() -> None:
             "date": time.strftime("%Y-%m-%d"), "machine": platform.node(), "wall_time_s": time.perf_counter() - start,
         }, indent=2) + "\n"
         (out / "table2.json").write_text(record)
-        if not overrides and len(rows) == 7:
-            (Path(__file__).parent / "history" / f"table2_{args.model}.json").write_text(record)
+        if len(rows) == 7:
+            (Path(__file__).parent / "history" / f"{out.name}.json").write_text(record)
         print(markdown(rows, args.model))
 
 
