@@ -108,7 +108,7 @@ def _parallel_options(parser: argparse.ArgumentParser) -> None:
                              "on every rank under mpirun)")
     parser.add_argument("--executor", choices=["local", "mpi"], default="local",
                         help="mpi: the runs go to the workers of `mpirun -n K python -m mpi4py.futures -m "
-                             "fem_bounce ...` (K - 1 of them); see README, Studies")
+                             "fem_bounce ...` (K - 1 of them); see docs/usage.md, Studies")
 
 
 def _study_runner(args):
