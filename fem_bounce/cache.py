@@ -16,13 +16,13 @@ import hashlib
 import json
 from pathlib import Path
 
+from . import models
 from . import scene as scenes
-from .run import RunDiverged, simulate
+from .errors import RunDiverged
+from .models.registry import CORE_SOURCES
+from .run import simulate
 
 DEFAULT_ROOT = Path("results") / "cache"
-CORE = ("scene.py", "theory.py", "contact.py", "sphere.py", "run.py", "output.py", "models/__init__.py")
-MODEL_SOURCES = {"ode": ("models/ode.py",), "fd": ("models/fd", "fem"), "ib": ("models/ib",),
-                 "ale": ("models/ale", "models/fd", "fem")}  # ale reuses fd.domain and fd.fluid
 
 
 @functools.cache
@@ -30,7 +30,7 @@ def code_version(model: str) -> str:
     """Hash of the source files that decide this model's numbers."""
     package = Path(__file__).parent
     digest = hashlib.sha256()
-    for name in CORE + MODEL_SOURCES.get(model, ()):
+    for name in CORE_SOURCES + models.info(model).sources:
         path = package / name
         files = sorted(path.rglob("*.py")) if path.is_dir() else [path] if path.exists() else []
         for source in files:

@@ -108,7 +108,7 @@ def _parallel_options(parser: argparse.ArgumentParser) -> None:
                              "on every rank under mpirun)")
     parser.add_argument("--executor", choices=["local", "mpi"], default="local",
                         help="mpi: the runs go to the workers of `mpirun -n K python -m mpi4py.futures -m "
-                             "fem_bounce ...` (K - 1 of them); see README, Studies")
+                             "fem_bounce ...` (K - 1 of them); see docs/usage.md, Studies")
 
 
 def _study_runner(args):
@@ -227,12 +227,10 @@ def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | Non
 
 def _restart_model(run_dir: Path, requested: str | None) -> str:
     """The model that wrote DIR's checkpoint (it continues the run)."""
-    from .run import CHECKPOINTING
-
     model = output.find_checkpoint(run_dir).model
-    if model not in CHECKPOINTING:
+    if model not in models.registry.restarting():
         raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
-                                f"checkpoints (only {', '.join(CHECKPOINTING)} can --restart): it is not a checkpoint "
+                                f"checkpoints (only {', '.join(models.registry.restarting())} can --restart): it is not a checkpoint "
                                 "this version wrote")
     if requested and requested != model:
         raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
@@ -381,11 +379,12 @@ def main(argv: list[str] | None = None) -> int:
     global _RANK
     from mpi4py import MPI
 
+    from .errors import RunFailed, RunInterrupted
     from .mpi_pool import petsc_on_self, under_mpi_futures
 
     if under_mpi_futures():
         petsc_on_self()  # rank 0 of an mpi4py.futures pool: the workers never join PETSc's COMM_WORLD
-    from .run import Interrupts, RunFailed, RunInterrupted, signal_name
+    from .run import Interrupts, signal_name
     from .studies.runner import RunnerError
 
     _RANK = MPI.COMM_WORLD.rank

@@ -15,6 +15,7 @@ import numpy as np
 from .. import plots, reference
 from .. import scene as scenes
 from ..cache import load_summary
+from ..models.registry import MODELS
 from .runner import Runner
 
 
@@ -48,15 +49,10 @@ def _setting(scene: scenes.Scene, key: str) -> float:
     return value
 
 
-LADDERS = {
-    "ode": Ladder("numerics.ode.rtol", (1e-3, 1e-4, 1e-5, 1e-6, 1e-7), None),
-    "fd": Ladder("numerics.fd.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.fd.cfl",
-                 ("numerics.fd.forcing_number",)),
-    "ib": Ladder("numerics.ib.cells_per_diameter", (16.0, 24.0, 32.0, 48.0, 64.0), "numerics.ib.cfl"),
-    "ale": Ladder("numerics.ale.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.ale.cfl"),
-}
+# each model's ladder, from the registry of models
+LADDERS = {name: Ladder(m.resolution_key, m.ladder, m.time_step_key, m.scaled_with_time_step)
+           for name, m in MODELS.items()}
 CFL_LADDER = (0.8, 0.4, 0.2, 0.1)
-FIDELITY = ("ale", "fd", "ib", "ode")  # which model's finest run serves as the reference, first found
 
 
 def quantities(scene: scenes.Scene, run_dir: Path) -> dict:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import importlib
 from pathlib import Path
 
-from .. import plots, reference
+from .. import models, plots, reference
 from .. import scene as scenes
 from ..cache import load_summary
 from .common import StudyDirectory
@@ -21,7 +21,6 @@ from .runner import Runner
 
 DELTA_SS = (0.015, 0.017, 0.019)
 DELTA_SS_LOW_ST = (0.017, 0.01785, 0.0187)
-SNAPSHOT_KEY = {"fd": "numerics.fd.output_every", "ib": "numerics.ib.output_every", "ale": "numerics.ale.output_every"}
 
 
 def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dict | None = None,
@@ -29,7 +28,7 @@ def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dic
     study = StudyDirectory(out, comm)
     extra = dict(overrides or {})
     runner = runner or Runner(comm)
-    snapshots_key = SNAPSHOT_KEY.get(model)
+    snapshots_key = models.info(model).fields_key
     # every run the figures need, named by (figure, its key); all of them go to the runner at once
     wanted = {("fig9", dss): (3, {"contact.delta_ss": dss}) for dss in DELTA_SS}
     wanted |= {("fig12", case): (case, {}) for case in cases}

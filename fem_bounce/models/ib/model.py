@@ -44,7 +44,7 @@ import numpy as np
 import scipy.linalg as sla
 from petsc4py import PETSc
 
-from ...run import RunDiverged
+from ...errors import RunDiverged
 from ...scene import SceneError
 from ...sphere import FluidForce
 from .body import SphereSurface
