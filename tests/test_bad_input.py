@@ -533,7 +533,8 @@ def test_errors_and_warnings_print_once_under_mpirun(shared_tmp, capsys):
                             "--out", str(shared_tmp / "ode"))
     assert status == 0
     if comm.rank == 0 and comm.size > 1:
-        assert_one_line(lines, f"warning: the ode model is serial: each of the {comm.size} ranks runs the same")
+        assert_one_line(lines, f"warning: the ode model is serial: under mpirun it runs on rank 0 alone and the "
+                               f"other {comm.size - 1} rank(s) wait")
     else:
         assert lines == []
 
