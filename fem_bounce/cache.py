@@ -16,10 +16,10 @@ import hashlib
 from pathlib import Path
 
 from . import models
-from .output import read_summary
 from . import scene as scenes
 from .errors import RunDiverged
 from .models.registry import CORE_SOURCES
+from .output import read_summary
 from .run import simulate
 
 DEFAULT_ROOT = Path("results") / "cache"
@@ -44,12 +44,29 @@ def run_key(scene: scenes.Scene, model: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def run_directory(scene: scenes.Scene, model: str, root: Path = DEFAULT_ROOT) -> Path:
+    """Where the run of `model` on `scene` is (or will be) cached."""
+    return Path(root) / f"{scene.name}-{model}-{run_key(scene, model)}"
+
+
+def finished(run_dir: Path) -> Path | None:
+    """run_dir if it holds a finished run (completed or diverged), else None: a run killed before its
+    summary, interrupted or failed is not finished and runs again."""
+    summary = Path(run_dir) / "summary.json"
+    if not summary.exists():
+        return None
+    try:
+        status = read_summary(run_dir).get("status", "")
+    except (OSError, ValueError):  # a summary cut short by a kill
+        return None
+    return None if status.startswith(("interrupted", "failed")) else Path(run_dir)
+
+
 def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT, progress: bool = False,
                command: str = "") -> Path:
     """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed."""
-    run_dir = Path(root) / f"{scene.name}-{model}-{run_key(scene, model)}"
-    summary = run_dir / "summary.json"
-    if not summary.exists() or read_summary(run_dir).get("status", "").startswith(("interrupted", "failed")):
+    run_dir = run_directory(scene, model, root)
+    if finished(run_dir) is None:
         try:
             simulate(scene, model, comm, run_dir, force=True, progress=progress, plots=False,
                      command=command or f"cached run of {scene.name} with {model}")

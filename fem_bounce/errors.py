@@ -21,3 +21,6 @@ class RunInterrupted(RunFailed):
     def __init__(self, message: str, signum: int):
         super().__init__(message)
         self.signum = signum
+
+    def __reduce__(self):  # pickled whole: a study's worker process hands it back to the study
+        return type(self), (str(self), self.signum)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import pickle
 import signal
 import sys
 import time
@@ -246,9 +247,6 @@ def _warnings(scene, model: str, comm, guards: _Safeguards) -> list[str]:
                          f"delta_sl gap ({scene.contact.delta_sl:g} D); below {needed:g} the {model} model's force "
                          "near the wall is off by more than 5 % (stability study): expect impact speed and apex "
                          f"errors of 10 % or more; use at least {needed / scene.contact.delta_sl:g} cells/D")
-    if entry.serial and comm.size > 1:
-        found.append(f"the {model} model is serial: each of the {comm.size} ranks runs the same computation "
-                     "(no speed-up); run it without mpirun")
     return found
 
 
@@ -468,6 +466,9 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
              interrupts: Interrupts | None = None) -> dict:
     """Run `model` on `scene`; write DIR/{scene.toml,trajectory.csv,summary.json,*.png} if out_dir is given.
     Raises RunDiverged, RunInterrupted or RunFailed after writing the summary when the run ends early."""
+    if models.info(model).serial and comm.size > 1:
+        return _serial_on_root(scene, model, comm, out_dir, force=force, restart=restart, command=command,
+                               progress=progress, plots=plots, interrupts=interrupts)
     model_cls = models.get(model)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active
@@ -582,6 +583,39 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     if status.startswith("diverged"):
         raise RunDiverged(f"{status}{kept}{unwritten}")
     raise RunFailed(f"{message}{kept}{unwritten}")
+
+
+def _serial_on_root(scene, model: str, comm, out_dir: Path | None, **options) -> dict:
+    """A serial model under mpirun: rank 0 runs it on COMM_SELF while the other ranks wait without
+    spinning, then every rank gets rank 0's summary, or its exception, so that no rank repeats the same
+    serial solve and every rank ends the same way."""
+    from mpi4py import MPI
+
+    result, error, own = None, None, None
+    if comm.rank == 0:
+        warnings.warn(f"the {model} model is serial: under mpirun it runs on rank 0 alone and the other "
+                      f"{comm.size - 1} rank(s) wait (no speed-up); run it without mpirun, or spread a study's "
+                      "runs with --jobs N or --executor mpi", stacklevel=3)
+        try:
+            result = simulate(scene, model, MPI.COMM_SELF, out_dir, **options)
+        except Exception as err:  # noqa: BLE001 -- re-raised on every rank below
+            error = err
+        except KeyboardInterrupt as err:  # a second signal: the other ranks stop as interrupted
+            own, signum = err, getattr(err, "signum", signal.SIGINT)
+            error = RunInterrupted(f"interrupted by {signal_name(signum)}", signum)
+        try:
+            pickle.dumps(error)
+        except Exception:  # noqa: BLE001 -- an exception that cannot travel goes as its message
+            error = RunFailed(f"{type(error).__name__}: {error}")
+    waiting = comm.Ibarrier()
+    while not waiting.Test():
+        time.sleep(0.05)
+    result, error = comm.bcast((result, error), root=0)
+    if own is not None:
+        raise own
+    if error is not None:
+        raise error
+    return result
 
 
 def _draw(out_dir: Path) -> None:
