@@ -10,7 +10,7 @@ point's release gap with the ODE model.  Stokes numbers between the bands (about
 the 95 % glycerol set's terminal speed, below the 85 % set's half-diameter release) cannot be reached
 this way and are not swept.
 
-e is the integrator's (sphere.Rebound): the 2 ms mean speed after the minimum gap over the 2 ms mean
+e is the integrator's (bounces.Rebound): the 2 ms mean speed after the minimum gap over the 2 ms mean
 before it, and 0 when the apex stays inside the contact layer (no rebound, as the experiments report it).
 
     fem-bounce restitution --model ode --points 40      # -> results/restitution-ode/
