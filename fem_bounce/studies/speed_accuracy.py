@@ -15,7 +15,7 @@ from pathlib import Path
 
 from .. import scene as scenes
 from ..models.registry import FIDELITY, MODELS
-from .common import LADDERS, StudyDirectory, measure_all, pareto, primary, relative_error
+from .common import LADDERS, StudyDirectory, measure_all, measured, pareto, primary, relative_error
 from .runner import Runner
 
 THRESHOLDS = (0.01, 0.05, 0.10)
@@ -26,9 +26,9 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
     study = StudyDirectory(out, comm)
     plan = [(model, LADDERS[model].key, value) for model in models
             for value in (levels or {}).get(model, LADDERS[model].values)]
-    measured = measure_all([(scene.replace(**{key: value}), model, f"{key} = {value:g}") for model, key, value in plan],
-                           study, runner)
-    rows = [{"setting": {key: value}, **row} for (_, key, value), row in zip(plan, measured)]
+    found = measure_all([(scene.replace(**{key: value}), model, f"{key} = {value:g}") for model, key, value in plan],
+                        study, runner)
+    rows = [{"setting": {key: value}, **row} for (_, key, value), row in zip(plan, found)]
     names = primary(scene)
     reference_model = next(m for m in FIDELITY if m in models)
     finest = [r for r in rows if r["model"] == reference_model][-1]
