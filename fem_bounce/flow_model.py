@@ -80,9 +80,17 @@ class FlowModel(ABC):
     checkpoint_every: int = 0  # checkpoints every N steps (0: none)
 
     def __init__(self, scene, comm):
+        from .models.registry import MODELS
+
         self.scene = scene
         self.comm = comm
         self.step = 0  # fluid steps completed
+        entry = MODELS[self.name]
+        self.settings = getattr(scene.numerics, self.name)  # [numerics.NAME]
+        if entry.fields_key:
+            self.fields_every = entry.setting(scene, entry.fields_key)
+        if entry.checkpoint_every_key:
+            self.checkpoint_every = entry.setting(scene, entry.checkpoint_every_key)
         self.loop_seconds = 0.0  # set by the controller: wall time of this segment's time loop [s]
         self.steps_this_run = 0  # set by the controller: steps taken in this segment (after a restart: since it)
 

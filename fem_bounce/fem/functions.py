@@ -64,3 +64,25 @@ def scatter_values(function, data: dict, tolerance: float) -> None:
             raise CheckpointMismatch(f"component {name}: a dof lies {distance.max():.3g} m from every stored one")
         function.x.array[np.asarray(parent)] = values[index]
     function.x.scatter_forward()
+
+
+def gather_history(functions: list) -> dict:
+    """The time levels of a flow (u^n, u^{n-1}, ...) as arrays for a checkpoint's .npz, gathered on rank 0
+    ({} elsewhere): x_LEVEL_COMPONENT (dof coordinates) and v_LEVEL_COMPONENT (values)."""
+    arrays = {}
+    for level, function in enumerate(functions):
+        for name, (coordinates, values) in (gather_values(function) or {}).items():
+            arrays[f"x_{level}_{name}"] = coordinates
+            arrays[f"v_{level}_{name}"] = values
+    return arrays
+
+
+def scatter_history(functions: list, arrays, tolerance: float) -> None:
+    """Set the time levels from gather_history's arrays (read on every rank): each local dof takes the
+    stored value within `tolerance` [m] of it, so a run checkpointed on two ranks restarts on one."""
+    for level, function in enumerate(functions):
+        names = sorted(key[len(f"x_{level}_"):] for key in arrays if key.startswith(f"x_{level}_"))
+        if not names:
+            raise CheckpointMismatch(f"flow.npz has no flow at time level {level}")
+        scatter_values(function, {name: (arrays[f"x_{level}_{name}"], arrays[f"v_{level}_{name}"])
+                                  for name in names}, tolerance)

@@ -50,7 +50,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from ...fem.functions import CheckpointMismatch, gather_values, scatter_values
+from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
@@ -129,9 +129,6 @@ class AleModel(FlowModel):
 
     def __init__(self, scene, comm):
         super().__init__(scene, comm)
-        self.settings = scene.numerics.ale
-        self.fields_every = self.settings.output_every
-        self.checkpoint_every = self.settings.checkpoint_every
         self.writer: MovingFieldWriter | None = None
         self.domain: AleDomain = domain_for(scene)
         self.steady = is_steady(scene)
@@ -286,11 +283,7 @@ class AleModel(FlowModel):
     # coordinates on the mesh where it is now, the mesh's and the sphere's past, the statistics -----
     def checkpoint_state(self) -> tuple[dict, dict]:
         k = self.kinematics
-        arrays = {}
-        for level, function in enumerate(self.flow.states):
-            for name, (coordinates, values) in (gather_values(function) or {}).items():  # None off rank 0
-                arrays[f"x_{level}_{name}"] = coordinates
-                arrays[f"v_{level}_{name}"] = values
+        arrays = gather_history(self.flow.states)
         stats = asdict(self.stats)
         state = {"dt": self.dt, "mesh_center": self.motion.reference_center, "velocities": k.velocities,
                  "centers": k.centers, "kinematics_step": k.step, "last_force": list(self.last_force),
@@ -307,14 +300,8 @@ class AleModel(FlowModel):
         k = self.kinematics = Kinematics(self.flow.bdf, list(state["velocities"]), list(state["centers"]),
                                          step=state["kinematics_step"])
         self.motion.move_to(k.centers[0])
-        tolerance = 1e-6 * self.domain.fine_size
         try:
-            for level, function in enumerate(self.flow.states):
-                names = sorted(key[len(f"x_{level}_"):] for key in arrays if key.startswith(f"x_{level}_"))
-                if not names:
-                    raise CheckpointMismatch(f"flow.npz has no flow at time level {level}")
-                scatter_values(function, {name: (arrays[f"x_{level}_{name}"], arrays[f"v_{level}_{name}"])
-                                          for name in names}, tolerance)
+            scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.domain.fine_size)
         except (ValueError, KeyError, CheckpointMismatch) as err:
             raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
         statistics = dict(state["statistics"])

@@ -22,7 +22,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...fem.functions import CheckpointMismatch, gather_values, scatter_values
+from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
 from ...flow_model import FlowModel, Prediction, steps_to
@@ -76,7 +76,6 @@ class FictitiousDomainModel(FlowModel):
 
     def __init__(self, scene, comm):
         super().__init__(scene, comm)
-        self.settings = scene.numerics.fd
         self.domain: Domain = domain_for(scene)
         self.dt = time_step(scene)
         self.flow: FlowSolver | None = None
@@ -86,8 +85,6 @@ class FictitiousDomainModel(FlowModel):
         self.steady_iterations: int | None = None
         self.last_force: coupling.Linearised | None = None
         self.steady = self.settings.steady_stokes
-        self.fields_every = self.settings.output_every
-        self.checkpoint_every = self.settings.checkpoint_every
         if self.settings.steady_stokes and (scene.motion.mode != "fixed" or is_stream(scene)):
             raise SceneError("numerics.fd.steady_stokes = true needs motion.mode = \"fixed\" without a stream")
 
@@ -181,25 +178,15 @@ class FictitiousDomainModel(FlowModel):
         """The BDF history of the flow (u, p at t_n, t_{n-1}, ...) by dof coordinates, gathered on rank 0,
         and of the sphere's velocities and interior integrals."""
         h = self.history
-        arrays = {}
-        for level, function in enumerate(self.flow.states):
-            for name, (coordinates, values) in (gather_values(function) or {}).items():  # None off rank 0
-                arrays[f"x_{level}_{name}"] = coordinates
-                arrays[f"v_{level}_{name}"] = values
-        return {"dt": self.dt, "velocities": h.velocities, "interiors": h.interiors}, arrays
+        return ({"dt": self.dt, "velocities": h.velocities, "interiors": h.interiors},
+                gather_history(self.flow.states))
 
     def restore(self, state: dict, arrays) -> None:
         if not math.isclose(state["dt"], self.dt, rel_tol=1e-12):
             raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
                                   f"{self.dt:g} s: the scene was changed")
-        tolerance = 1e-6 * self.domain.fine_size
         try:
-            for level, function in enumerate(self.flow.states):
-                names = sorted(k[len(f"x_{level}_"):] for k in arrays if k.startswith(f"x_{level}_"))
-                if not names:
-                    raise CheckpointMismatch(f"flow.npz has no flow at time level {level}")
-                scatter_values(function, {name: (arrays[f"x_{level}_{name}"], arrays[f"v_{level}_{name}"])
-                                          for name in names}, tolerance)
+            scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.domain.fine_size)
         except (ValueError, KeyError, CheckpointMismatch) as err:
             raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
         self.history = History(self.flow.bdf, list(state["velocities"]), list(state["interiors"]))

@@ -77,9 +77,7 @@ class ImmersedBoundaryModel(FlowModel):
 
     def __init__(self, scene, comm):
         super().__init__(scene, comm)
-        self.opts = scene.numerics.ib
-        self.fields_every = self.opts.output_every
-        self.checkpoint_every = self.opts.checkpoint_every
+        self.opts = self.settings
         self.solver: FlowSolver | None = None
         self.writer: SnapshotWriter | None = None
         self.grid = build_grid(scene)
