@@ -4,7 +4,7 @@ import pytest
 
 from fem_bounce import scene
 from fem_bounce.studies import restitution_planning as restitution
-from fem_bounce.sphere import REBOUND_MIN_APEX_IN_CONTACT_LAYERS
+from fem_bounce.bounces import REBOUND_MIN_APEX_IN_CONTACT_LAYERS
 
 
 def test_gap_for_stokes_hits_the_target():
