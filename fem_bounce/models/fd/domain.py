@@ -93,17 +93,21 @@ PEAK_SPEED_FACTOR = 1.5  # the fastest fluid: 1.5 U at the equator of a sphere i
 
 
 def time_step(scene: Scene) -> float:
-    """dt = min(cfl h / (1.5 U), forcing_number h^2 / nu) [s], h the fine size, U the speed scale.
+    """dt = cfl h / (1.5 U) [s], h the fine size, U the speed scale; with the penalty constraint
+    (numerics.fd.constraint = "penalty") also dt <= forcing_number h^2 / nu.
 
     The first bound keeps the extrapolated convection stable where the fluid is
     fastest, beside the sphere (with cfl = 0.2 the flow past a sphere at Re = 200 is
     stable, at 0.3 it blows up there within 40 steps).  The second keeps the immersed
     force rho c phi (U - u~), c ~ 1/dt, stronger than viscous diffusion across the
     indicator's band; it binds at low Re, where it sets how rigid the interior is
-    (Brenner's drag at delta = 1 comes out 1.4 % low at 0.025, 3.4 % at 0.05, 16 cells per D)."""
+    (Brenner's drag at delta = 1 comes out 1.4 % low at 0.025, 3.4 % at 0.05, 16 cells per D).
+    The multiplier constraint holds the interior rigid whatever dt, so it has only the first bound."""
     fd = scene.numerics.fd
     fine = scene.sphere.diameter / fd.cells_per_diameter
     convective = fd.cfl * fine / (PEAK_SPEED_FACTOR * speed_scale(scene))
+    if fd.constraint == "multiplier":
+        return convective
     return min(convective, fd.forcing_number * fine**2 / scene.liquid.kinematic_viscosity)
 
 

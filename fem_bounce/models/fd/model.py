@@ -31,10 +31,11 @@ from ...run import RunDiverged
 from ...scene import SceneError
 from ...sphere import FluidForce, PenetrationError
 from . import checkpoint, coupling
-from .domain import Domain, domain_for, is_stream, steps_to, time_step
+from .domain import Domain, domain_for, is_stream, speed_scale, steps_to, time_step
 from .fields import FieldWriter, segment_path
 from .fluid import FlowSolver
 from .immersed import ImmersedSphere
+from .multiplier import RigidConstraint
 from .steady import SteadyStokes
 
 
@@ -94,6 +95,7 @@ class FictitiousDomainModel:
         self.dt = time_step(scene)
         self.flow: FlowSolver | None = None
         self.sphere: ImmersedSphere | None = None
+        self.constraint: RigidConstraint | None = None
         self.fields: FieldWriter | None = None
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
         self.last_checkpoint: tuple[int, float] | None = None
@@ -114,6 +116,9 @@ class FictitiousDomainModel:
         self.flow.set_uniform((0.0, domain.inflow_speed))
         radius = scene.sphere.radius + fd.radius_offset * domain.fine_size
         self.sphere = ImmersedSphere(self.flow, radius, fd.interface_width * domain.fine_size, domain.center)
+        if fd.constraint == "multiplier":
+            self.constraint = RigidConstraint(self.flow, self.sphere, fd.constraint_tolerance, fd.unit_refresh,
+                                              domain.fine_size, speed_scale(scene))
         velocity = scene.motion.velocity if scene.motion.mode != "free" else 0.0
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.sphere.volume] * order)
@@ -131,11 +136,59 @@ class FictitiousDomainModel:
         return self.scene.sphere.radius + max(center - self.scene.sphere.radius, integrator.contact.hold_gap, 0.0)
 
     def step(self, integrator) -> None:
-        flow, sphere, h = self.flow, self.sphere, self.history
-        t_next = (h.step + 1) * self.dt
+        sphere = self.sphere
         center = self.predicted_center(integrator)
         if center != sphere.center:
             sphere.place(center)
+        if self.constraint is not None:
+            self._step_multiplier(integrator)
+        else:
+            self._step_penalty(integrator)
+
+    def _advance_sphere(self, integrator, linear: coupling.Linearised, t_next: float) -> float:
+        """Hand the linearised force to the sphere integrator; return the sphere's new velocity [m/s]."""
+        if not all(math.isfinite(v) for v in (linear.explicit, linear.added_mass)):
+            raise FloatingPointError(f"the fluid force became {linear.explicit} N at t = {t_next:.6g} s")
+        self.last_force = linear
+        start = time.perf_counter()
+        added_mass = linear.added_mass if self.settings.coupling == "implicit" else 0.0
+        integrator.advance(t_next, FluidForce(explicit=linear.explicit, added_mass=added_mass))
+        self.timings["integrator"] += time.perf_counter() - start
+        return integrator.velocity
+
+    def _commit(self, new, velocity: float, t_next: float) -> None:
+        if not math.isfinite(new.norm()):
+            raise FloatingPointError(f"the flow field became non-finite at t = {t_next:.6g} s")
+        self.flow.commit(new)
+        self.history.push(velocity, velocity * self.sphere.volume)
+
+    def _step_multiplier(self, integrator) -> None:
+        """One step with the rigid-body constraint (multiplier.RigidConstraint): the predictor and the
+        response to the last multiplier share one pass over the factors, CG corrects the multiplier
+        for the extrapolated velocity U_e, and lambda_1 carries the force's dependence on U."""
+        flow, sphere, h, constraint = self.flow, self.sphere, self.history, self.constraint
+        t_next = (h.step + 1) * self.dt
+        predicted = flow.predicted
+        constraint.apply_phi(constraint.multiplier, constraint.phi_lambda)
+        flow.solve([flow.predictor_rhs(), constraint.phi_lambda], [predicted, constraint.response])
+        v = h.velocities
+        extrapolated = 2.0 * v[0] - v[1] if len(v) > 1 else v[0]
+        constraint.solve(predicted, extrapolated, response_ready=True)
+        rho, c = self.scene.liquid.density, flow.c
+        volume = sphere.volume
+        # F(U) = I(lambda(U)) + rho c (U V_phi - J), lambda(U) = lambda(U_e) + (U - U_e) lambda_1
+        reference = h.reference_velocity
+        explicit = (constraint.hold_force() + (reference - extrapolated) * constraint.unit_force()
+                    + rho * c * (reference * volume - h.momentum_history))
+        added_mass = -(constraint.unit_force() + rho * c * volume) / c
+        velocity = self._advance_sphere(integrator, coupling.Linearised(explicit, added_mass, reference), t_next)
+        new = constraint.field(predicted, velocity - extrapolated, flow.work)
+        self._commit(new, velocity, t_next)
+
+    def _step_penalty(self, integrator) -> None:
+        """One step with the penalty forcing rho c phi (U - u~) (the scheme before the multiplier)."""
+        flow, sphere, h = self.flow, self.sphere, self.history
+        t_next = (h.step + 1) * self.dt
         # predictor and (if the sphere moved) the unit response share one pass over the factors
         predicted = flow.predicted
         if sphere.unit_stale:
@@ -146,23 +199,13 @@ class FictitiousDomainModel:
         integrals = sphere.integrals(predicted)
         rho, c = self.scene.liquid.density, flow.c
         linear = coupling.linearise(integrals, rho, c, h.momentum_history, h.reference_velocity)
-        if not all(math.isfinite(v) for v in (linear.explicit, linear.added_mass)):
-            raise FloatingPointError(f"the fluid force became {linear.explicit} N at t = {t_next:.6g} s")
-        self.last_force = linear
-        start = time.perf_counter()
-        added_mass = linear.added_mass if self.settings.coupling == "implicit" else 0.0
-        integrator.advance(t_next, FluidForce(explicit=linear.explicit, added_mass=added_mass))
-        self.timings["integrator"] += time.perf_counter() - start
-        velocity = integrator.velocity
+        velocity = self._advance_sphere(integrator, linear, t_next)
         s = coupling.rigid_amplitude(integrals, velocity)
         new = flow.work
         predicted.vector.copy(new)
         new.axpy(1.0, sphere.forced.vector)
         new.axpy(s, sphere.unit.vector)
-        if not math.isfinite(new.norm()):
-            raise FloatingPointError(f"the flow field became non-finite at t = {t_next:.6g} s")
-        flow.commit(new)
-        h.push(velocity, velocity * integrals.volume)
+        self._commit(new, velocity, t_next)
 
     def solve_steady(self, integrator) -> None:
         """Jump to the steady Stokes state of the step (steady.SteadyStokes) at the end time."""
@@ -275,10 +318,22 @@ class FictitiousDomainModel:
                                           if self.last_force is not None else None),
             "indicator_volume_over_sphere": self.sphere.volume / self.scene.sphere.volume,
             "steady_gmres_iterations": self.steady_iterations,
+            **(self.constraint_report() if self.constraint is not None else {}),
         }
+
+    def constraint_report(self) -> dict:
+        """The multiplier's cost and how rigid the interior is at the end (max |u - U e_z| where phi = 1)."""
+        constraint, band = self.constraint, self.sphere.band
+        slip = constraint.interior_slip(self.flow.now, self.history.velocity, band.radius - band.width)
+        return {"constraint": "multiplier", "constraint_cg_iterations": constraint.iterations,
+                "constraint_cg_iterations_per_step": constraint.iterations / max(self.steps_this_run, 1),
+                "constraint_unit_refreshes": constraint.unit_solves,
+                "constraint_unit_cg_iterations": constraint.unit_iterations, "constraint_unconverged": constraint.unconverged, "interior_slip_m_s": slip}
 
     def destroy(self) -> None:
         """Free the PETSc objects (the mesh and the report's numbers stay)."""
+        if self.constraint is not None:
+            self.constraint.destroy()
         if self.sphere is not None:
             self.sphere.destroy()
         if self.flow is not None:
