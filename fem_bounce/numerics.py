@@ -32,11 +32,12 @@ class FdNumerics:
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
     cfl: float = _setting(0.2, 0.01, 50.0)  # dt <= cfl * fine size / (1.5 speed scale): explicit convection
     forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
-    # "multiplier": the interior held rigid by a Lagrange multiplier (CG on its Schur complement), dt free of
-    # the viscous bound; "penalty": the one-shot forcing rho c phi (U - u~), rigid only under forcing_number
-    constraint: str = field(default="multiplier", metadata={"choices": ("multiplier", "penalty")})
-    constraint_tolerance: float = _setting(1e-2, 1e-12, 0.5)  # multiplier: CG residual / right-hand side
-    unit_refresh: float = _setting(0.5, 0.0, 100.0)  # multiplier: recompute dlambda/dU after moving this many fine cells
+    # "penalty": the one-shot forcing rho c phi (U - u~), rigid only under forcing_number (the default);
+    # "multiplier" (experimental, see models/fd/multiplier.py): a Lagrange multiplier solved by CG on its Schur
+    # complement, no viscous step bound, but its drag depends on the band (Brenner +5 % at delta 1, 16 cells/D)
+    constraint: str = field(default="penalty", metadata={"choices": ("penalty", "multiplier")})
+    constraint_tolerance: float = _setting(1e-2, 1e-12, 0.5)  # multiplier: rms interior slip / speed scale
+    unit_steps: int = _setting(2, 1, 100)  # multiplier: CG iterations a step that keep dlambda/dU up to date
     time_order: int = _setting(2, 1, 3)  # BDF/extrapolation order of the flow
     interface_width: float = _setting(2.0, 0.25, 10.0)  # band inside the surface where phi falls to 0, in fine cells
     radius_offset: float = _setting(0.5, -3.0, 3.0)  # the indicator's outer edge at a + this * fine size

@@ -36,7 +36,7 @@ from .fields import FieldWriter, segment_path
 from .fluid import FlowSolver
 from .immersed import ImmersedSphere
 from .multiplier import RigidConstraint
-from .steady import SteadyStokes
+from .steady import SteadyMultiplierStokes, SteadyStokes
 
 
 @dataclass
@@ -117,8 +117,8 @@ class FictitiousDomainModel:
         radius = scene.sphere.radius + fd.radius_offset * domain.fine_size
         self.sphere = ImmersedSphere(self.flow, radius, fd.interface_width * domain.fine_size, domain.center)
         if fd.constraint == "multiplier":
-            self.constraint = RigidConstraint(self.flow, self.sphere, fd.constraint_tolerance, fd.unit_refresh,
-                                              domain.fine_size, speed_scale(scene))
+            self.constraint = RigidConstraint(self.flow, self.sphere, fd.constraint_tolerance, fd.unit_steps,
+                                              speed_scale(scene))
         velocity = scene.motion.velocity if scene.motion.mode != "free" else 0.0
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.sphere.volume] * order)
@@ -169,11 +169,11 @@ class FictitiousDomainModel:
         flow, sphere, h, constraint = self.flow, self.sphere, self.history, self.constraint
         t_next = (h.step + 1) * self.dt
         predicted = flow.predicted
-        constraint.apply_phi(constraint.multiplier, constraint.phi_lambda)
-        flow.solve([flow.predictor_rhs(), constraint.phi_lambda], [predicted, constraint.response])
+        vectors, functions = constraint.first_pass()
+        flow.solve([flow.predictor_rhs(), *vectors], [predicted, *functions])
         v = h.velocities
         extrapolated = 2.0 * v[0] - v[1] if len(v) > 1 else v[0]
-        constraint.solve(predicted, extrapolated, response_ready=True)
+        constraint.solve(predicted, extrapolated, responses_ready=True)
         rho, c = self.scene.liquid.density, flow.c
         volume = sphere.volume
         # F(U) = I(lambda(U)) + rho c (U V_phi - J), lambda(U) = lambda(U_e) + (U - U_e) lambda_1
@@ -209,14 +209,17 @@ class FictitiousDomainModel:
 
     def solve_steady(self, integrator) -> None:
         """Jump to the steady Stokes state of the step (steady.SteadyStokes) at the end time."""
-        steady = SteadyStokes(self.flow, self.sphere)
+        if self.constraint is not None:
+            steady = SteadyMultiplierStokes(self.flow, self.sphere, tolerance=1e-6)
+        else:
+            steady = SteadyStokes(self.flow, self.sphere)
         try:
             force, integrals = steady.solve(self.scene.motion.velocity)
         finally:
             steady.destroy()
         self.steady_iterations = steady.iterations
-        self.last_force = coupling.Linearised(force, coupling.added_mass(integrals, self.scene.liquid.density),
-                                              self.scene.motion.velocity)
+        added_mass = coupling.added_mass(integrals, self.scene.liquid.density) if self.constraint is None else 0.0
+        self.last_force = coupling.Linearised(force, added_mass, self.scene.motion.velocity)
         n_steps = steps_to(self.scene.run.end_time, self.dt)
         integrator.advance(n_steps * self.dt, FluidForce(explicit=force))
         self.history.step = n_steps
@@ -327,8 +330,8 @@ class FictitiousDomainModel:
         slip = constraint.interior_slip(self.flow.now, self.history.velocity, band.radius - band.width)
         return {"constraint": "multiplier", "constraint_cg_iterations": constraint.iterations,
                 "constraint_cg_iterations_per_step": constraint.iterations / max(self.steps_this_run, 1),
-                "constraint_unit_refreshes": constraint.unit_solves,
-                "constraint_unit_cg_iterations": constraint.unit_iterations, "constraint_unconverged": constraint.unconverged, "interior_slip_m_s": slip}
+                "constraint_unit_cg_iterations": constraint.unit_iterations,
+                "constraint_unconverged": constraint.unconverged, "interior_slip_m_s": slip}
 
     def destroy(self) -> None:
         """Free the PETSc objects (the mesh and the report's numbers stay)."""

@@ -24,8 +24,8 @@ set by convection alone.  The sphere's force is affine in U,
 lambda(U) = lambda(U_e) + (U - U_e) lambda_1 with S lambda_1 = -Phi^T e_z, so the
 implicit coupling (coupling.py) keeps working: the step solves for lambda at the
 extrapolated velocity U_e (warm-started from the last step) and corrects it with
-lambda_1, which changes only with the sphere's position and is refreshed when the
-sphere has moved `unit_refresh` fine cells since it was computed.
+lambda_1, which changes only with the sphere's position: it is converged once, then
+improved by a few CG iterations a step (`unit_steps`) so that it follows the sphere.
 
 Everything here is SI; `immersed.BandAssembler.forcing` applies Phi (it is symmetric).
 """
@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 from dolfinx import fem
+from mpi4py import MPI
 from petsc4py import PETSc
 
 
@@ -45,16 +46,14 @@ class ConstraintError(ArithmeticError):
 class RigidConstraint:
     """The multiplier lambda of one sphere (immersed.ImmersedSphere) in its flow (fluid.FlowSolver).
 
-    tolerance: CG stops when the constraint residual is below this fraction of the right-hand side's;
-    unit_refresh: lambda_1 is recomputed after the sphere moved this many fine cells [-];
-    fine_size [m]."""
+    tolerance: CG stops when the rms interior slip is below this fraction of the speed (speed_scale
+    [m/s] for lambda, 1 m/s for lambda_1); unit_steps: CG iterations a step that improve lambda_1."""
 
-    def __init__(self, flow, sphere, tolerance: float = 1e-2, unit_refresh: float = 0.5, fine_size: float = 1.0,
-                 speed_scale: float = 1.0, max_iterations: int = 100):
+    def __init__(self, flow, sphere, tolerance: float = 1e-2, unit_steps: int = 2, speed_scale: float = 1.0,
+                 max_iterations: int = 200):
         self.flow, self.sphere = flow, sphere
-        self.speed_scale = speed_scale
-        self.tolerance, self.max_iterations = tolerance, max_iterations
-        self.refresh_distance = unit_refresh * fine_size
+        self.tolerance, self.unit_steps, self.speed_scale = tolerance, unit_steps, speed_scale
+        self.max_iterations = max_iterations
         W = flow.W
         self.multiplier = fem.Function(W)  # lambda at the last solve (warm start)
         self.response = fem.Function(W)  # A^-1 Phi lambda
@@ -62,19 +61,18 @@ class RigidConstraint:
         self.unit_response = fem.Function(W)  # A^-1 Phi lambda_1
         self._direction = fem.Function(W)
         self._direction_response = fem.Function(W)
+        self._target = fem.Function(W)  # a velocity field to constrain against
         self._residual = flow.rhs.duplicate()
         self._image = flow.rhs.duplicate()
-        self.phi_lambda = flow.rhs.duplicate()  # Phi lambda, for the time loop's first pass
-        self._target = fem.Function(W)  # a velocity field to constrain against
-        self._unit_at = math.nan
-        self._has_unit = False
-        self.iterations = 0  # CG iterations (= back-solves) so far
-        self.solves = 0
-        self.unit_iterations = 0  # of which for lambda_1
-        self.unconverged = 0  # solves that stopped at max_iterations (the slip left is then reported)
-        self._unit_norm = 1.0
-        self.unit_solves = 0
+        self.phi_lambda = flow.rhs.duplicate()  # Phi lambda and Phi lambda_1, for the time loop's first pass
+        self.phi_unit = flow.rhs.duplicate()
         _, self._uz_dofs = W.sub(0).sub(1).collapse()
+        self._has_unit = False
+        self._unit_norm = 1.0  # |Phi^T e_z| at the present position
+        self.iterations = 0  # CG iterations (= back-solves) so far
+        self.unit_iterations = 0  # of which for lambda_1
+        self.solves = 0
+        self.unconverged = 0  # solves of lambda that stopped at max_iterations
 
     # -- Phi and S ---------------------------------------------------------------------------
     def apply_phi(self, function: fem.Function, out: PETSc.Vec, scale: float = 1.0) -> PETSc.Vec:
@@ -84,35 +82,31 @@ class RigidConstraint:
             self.sphere.band.forcing(local.array, function.x.array, scale)
         return self.flow.force_rhs(out)
 
-    def _respond(self, functions: list, responses: list) -> None:
-        """responses = A^-1 Phi x for each x, in one pass over the factors."""
-        rhs = []
-        for k, x in enumerate(functions):
-            vector = self._image if k == 0 else self._residual.duplicate()
-            rhs.append(self.apply_phi(x, vector))
-        self.flow.solve(rhs, responses)
-        for vector in rhs[1:]:
-            vector.destroy()
+    def _rhs(self, predicted: fem.Function | None, velocity: float, out: PETSc.Vec) -> PETSc.Vec:
+        """out = Phi^T (u~ - U e_z) (u~ = 0 when predicted is None)."""
+        target = self._target
+        target.x.array[:] = 0.0 if predicted is None else predicted.x.array
+        target.x.array[self._uz_dofs] -= velocity
+        return self.apply_phi(target, out)
 
-    def _conjugate_gradients(self, rhs: PETSc.Vec, x: fem.Function, response: fem.Function,
-                             speed: float) -> int:
+    def _conjugate_gradients(self, rhs: PETSc.Vec, x: fem.Function, response: fem.Function, speed: float,
+                             limit: int) -> tuple[int, bool]:
         """Solve S x = rhs by conjugate gradients from the guess x whose response A^-1 Phi x is given;
-        both are updated.  Stops when the weighted interior slip |Phi^T (u - U e_z)| is below
-        tolerance * speed * |Phi^T e_z|, i.e. an rms slip of `tolerance` times `speed` [m/s].
-        Returns the iterations (one back-solve each)."""
+        both are updated.  Stops when |Phi^T (u - U e_z)| < tolerance * speed * |Phi^T e_z| (an rms slip
+        of tolerance * speed [m/s]) or after `limit` iterations.  Returns (iterations, converged)."""
         r = self._residual
         self.apply_phi(response, r)
         r.aypx(-1.0, rhs)  # r = rhs - S x
         goal = self.tolerance * speed * self._unit_norm
         rr = r.dot(r)
         if math.sqrt(rr) <= goal:
-            return 0
+            return 0, True
         p, z = self._direction, self._direction_response
         owned = r.getLocalSize()
         p.x.array[:] = 0.0
         p.x.array[:owned] = r.array_r
         p.x.scatter_forward()
-        for iteration in range(1, self.max_iterations + 1):
+        for iteration in range(1, limit + 1):
             self.flow.solve([self.apply_phi(p, self._image)], [z])
             q = self.apply_phi(z, self._image)
             curvature = p.vector.dot(q)
@@ -124,65 +118,54 @@ class RigidConstraint:
             r.axpy(-alpha, q)
             rr_new = r.dot(r)
             if math.sqrt(rr_new) <= goal:
-                return iteration
+                return iteration, True
             beta, rr = rr_new / rr, rr_new
             p.x.array[:owned] = r.array_r + beta * p.x.array[:owned]
             p.x.scatter_forward()
-        self.unconverged += 1
-        return self.max_iterations
+        return limit, False
 
     # -- a step ------------------------------------------------------------------------------
-    @property
-    def unit_stale(self) -> bool:
-        return not (self._has_unit and abs(self.sphere.center - self._unit_at) <= self.refresh_distance)
+    def first_pass(self) -> tuple[list, list]:
+        """The right-hand sides Phi lambda (and Phi lambda_1) at the present position and the functions
+        their responses go to: the time loop solves them in one pass over the factors with its predictor."""
+        vectors, functions = [self.apply_phi(self.multiplier, self.phi_lambda)], [self.response]
+        if self._has_unit:
+            vectors.append(self.apply_phi(self.unit, self.phi_unit))
+            functions.append(self.unit_response)
+        return vectors, functions
 
-    def _rhs(self, predicted: fem.Function | None, velocity: float, out: PETSc.Vec) -> PETSc.Vec:
-        """out = Phi^T (u~ - U e_z)."""
-        target = self._target
-        if predicted is None:
-            target.x.array[:] = 0.0
-        else:
-            target.x.array[:] = predicted.x.array
-        target.x.array[self._uz_dofs] -= velocity
-        return self.apply_phi(target, out)
+    def solve(self, predicted: fem.Function, velocity: float, responses_ready: bool = False) -> None:
+        """lambda for the sphere velocity U [m/s] given the predictor u~, and lambda_1 improved.
 
-    def solve(self, predicted: fem.Function, velocity: float, response_ready: bool = False) -> None:
-        """lambda for the sphere velocity U [m/s] given the predictor u~; the warm start is the last
-        lambda, whose response A^-1 Phi lambda at the present position must already be in
-        `self.response` when response_ready (the time loop solves it beside the predictor)."""
-        if not response_ready:
-            self._respond([self.multiplier], [self.response])
+        Both are warm-started from the last step; their responses A^-1 Phi x at the present position must
+        be in `response`, `unit_response` when responses_ready (solved beside the predictor, `first_pass`)."""
+        if not responses_ready:
+            vectors, functions = self.first_pass()
+            self.flow.solve(vectors, functions)
         self._unit_norm = self.sphere.b_phi.norm()
         rhs = self._rhs(predicted, velocity, self.flow.work)
-        self.iterations += self._conjugate_gradients(rhs, self.multiplier, self.response, self.speed_scale)
+        iterations, converged = self._conjugate_gradients(rhs, self.multiplier, self.response, self.speed_scale,
+                                                          self.max_iterations)
+        self.iterations += iterations
+        self.unconverged += not converged
         self.solves += 1
-        if self.unit_stale:
-            self.solve_unit()
-
-    def solve_unit(self) -> None:
-        """lambda_1: S lambda_1 = -Phi^T e_z (warm-started from the last one)."""
-        if self._has_unit:
-            self._respond([self.unit], [self.unit_response])
         rhs = self._rhs(None, 1.0, self.flow.work)  # Phi^T (0 - e_z)
-        iterations = self._conjugate_gradients(rhs, self.unit, self.unit_response, 1.0)
+        limit = self.unit_steps if self._has_unit else self.max_iterations
+        iterations, _ = self._conjugate_gradients(rhs, self.unit, self.unit_response, 1.0, limit)
+        self._has_unit = True
         self.iterations += iterations
         self.unit_iterations += iterations
-        self.unit_solves += 1
-        self._unit_at = self.sphere.center
-        self._has_unit = True
 
-    def hold_force(self, shift: float = 0.0) -> float:
-        """The z-force the multiplier applies to the fluid, 2 pi int phi lambda_z r dx, for
-        lambda + shift lambda_1 [N] (its reaction pushes the sphere)."""
-        total = self.sphere.interior(self.multiplier.vector)
-        return total + shift * self.sphere.interior(self.unit.vector) if shift else total
+    def hold_force(self) -> float:
+        """The z-force 2 pi int phi lambda_z r dx [N] (lambda pushes the fluid by minus this)."""
+        return self.sphere.interior(self.multiplier.vector)
 
     def unit_force(self) -> float:
-        """d(hold force)/dU [N s/m]."""
+        """d(hold_force)/dU [N s/m]."""
         return self.sphere.interior(self.unit.vector)
 
     def field(self, predicted: fem.Function, shift: float, out: PETSc.Vec) -> PETSc.Vec:
-        """u = u~ - A^-1 Phi (lambda + shift lambda_1), a W-vector; also moves lambda by shift lambda_1."""
+        """u = u~ - A^-1 Phi (lambda + shift lambda_1) as a W-vector; lambda moves to lambda + shift lambda_1."""
         predicted.vector.copy(out)
         out.axpy(-1.0, self.response.vector)
         out.axpy(-shift, self.unit_response.vector)
@@ -201,12 +184,8 @@ class RigidConstraint:
             inside = np.hypot(x[:, 0], x[:, 1] - self.sphere.center) <= depth
             if inside.any():
                 worst = max(worst, float(np.abs(velocity_field.x.array[np.asarray(dofs)[inside]] - target).max()))
-        from mpi4py import MPI
-
         return self.flow.mesh.comm.allreduce(worst, op=MPI.MAX)
 
     def destroy(self) -> None:
-        self._residual.destroy()
-        self._image.destroy()
-        self.phi_lambda.destroy()
-
+        for vector in (self._residual, self._image, self.phi_lambda, self.phi_unit):
+            vector.destroy()
