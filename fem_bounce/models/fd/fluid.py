@@ -27,7 +27,7 @@ from petsc4py import PETSc
 
 from ...fem import forms
 from ...fem.mesh import AXIS, OUTER, TOP, WALL
-from ...fem.solver import FactorizedOperator
+from ...fem.solver import FactorizedOperator, FieldSplitOperator
 
 SIDE_KINDS = ("no-slip", "slip", "inflow", "outflow")
 # du/dt ~ sum_j BDF[k][j] u^{n+1-j} / dt and u* = sum_j EXTRAPOLATION[k][j] u^{n-j} (Karniadakis et al. 1991)
@@ -90,7 +90,7 @@ class FlowSolver:
     SIDE_KINDS; `inflow_speed` [m/s] is u_z on "inflow" sides."""
 
     def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
-                 inflow_speed: float = 0.0, order: int = 2, prefix: str = "fd_flow_"):
+                 inflow_speed: float = 0.0, order: int = 2, prefix: str = "fd_flow_", solver: str = "direct"):
         for side, kind in sides.items():
             if kind not in SIDE_KINDS:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
@@ -120,9 +120,23 @@ class FlowSolver:
         A = assemble_matrix(self.a, bcs=self.bcs)
         A.assemble()
         self.matrix = A
-        self.operator = FactorizedOperator(A, prefix)
+        if solver == "fieldsplit":
+            velocity, pressure = (self._field_indices(k) for k in (0, 1))
+            self.operator = FieldSplitOperator(A, prefix, velocity, pressure)
+            velocity.destroy()
+            pressure.destroy()
+        else:
+            self.operator = FactorizedOperator(A, prefix)
         self.rhs = create_vector(self.L_history)
         self.work = self.rhs.duplicate()
+
+    def _field_indices(self, field: int) -> PETSc.IS:
+        """The owned global indices of the velocity (0) or pressure (1) dofs of W, for a field split."""
+        index_map = self.W.dofmap.index_map
+        _, dofs = self.W.sub(field).collapse()
+        dofs = np.asarray(dofs, dtype=np.int32)
+        owned = np.sort(dofs[dofs < index_map.size_local])
+        return PETSc.IS().createGeneral(owned + index_map.local_range[0], comm=self.mesh.comm)
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides):

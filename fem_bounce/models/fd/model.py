@@ -112,7 +112,7 @@ class FictitiousDomainModel:
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
         self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
-                               inflow_speed=domain.inflow_speed, order=fd.time_order)
+                               inflow_speed=domain.inflow_speed, order=fd.time_order, solver=fd.solver)
         self.flow.set_uniform((0.0, domain.inflow_speed))
         radius = scene.sphere.radius + fd.radius_offset * domain.fine_size
         self.sphere = ImmersedSphere(self.flow, radius, fd.interface_width * domain.fine_size, domain.center)
@@ -316,6 +316,9 @@ class FictitiousDomainModel:
             "step_cost_in_back_solves": self.timings["steps"] / steps / single if single else None,
             "peak_memory_bytes": self.comm.allreduce(peak),  # sum over ranks of each rank's peak RSS
             "factorisation_memory_bytes": operator.factor_memory(),
+            "solver": self.settings.solver,
+            "krylov_iterations_per_solve": (operator.iterations / max(solves, 1) if hasattr(operator, "iterations")
+                                            else None),
             "mesh_key": self.domain.spec.key(),
             "added_mass_over_displaced": (self.last_force.added_mass / self.scene.displaced_mass
                                           if self.last_force is not None else None),
