@@ -148,8 +148,8 @@ class FieldSplitOperator:
     GMRES preconditioned by a Schur-complement field split (velocity block by BoomerAMG, the Schur
     complement approximated by -B diag(F)^-1 B^T, also BoomerAMG), for meshes where the direct
     factorisation stops scaling.  `velocity`, `pressure`: PETSc index sets of the two fields.
-    Every option can be changed under `{prefix}` (e.g. -fd_flow_ksp_rtol 1e-10,
-    -fd_flow_fieldsplit_u_pc_hypre_boomeramg_strong_threshold 0.5)."""
+    Every option can be changed under `{prefix}` (e.g. -fd_flow_fieldsplit_ksp_rtol 1e-10,
+    -fd_flow_fieldsplit_fieldsplit_u_pc_hypre_boomeramg_strong_threshold 0.5)."""
 
     def __init__(self, A: PETSc.Mat, prefix: str, velocity: PETSc.IS, pressure: PETSc.IS, rtol: float = 1e-9):
         self.prefix = prefix

@@ -63,8 +63,14 @@ def domain_for(scene: Scene) -> Domain:
         refined = Box(r_max=min(refined.r_max, size_r), z_min=refined.z_min, z_max=min(refined.z_max, size_z))
     if size_r < radius + 2.0 * fine:
         raise SceneError(f"numerics.fd: the domain radius {size_r:g} m leaves no fluid beside the sphere")
+    boxes = (refined,)
+    if fd.wall_cells_per_diameter > 0 and not is_stream(scene):
+        wall_size = diameter / fd.wall_cells_per_diameter
+        if wall_size < fine:
+            boxes += (Box(r_max=min(fd.wall_radius * diameter, size_r), z_min=0.0,
+                          z_max=min(fd.wall_layer * diameter, size_z), size=wall_size),)
     spec = HalfPlane(radius=size_r, height=size_z, fine_size=fine, coarse_size=coarse, grading=fd.grading,
-                     refined=(refined,))
+                     refined=boxes)
     return Domain(spec=spec, sides=sides, inflow_speed=scene.motion.stream_velocity if is_stream(scene) else 0.0,
                   center=center, fine_size=fine)
 

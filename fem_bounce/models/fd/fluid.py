@@ -122,7 +122,8 @@ class FlowSolver:
         self.matrix = A
         if solver == "fieldsplit":
             velocity, pressure = (self._field_indices(k) for k in (0, 1))
-            self.operator = FieldSplitOperator(A, prefix, velocity, pressure)
+            # its own options prefix: the direct solver's defaults (ksp preonly, pc lu) live under `prefix`
+            self.operator = FieldSplitOperator(A, prefix.rstrip("_") + "_fieldsplit_", velocity, pressure)
             velocity.destroy()
             pressure.destroy()
         else:
