@@ -1,12 +1,12 @@
 """Parallel scaling of the fd model's flow solve: 1 against 2 ranks, direct (MUMPS) against the
 field-split iterative solver (numerics.fd.solver), on the case-3 geometry at three mesh sizes.
 
-    python benchmarks/fd_scaling.py run --cells 24,43,78               # serial
-    mpirun -n 2 python benchmarks/fd_scaling.py run --cells 24,43,78   # 2 ranks
+    python benchmarks/fd_scaling.py run --cells 24,48,87               # serial
+    mpirun -n 2 python benchmarks/fd_scaling.py run --cells 24,48,87   # 2 ranks
     python benchmarks/fd_scaling.py table                              # speedups from the history
 
 Each run marches Li case 3 from release for --steps steps (the same steps at every rank count) and
-records the set-up time (mesh, assembly, factorisation) and the time per step; 24, 43 and 78 cells
+records the set-up time (mesh, assembly, factorisation) and the time per step; 24, 48 and 87 cells
 per diameter give about 47k, 150k and 500k unknowns.  Results are merged into
 benchmarks/history/fd_scaling.json with the date, machine, ranks and the load average (timings
 taken on a busy machine say so).  About 10 min for the whole ladder on 2 cores.
@@ -64,7 +64,7 @@ def table(stored: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("section", choices=["run", "table"])
-    parser.add_argument("--cells", default="24,43,78")
+    parser.add_argument("--cells", default="24,48,87")
     parser.add_argument("--solvers", default="direct,fieldsplit")
     parser.add_argument("--steps", type=int, default=20)
     parser.add_argument("--out", type=Path, default=Path("runs/fd-scaling"))
