@@ -31,8 +31,8 @@ def test_the_multiplier_holds_the_interior_rigid(multiplier_model):
     speed = 0.1
     depth = band.radius - band.width
     slips = []
-    for tolerance in (1e-2, 1e-4):
-        constraint.tolerance, constraint.max_iterations = tolerance, 2000
+    for tolerance in (1e-2, 1e-3):
+        constraint.tolerance, constraint.max_iterations = tolerance, 1000
         constraint.multiplier.x.array[:] = 0.0
         constraint.response.x.array[:] = 0.0
         predicted = fem.Function(flow.W)  # u~ = 0: the fluid at rest
