@@ -2,6 +2,7 @@
 
     python benchmarks/fd_near_wall.py                      # baseline and wall-refined fd variants
     python benchmarks/fd_near_wall.py --variants wall48,wall48-band1 --ale results/near_wall/fig7/fig7.json
+    python benchmarks/fd_near_wall.py --ale results/near_wall/fig7/runs/ale24     # the ALE run itself
 
 The path is the one of benchmarks/near_wall.py fig7: the ODE model's case-3 approach to its first
 contact, prescribed (motion.mode = "prescribed", contact.near_wall = "blend", no hold) down to
@@ -87,14 +88,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--variants", default="base,wall48,wall48-band1")
     parser.add_argument("--cells", type=float, default=24.0)
-    parser.add_argument("--ale", type=Path, default=None, help="fig7.json of benchmarks/near_wall.py fig7")
+    parser.add_argument("--ale", type=Path, default=None,
+                        help="fig7.json of benchmarks/near_wall.py fig7, or its ale24 run directory")
     parser.add_argument("--force", action="store_true", help="re-run variants that have a summary")
     args = parser.parse_args()
     ROOT.mkdir(parents=True, exist_ok=True)
     path = path_overrides()
     stored = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
     ale = None
-    if args.ale is not None and args.ale.exists():
+    if args.ale is not None and args.ale.is_dir():
+        ale = forces_along(args.ale)
+    elif args.ale is not None and args.ale.exists():
         ale = {row["delta"]: row["f_sim_ale24"] for row in json.loads(args.ale.read_text())["rows"]}
     for name in args.variants.split(","):
         run_dir = ROOT / f"{name}-{args.cells:g}"
