@@ -28,7 +28,8 @@ from mpi4py import MPI
 
 from fem_bounce import plots, reference, theory
 from fem_bounce import scene as scenes
-from fem_bounce.run import RunDiverged, simulate
+from fem_bounce.errors import RunDiverged
+from fem_bounce.run import simulate
 
 ROOT = Path("results") / "ale"
 COMM = MPI.COMM_WORLD

@@ -26,7 +26,8 @@ import numpy as np
 from mpi4py import MPI
 
 from fem_bounce import plots, scene
-from fem_bounce.run import RunDiverged, simulate
+from fem_bounce.errors import RunDiverged
+from fem_bounce.run import simulate
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_speed.json"

@@ -38,7 +38,8 @@ from mpi4py import MPI
 
 from fem_bounce import reference, scene
 from fem_bounce.plots import read_summary, read_trajectory
-from fem_bounce.run import RunDiverged, simulate
+from fem_bounce.errors import RunDiverged
+from fem_bounce.run import simulate
 
 RESULTS = Path(__file__).parent / "history" / "ib_validation.json"
 COMM = MPI.COMM_SELF

@@ -3,21 +3,24 @@
     python benchmarks/table2.py --model ode                      # ~5 s
     mpirun -n 2 python benchmarks/table2.py --model fd           # minutes to hours, see README
 
-Writes results/table2-MODEL/{table2.csv,table2.md,table2.json} and keeps each case's run
-directory beside them (re-running reuses finished runs unless --force).
+Writes results/table2-MODEL/{table2.md,table2.json} and keeps each case's run directory beside them
+(re-running reuses finished runs unless --force).  A run of all seven cases also goes to
+benchmarks/history/<out's name>.json (table2-MODEL.json by default), with its --set, date, machine and commit.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import platform
+import subprocess
 import time
 from pathlib import Path
 
 from mpi4py import MPI
 
 from fem_bounce import reference, scene
-from fem_bounce.run import RunDiverged, simulate
+from fem_bounce.errors import RunDiverged
+from fem_bounce.run import simulate
 
 
 def run_case(case: int, model: str, out: Path, overrides: dict, force: bool, comm) -> dict:
@@ -88,10 +91,15 @@ def main() -> None:
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
         (out / "table2.md").write_text(markdown(rows, args.model))
-        (out / "table2.json").write_text(json.dumps({
-            "model": args.model, "overrides": overrides, "rows": rows, "ranks": comm.size,
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                                cwd=Path(__file__).parent).stdout.strip()
+        record = json.dumps({
+            "model": args.model, "overrides": overrides, "rows": rows, "ranks": comm.size, "commit": commit,
             "date": time.strftime("%Y-%m-%d"), "machine": platform.node(), "wall_time_s": time.perf_counter() - start,
-        }, indent=2) + "\n")
+        }, indent=2) + "\n"
+        (out / "table2.json").write_text(record)
+        if len(rows) == 7:
+            (Path(__file__).parent / "history" / f"{out.name}.json").write_text(record)
         print(markdown(rows, args.model))
 
 

@@ -16,13 +16,13 @@ import hashlib
 import json
 from pathlib import Path
 
+from . import models
 from . import scene as scenes
-from .run import RunDiverged, simulate
+from .errors import RunDiverged
+from .models.registry import CORE_SOURCES
+from .run import simulate
 
 DEFAULT_ROOT = Path("results") / "cache"
-CORE = ("scene.py", "theory.py", "contact.py", "sphere.py", "run.py", "output.py", "models/__init__.py")
-MODEL_SOURCES = {"ode": ("models/ode.py",), "fd": ("models/fd", "fem"), "ib": ("models/ib",),
-                 "ale": ("models/ale", "models/fd", "fem")}  # ale reuses fd.domain and fd.fluid
 
 
 @functools.cache
@@ -30,7 +30,7 @@ def code_version(model: str) -> str:
     """Hash of the source files that decide this model's numbers."""
     package = Path(__file__).parent
     digest = hashlib.sha256()
-    for name in CORE + MODEL_SOURCES.get(model, ()):
+    for name in CORE_SOURCES + models.info(model).sources:
         path = package / name
         files = sorted(path.rglob("*.py")) if path.is_dir() else [path] if path.exists() else []
         for source in files:
@@ -44,12 +44,29 @@ def run_key(scene: scenes.Scene, model: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def run_directory(scene: scenes.Scene, model: str, root: Path = DEFAULT_ROOT) -> Path:
+    """Where the run of `model` on `scene` is (or will be) cached."""
+    return Path(root) / f"{scene.name}-{model}-{run_key(scene, model)}"
+
+
+def finished(run_dir: Path) -> Path | None:
+    """run_dir if it holds a finished run (completed or diverged), else None: a run killed before its
+    summary, interrupted or failed is not finished and runs again."""
+    summary = Path(run_dir) / "summary.json"
+    if not summary.exists():
+        return None
+    try:
+        status = load_summary(run_dir).get("status", "")
+    except (OSError, ValueError):  # a summary cut short by a kill
+        return None
+    return None if status.startswith(("interrupted", "failed")) else Path(run_dir)
+
+
 def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT, progress: bool = False,
                command: str = "") -> Path:
     """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed."""
-    run_dir = Path(root) / f"{scene.name}-{model}-{run_key(scene, model)}"
-    summary = run_dir / "summary.json"
-    if not summary.exists() or load_summary(run_dir).get("status", "").startswith(("interrupted", "failed")):
+    run_dir = run_directory(scene, model, root)
+    if finished(run_dir) is None:
         try:
             simulate(scene, model, comm, run_dir, force=True, progress=progress, plots=False,
                      command=command or f"cached run of {scene.name} with {model}")

@@ -4,6 +4,7 @@
     fem-bounce scenes                  list the shipped scenes
     fem-bounce scenes show NAME        print a scene as TOML (it runs unchanged as a scene file)
     fem-bounce restitution [--model M] coefficient of restitution against impact Stokes number
+    ... [--jobs N | --executor mpi]     (restitution, study) the runs at once over N processes or an MPI pool
     fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
     fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
@@ -69,6 +70,7 @@ def _parser() -> argparse.ArgumentParser:
     rest.add_argument("--out", default=None, help="directory for CSV and PNG (default results/restitution-MODEL)")
     rest.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                       help="override a value of every scene the sweep runs")
+    _parallel_options(rest)
     study = sub.add_parser("study", help="studies that run many simulations (cached, resumable)")
     kinds = study.add_subparsers(dest="kind", required=True)
     conv = kinds.add_parser("convergence", help="resolution and time-step ladders, observed orders")
@@ -96,7 +98,29 @@ def _parser() -> argparse.ArgumentParser:
         kind.add_argument("--out", default=None, help="study directory (default results/study-...)")
         kind.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                           help="override a value of every scene the study runs")
+        _parallel_options(kind)
     return parser
+
+
+def _parallel_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--jobs", type=int, default=1, metavar="N",
+                        help="runs at once in N local processes, each serial (default 1: one run at a time, "
+                             "on every rank under mpirun)")
+    parser.add_argument("--executor", choices=["local", "mpi"], default="local",
+                        help="mpi: the runs go to the workers of `mpirun -n K python -m mpi4py.futures -m "
+                             "fem_bounce ...` (K - 1 of them); see docs/usage.md, Studies")
+
+
+def _study_runner(args):
+    """(the study's communicator, its Runner) from --jobs and --executor.  Under mpi4py.futures only
+    rank 0 runs the study, so it works on COMM_SELF and leaves COMM_WORLD to the pool."""
+    from mpi4py import MPI
+
+    from .studies.runner import Runner
+
+    comm = MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD
+    runner = Runner(comm, args.jobs, args.executor)
+    return comm, runner
 
 
 def _scene_from_args(source: str | None, overrides: list[str]) -> scenes.Scene:
@@ -203,12 +227,10 @@ def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | Non
 
 def _restart_model(run_dir: Path, requested: str | None) -> str:
     """The model that wrote DIR's checkpoint (it continues the run)."""
-    from .run import CHECKPOINTING
-
     model = output.find_checkpoint(run_dir).model
-    if model not in CHECKPOINTING:
+    if model not in models.registry.restarting():
         raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
-                                f"checkpoints (only {', '.join(CHECKPOINTING)} can --restart): it is not a checkpoint "
+                                f"checkpoints (only {', '.join(models.registry.restarting())} can --restart): it is not a checkpoint "
                                 "this version wrote")
     if requested and requested != model:
         raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
@@ -252,8 +274,6 @@ def _cmd_scenes(args) -> int:
 
 
 def _cmd_restitution(args) -> int:
-    from mpi4py import MPI
-
     from .studies import restitution
 
     points = args.points or (40 if args.model == "ode" else 12)
@@ -262,19 +282,18 @@ def _cmd_restitution(args) -> int:
     models.get(args.model)
     out = _out_path(args.out) or Path("results") / f"restitution-{args.model}"
     changes = dict(scenes.parse_override(text) for text in args.overrides)
-    comm = MPI.COMM_WORLD
-    rows = restitution.run(args.model, comm, out, points, (args.st_min, args.st_max), overrides=changes)
+    comm, runner = _study_runner(args)
+    rows = restitution.run(args.model, comm, out, points, (args.st_min, args.st_max), overrides=changes,
+                           runner=runner)
     if comm.rank == 0:
         print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.png")
     return 0
 
 
 def _cmd_study(args) -> int:
-    from mpi4py import MPI
-
     from . import studies
 
-    comm = MPI.COMM_WORLD
+    comm, runner = _study_runner(args)
     changes = dict(scenes.parse_override(text) for text in args.overrides)
     model_names = (args.models if args.kind == "speed-accuracy" else args.model).split(",")
     for name in model_names:
@@ -292,7 +311,7 @@ def _cmd_study(args) -> int:
 
     if args.kind == "convergence":
         studies.convergence.run(scenes.load(args.scene, changes), args.model, comm, out, numbers(args.levels),
-                                numbers(args.cfls, "--cfls"))
+                                numbers(args.cfls, "--cfls"), runner=runner)
     elif args.kind == "speed-accuracy":
         levels = {}
         for text in args.levels:
@@ -300,16 +319,18 @@ def _cmd_study(args) -> int:
             if name not in model_names or not values:
                 raise scenes.SceneError(f"--levels {text!r}: expected MODEL=V1,V2,... with MODEL one of {args.models}")
             levels[name] = numbers(values)
-        result = studies.speed_accuracy.run(scenes.load(args.scene, changes), model_names, comm, out, levels)
+        result = studies.speed_accuracy.run(scenes.load(args.scene, changes), model_names, comm, out, levels,
+                                            runner=runner)
         if args.record and comm.rank == 0:
             studies.speed_accuracy.record(result, Path(__file__).parent / "data")
     elif args.kind == "stability":
         sweeps = _stability_sweeps(args.sweeps, args.model)
-        studies.stability.run(scenes.load(args.scene, {"run.bounces": 1, **changes}), args.model, comm, out, sweeps)
+        studies.stability.run(scenes.load(args.scene, {"run.bounces": 1, **changes}), args.model, comm, out, sweeps,
+                              runner=runner)
     elif args.kind == "restitution":
-        studies.restitution.run(args.model, comm, out, args.points, overrides=changes)
+        studies.restitution.run(args.model, comm, out, args.points, overrides=changes, runner=runner)
     else:
-        studies.figures.run(args.model, comm, out, overrides=changes)
+        studies.figures.run(args.model, comm, out, overrides=changes, runner=runner)
     if comm.rank == 0:
         print(f"study written to {out}")
     return 0
@@ -352,7 +373,13 @@ def main(argv: list[str] | None = None) -> int:
     global _RANK
     from mpi4py import MPI
 
-    from .run import Interrupts, RunFailed, RunInterrupted, signal_name
+    from .errors import RunFailed, RunInterrupted
+    from .mpi_pool import petsc_on_self, under_mpi_futures
+
+    if under_mpi_futures():
+        petsc_on_self()  # rank 0 of an mpi4py.futures pool: the workers never join PETSc's COMM_WORLD
+    from .run import Interrupts, signal_name
+    from .studies.runner import RunnerError
 
     _RANK = MPI.COMM_WORLD.rank
     args = _parser().parse_args(argv)
@@ -364,7 +391,7 @@ def main(argv: list[str] | None = None) -> int:
         _route_warnings()
         try:
             return command(args)
-        except (scenes.SceneError, models.ModelError, output.OutputError) as err:
+        except (scenes.SceneError, models.ModelError, output.OutputError, RunnerError) as err:
             _say(f"error: {err}")
             return 2
         except RunInterrupted as err:

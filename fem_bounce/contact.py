@@ -2,8 +2,9 @@
 
 - Near-wall liquid force of a free sphere in a resolved flow, `contact.near_wall`:
   "correction" (default): the flow's sphere is held at the gap delta_sl D while the real sphere goes
-  closer, and the part of the lubrication force the held flow cannot see is added,
-      f_sl = f_sim(held at delta_sl) - 6 pi mu a V [lambda(delta) - lambda(delta_sl)],  delta < delta_sl,
+  closer, and what the held flow cannot see is added (`ContactModel.correction`),
+      f_sl = f_sim(held at delta_sl) - 6 pi mu a V [lambda(delta) - lambda(delta_sl)]
+             - m_l [C_M(delta) - C_M(delta_sl)] dV/dt - (1/2) m_l V^2 dC_M/dh,   delta < delta_sl,
   and f_sl = f_sim above (the correction of Costa et al. 2015, with the resolved geometry held so that
   the resolved part stops growing where the correction starts);
   "blend": the paper's eq. 4.5-4.6, f_sl = H f_thr + (1 - H) f_sim,

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import pickle
 import signal
 import sys
 import time
@@ -38,33 +39,15 @@ import numpy as np
 from . import models, output
 from . import scene as scenes
 from .contact import ContactModel
+from .errors import RunDiverged, RunFailed, RunInterrupted
 from .sphere import PenetrationError, SphereIntegrator
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
 ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error before a gain stops the run
-CHECKPOINTING = {"fd": ("flow.npz",)}  # models that write checkpoints (and their data files): they --restart
-SERIAL = ("ode", "ib")  # models whose every MPI rank repeats the same serial computation
-# Fewer fine cells across the delta_sl gap than this and the stability study found the resolved force
-# entering the blend off by more than 5 % (README, "What the studies found").
-MIN_CELLS_ACROSS_BLEND_GAP = {"fd": 1.0, "ib": 2.0}
 # The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh
 # grows without telling anything new: a sphere reaches its terminal speed within ~10-20 D of its release.
 RESOLVED_MAX_GAP = 100.0
 RESTART_MAY_CHANGE = ("run.end_time", "run.bounces", "description")  # how long to run, not what is run
-
-
-class RunFailed(RuntimeError):
-    """A run ended before its end; its summary.json says why."""
-
-
-class RunDiverged(RunFailed):
-    pass
-
-
-class RunInterrupted(RunFailed):
-    def __init__(self, message: str, signum: int):
-        super().__init__(message)
-        self.signum = signum
 
 
 class StopNow(KeyboardInterrupt):
@@ -253,17 +236,15 @@ def _warnings(scene, model: str, comm, guards: _Safeguards) -> list[str]:
         found.append(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
                      f"{scene.liquid.density:g} kg/m3: the sphere rises and never reaches the wall; the run stops "
                      f"when it has {guards.where} (gap {guards.ceiling / d:.3g} D)")
-    if model in MIN_CELLS_ACROSS_BLEND_GAP:
-        cells = getattr(scene.numerics, model).cells_per_diameter
-        across, needed = cells * scene.contact.delta_sl, MIN_CELLS_ACROSS_BLEND_GAP[model]
+    entry = models.info(model)
+    if entry.min_cells_across_blend_gap is not None:
+        cells = entry.resolution(scene)
+        across, needed = cells * scene.contact.delta_sl, entry.min_cells_across_blend_gap
         if across < needed:
             found.append(f"numerics.{model}.cells_per_diameter = {cells:g} puts {across:.2g} fine cells across the "
                          f"delta_sl gap ({scene.contact.delta_sl:g} D); below {needed:g} the {model} model's force "
                          "near the wall is off by more than 5 % (stability study): expect impact speed and apex "
                          f"errors of 10 % or more; use at least {needed / scene.contact.delta_sl:g} cells/D")
-    if model in SERIAL and comm.size > 1:
-        found.append(f"the {model} model is serial: each of the {comm.size} ranks runs the same computation "
-                     "(no speed-up); run it without mpirun")
     return found
 
 
@@ -287,7 +268,7 @@ def _scene_changes(saved_text: str, scene) -> list[str]:
 def _resume(out_dir: Path, scene, model: str) -> dict:
     """Check that DIR can continue (rank 0): a whole checkpoint of this model, the same scene, the
     trajectory it continues; only then make its checkpoint DIR/checkpoint and cut the trajectory back."""
-    found = output.find_checkpoint(out_dir, required=CHECKPOINTING[model])
+    found = output.find_checkpoint(out_dir, required=models.info(model).checkpoint_files)
     if found.model != model:
         raise output.CheckpointError(f"the checkpoint in {out_dir} was written by the {found.model!r} model, "
                                      f"not {model}")
@@ -313,12 +294,13 @@ def _interruption_note(out_dir: Path | None, model: str) -> str:
     """What the user can do after an interruption (rank 0)."""
     if out_dir is None:
         return ""
-    if model not in CHECKPOINTING:
+    entry = models.info(model)
+    if not entry.restarts:
         return f"; the {model} model writes no checkpoints: run it again"
     try:
         state = output.find_checkpoint(out_dir).state
     except output.CheckpointError:
-        return "; no checkpoint was written yet (numerics.fd.checkpoint_every), so it cannot be continued"
+        return f"; no checkpoint was written yet ({entry.checkpoint_every_key}), so it cannot be continued"
     return (f"; continue from its last checkpoint (step {state.get('step')}, t = {state.get('time', 0.0):.6g} s) "
             f"with: fem-bounce run --restart {out_dir}")
 
@@ -331,12 +313,15 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
              interrupts: Interrupts | None = None) -> dict:
     """Run `model` on `scene`; write DIR/{scene.toml,trajectory.csv,summary.json,*.png} if out_dir is given.
     Raises RunDiverged, RunInterrupted or RunFailed after writing the summary when the run ends early."""
+    if models.info(model).serial and comm.size > 1:
+        return _serial_on_root(scene, model, comm, out_dir, force=force, restart=restart, command=command,
+                               progress=progress, plots=plots, interrupts=interrupts)
     model_cls = models.get(model)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active
     out_dir = None if out_dir is None else Path(out_dir)
     if restart:
-        if model not in CHECKPOINTING:
+        if not models.info(model).restarts:
             raise models.ModelError(f"the {model} model writes no checkpoints, so it cannot --restart: run it again")
         if out_dir is None:
             raise output.OutputError("a restart needs the run directory it continues")
@@ -360,7 +345,8 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
                                 output.write_scene(out_dir / "scene.toml", scene)))
     if out_dir is not None:
         on_root(comm, lambda: output.reserve_space(out_dir / "summary.json"))
-    interval = scene.numerics.ode.output_interval if model == "ode" else 0.0
+    interval_key = models.info(model).trajectory_interval_key
+    interval = models.info(model).setting(scene, interval_key) if interval_key else 0.0
     writer = None
     if out_dir is not None:
         writer = on_root(comm, lambda: output.TrajectoryWriter(out_dir / "trajectory.csv", interval,
@@ -443,6 +429,39 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     if status.startswith("diverged"):
         raise RunDiverged(f"{status}{kept}{unwritten}")
     raise RunFailed(f"{message}{kept}{unwritten}")
+
+
+def _serial_on_root(scene, model: str, comm, out_dir: Path | None, **options) -> dict:
+    """A serial model under mpirun: rank 0 runs it on COMM_SELF while the other ranks wait without
+    spinning, then every rank gets rank 0's summary, or its exception, so that no rank repeats the same
+    serial solve and every rank ends the same way."""
+    from mpi4py import MPI
+
+    result, error, own = None, None, None
+    if comm.rank == 0:
+        warnings.warn(f"the {model} model is serial: under mpirun it runs on rank 0 alone and the other "
+                      f"{comm.size - 1} rank(s) wait (no speed-up); run it without mpirun, or spread a study's "
+                      "runs with --jobs N or --executor mpi", stacklevel=3)
+        try:
+            result = simulate(scene, model, MPI.COMM_SELF, out_dir, **options)
+        except Exception as err:  # noqa: BLE001 -- re-raised on every rank below
+            error = err
+        except KeyboardInterrupt as err:  # a second signal: the other ranks stop as interrupted
+            own, signum = err, getattr(err, "signum", signal.SIGINT)
+            error = RunInterrupted(f"interrupted by {signal_name(signum)}", signum)
+        try:
+            pickle.dumps(error)
+        except Exception:  # noqa: BLE001 -- an exception that cannot travel goes as its message
+            error = RunFailed(f"{type(error).__name__}: {error}")
+    waiting = comm.Ibarrier()
+    while not waiting.Test():
+        time.sleep(0.05)
+    result, error = comm.bcast((result, error), root=0)
+    if own is not None:
+        raise own
+    if error is not None:
+        raise error
+    return result
 
 
 def _draw(out_dir: Path) -> None:

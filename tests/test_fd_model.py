@@ -7,7 +7,8 @@ import pytest
 from mpi4py import MPI
 
 from fem_bounce import cli, fields, plots, scene
-from fem_bounce.run import RunDiverged, simulate
+from fem_bounce.errors import RunDiverged
+from fem_bounce.run import simulate
 
 TINY = {"numerics.fd.cells_per_diameter": 6, "run.end_time": 0.02}
 

@@ -1,6 +1,7 @@
 """The immersed-boundary model end to end, on toy grids (seconds each)."""
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -81,6 +82,24 @@ def test_the_implicit_coupling_keeps_a_light_sphere_stable():
     third = len(wobble) // 3
     assert wobble[third:].max() < 0.02 * velocity[-1]
     assert wobble[2 * third:].max() < 1.5 * wobble[third:2 * third].max()  # not growing
+
+
+@pytest.mark.mpi
+def test_under_mpirun_rank_0_alone_runs_ib_and_every_rank_gets_the_serial_answer():
+    comm = MPI.COMM_WORLD
+    sc = toy("li2011-case3", **{"run.bounces": 1})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        parallel = simulate(sc, "ib", comm, None, progress=False, plots=False)
+    serial = None
+    if comm.rank == 0:  # the serial reference, once
+        serial = simulate(sc, "ib", MPI.COMM_SELF, None, progress=False, plots=False)
+    serial = comm.bcast(serial, root=0)
+    assert parallel["impacts"] == serial["impacts"] and parallel["rebounds"] == serial["rebounds"]
+    assert parallel["final"] == serial["final"] and parallel["steps"] == serial["steps"]
+    assert parallel["ranks"] == 1  # the solve ran on one rank
+    said = [str(w.message) for w in caught if "runs on rank 0 alone" in str(w.message)]
+    assert len(said) == (1 if comm.size > 1 and comm.rank == 0 else 0)
 
 
 def test_case3_first_bounce_pinned_on_a_coarse_grid():

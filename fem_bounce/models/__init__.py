@@ -1,40 +1,33 @@
-"""The ladder of models, cheapest first.  Each module defines a class with
-
-    name: str               the --model value
-    resolved: bool          True when f_sim comes from a flow solver
-    __init__(scene, comm)
-    run(integrator, progress, out_dir, restart) -> dict(steps=..., sizes=..., extra=...)
-
-and shares the scene, the contact model, the sphere integrator and the outputs.
+"""The ladder of models, cheapest first.  What each model is (its name, resolution, whether it
+restarts, its cost label and colour, ...) is in registry.MODELS; each model's code implements the
+FlowModel interface (fem_bounce.flow_model) and shares the scene, the contact model, the sphere
+integrator, the run controller (fem_bounce.run) and the outputs.
 Modules are imported on demand so the ODE model needs neither dolfinx nor gmsh.
 """
 from __future__ import annotations
 
 import importlib
 
-MODELS = {
-    "ode": ("fem_bounce.models.ode", "OdeModel"),
-    "fd": ("fem_bounce.models.fd", "FictitiousDomainModel"),
-    "ib": ("fem_bounce.models.ib", "ImmersedBoundaryModel"),
-    "ale": ("fem_bounce.models.ale", "AleModel"),
-}
-BEST_FIRST = ("fd", "ib", "ode")  # the default model: the first of these that imports
+from .registry import BEST_FIRST, MODELS, ModelInfo
 
 
 class ModelError(ValueError):
     pass
 
 
-def get(name: str):
-    """The model class for a --model value."""
+def info(name: str) -> ModelInfo:
+    """The registry's entry for a --model value."""
     if name not in MODELS:
         raise ModelError(f"unknown model {name!r}: choose one of {', '.join(MODELS)}")
-    module, cls = MODELS[name]
+    return MODELS[name]
+
+
+def get(name: str):
+    """The model class for a --model value."""
+    entry = info(name)
     try:
-        return getattr(importlib.import_module(module), cls)
+        return getattr(importlib.import_module(entry.module), entry.class_name)
     except ModuleNotFoundError as err:
-        if err.name and err.name.startswith("fem_bounce.models"):
-            raise ModelError(f"model {name!r} is not implemented yet") from None
         raise ModelError(f"model {name!r} needs {err.name}, which is not installed (see README.md)") from None
 
 

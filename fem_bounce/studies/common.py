@@ -14,7 +14,9 @@ import numpy as np
 
 from .. import plots, reference
 from .. import scene as scenes
-from ..cache import cached_run, load_summary
+from ..cache import load_summary
+from ..models.registry import MODELS
+from .runner import Runner
 
 
 @dataclass(frozen=True)
@@ -47,15 +49,10 @@ def _setting(scene: scenes.Scene, key: str) -> float:
     return value
 
 
-LADDERS = {
-    "ode": Ladder("numerics.ode.rtol", (1e-3, 1e-4, 1e-5, 1e-6, 1e-7), None),
-    "fd": Ladder("numerics.fd.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.fd.cfl",
-                 ("numerics.fd.forcing_number",)),
-    "ib": Ladder("numerics.ib.cells_per_diameter", (16.0, 24.0, 32.0, 48.0, 64.0), "numerics.ib.cfl"),
-    "ale": Ladder("numerics.ale.cells_per_diameter", (8.0, 12.0, 16.0, 24.0, 32.0), "numerics.ale.cfl"),
-}
+# each model's ladder, from the registry of models
+LADDERS = {name: Ladder(m.resolution_key, m.ladder, m.time_step_key, m.scaled_with_time_step)
+           for name, m in MODELS.items()}
 CFL_LADDER = (0.8, 0.4, 0.2, 0.1)
-FIDELITY = ("ale", "fd", "ib", "ode")  # which model's finest run serves as the reference, first found
 
 
 def quantities(scene: scenes.Scene, run_dir: Path) -> dict:
@@ -190,12 +187,26 @@ class StudyDirectory:
 
 
 def run_and_measure(scene: scenes.Scene, model: str, comm, study: StudyDirectory, label: str) -> dict:
-    study.log(f"{model} {label}: running (or reusing) ...")
-    run_dir = cached_run(scene, model, comm)
-    found = quantities(scene, run_dir)
-    study.log(f"{model} {label}: {found['status']}, {found['wall_time_s']:.1f} s  "
-              + "  ".join(f"{k} = {v:.5g}" for k, v in found.items() if isinstance(v, float) and k != "wall_time_s"))
-    return {"model": model, "label": label, "run_dir": str(run_dir), **found}
+    """One run through the cache on `comm`, and what it measured."""
+    return measure_all([(scene, model, label)], study, Runner(comm))[0]
+
+
+def measure_all(tasks: list[tuple[scenes.Scene, str, str]], study: StudyDirectory,
+                runner: Runner | None = None) -> list[dict]:
+    """Each (scene, model, label) run through the cache, spread by `runner` (one after the other on the
+    study's communicator when None), and what it measured; rows in the order of `tasks`."""
+    runner = runner or Runner(study.comm)
+    if len(tasks) > 1:
+        study.log(f"{len(tasks)} runs, {runner.describe()} (finished runs are reused from the cache)")
+    rows: list = [None] * len(tasks)
+    for k, run_dir in runner.run([(scene, model) for scene, model, _ in tasks]):
+        scene, model, label = tasks[k]
+        found = quantities(scene, run_dir)
+        study.log(f"{model} {label}: {found['status']}, {found['wall_time_s']:.1f} s  "
+                  + "  ".join(f"{name} = {value:.5g}" for name, value in found.items()
+                              if isinstance(value, float) and name != "wall_time_s"))
+        rows[k] = {"model": model, "label": label, "run_dir": str(run_dir), **found}
+    return rows
 
 
 def finite(values) -> np.ndarray:

@@ -14,25 +14,24 @@ from __future__ import annotations
 from pathlib import Path
 
 from .. import scene as scenes
-from .common import CFL_LADDER, LADDERS, StudyDirectory, observed_orders, primary, richardson, run_and_measure
+from .common import CFL_LADDER, LADDERS, StudyDirectory, measure_all, observed_orders, primary, richardson
+from .runner import Runner
 
 
 def run(scene: scenes.Scene, model: str, comm, out: Path, levels: tuple | None = None,
-        cfls: tuple | None = None) -> dict:
+        cfls: tuple | None = None, runner: Runner | None = None) -> dict:
     ladder = LADDERS[model]
     levels = tuple(levels or ladder.values)
     study = StudyDirectory(out, comm)
     names = primary(scene)
-    rows = []
-    for value in levels:
-        trial = scene.replace(**{ladder.key: value})
-        rows.append({"ladder": "space", "value": value, "spacing": ladder.spacing(value),
-                     **run_and_measure(trial, model, comm, study, f"{ladder.key} = {value:g}")})
+    plan = [("space", value, ladder.spacing(value), scene.replace(**{ladder.key: value}),
+             f"{ladder.key} = {value:g}") for value in levels]
     if ladder.time_step_key:
-        for cfl in cfls or CFL_LADDER:
-            trial = scene.replace(**ladder.time_step(scene, cfl))
-            rows.append({"ladder": "time", "value": cfl, "spacing": cfl,
-                         **run_and_measure(trial, model, comm, study, f"{ladder.time_step_key} = {cfl:g}")})
+        plan += [("time", cfl, cfl, scene.replace(**ladder.time_step(scene, cfl)), f"{ladder.time_step_key} = {cfl:g}")
+                 for cfl in cfls or CFL_LADDER]
+    measured = measure_all([(trial, model, label) for *_, trial, label in plan], study, runner)
+    rows = [{"ladder": which, "value": value, "spacing": spacing, **row}
+            for (which, value, spacing, _, _), row in zip(plan, measured)]
     analysis = {}
     for which in ("space", "time"):
         mine = [r for r in rows if r["ladder"] == which]

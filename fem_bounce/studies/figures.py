@@ -13,30 +13,40 @@ from __future__ import annotations
 import importlib
 from pathlib import Path
 
-from .. import plots, reference
+from .. import models, plots, reference
 from .. import scene as scenes
-from ..cache import cached_run, load_summary
+from ..cache import load_summary
 from .common import StudyDirectory
+from .runner import Runner
 
 DELTA_SS = (0.015, 0.017, 0.019)
 DELTA_SS_LOW_ST = (0.017, 0.01785, 0.0187)
-SNAPSHOT_KEY = {"fd": "numerics.fd.output_every", "ib": "numerics.ib.output_every", "ale": "numerics.ale.output_every"}
 
 
-def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dict | None = None) -> dict:
+def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dict | None = None,
+        runner: Runner | None = None) -> dict:
     study = StudyDirectory(out, comm)
     extra = dict(overrides or {})
-
-    def run_case(case: int, **changes) -> Path:
-        sc = scenes.load(f"li2011-case{case}", {"run.bounces": 3, **extra, **changes})
-        label = ", ".join(f"{k} = {v:g}" for k, v in changes.items())
-        study.log(f"{model} case {case} {label}: running (or reusing) ...")
-        return cached_run(sc, model, comm)
-
-    fig9 = {dss: run_case(3, **{"contact.delta_ss": dss}) for dss in DELTA_SS}
-    fig12 = {case: run_case(case) for case in cases}
-    fig12b = {(case, dss): run_case(case, **{"contact.delta_ss": dss}) for case in (1, 2) if case in cases
-              for dss in DELTA_SS_LOW_ST}
+    runner = runner or Runner(comm)
+    snapshots_key = models.info(model).fields_key
+    # every run the figures need, named by (figure, its key); all of them go to the runner at once
+    wanted = {("fig9", dss): (3, {"contact.delta_ss": dss}) for dss in DELTA_SS}
+    wanted |= {("fig12", case): (case, {}) for case in cases}
+    wanted |= {("fig12b", (case, dss)): (case, {"contact.delta_ss": dss}) for case in (1, 2) if case in cases
+               for dss in DELTA_SS_LOW_ST}
+    if snapshots_key:
+        wanted[("fig11", 7)] = (7, {snapshots_key: 20})
+    keys = list(wanted)
+    tasks = [(scenes.load(f"li2011-case{case}", {"run.bounces": 3, **extra, **changes}), model,
+              f"case {case} " + ", ".join(f"{k} = {v:g}" for k, v in changes.items())) for case, changes in wanted.values()]
+    study.log(f"{len(tasks)} runs, {runner.describe()} (finished runs are reused from the cache)")
+    found: dict = {}
+    for k, run_dir in runner.run([(scene, name) for scene, name, _ in tasks]):
+        study.log(f"{model} {tasks[k][2]}: {load_summary(run_dir)['status']}")
+        found[keys[k]] = run_dir
+    fig9 = {dss: found[("fig9", dss)] for dss in DELTA_SS}
+    fig12 = {case: found[("fig12", case)] for case in cases}
+    fig12b = {key: found[("fig12b", key)] for (figure, key) in keys if figure == "fig12b"}
     made = {}
     if comm.rank == 0:
         made["fig9"] = figure_9(fig9, out / "fig09_case3_delta_ss.png")
@@ -44,12 +54,9 @@ def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dic
         made["fig10"] = plots.velocity_gap_figure(plots.read_trajectory(fig9[0.017]), summary,
                                                   out / "fig10_case3_velocity_gap.png")
         made["fig12"] = figure_12(fig12, fig12b, out / "fig12_relative_error.png")
-    snapshots_key = SNAPSHOT_KEY.get(model)
-    if snapshots_key:
-        case7 = run_case(7, **{snapshots_key: 20})
-        if comm.rank == 0:
-            made["fig11"] = figure_11(case7, out / "fig11_case7_vorticity.png", study)
-    else:
+    if snapshots_key and comm.rank == 0:
+        made["fig11"] = figure_11(found[("fig11", 7)], out / "fig11_case7_vorticity.png", study)
+    elif not snapshots_key:
         study.log(f"fig 11 skipped: the {model} model writes no flow field")
     study.write_json("figures.json", {k: str(v) for k, v in made.items() if v})
     return made

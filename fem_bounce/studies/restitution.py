@@ -18,23 +18,25 @@ import numpy as np
 from .. import restitution
 from .. import scene as scenes
 from ..cache import load_summary
-from .common import StudyDirectory, run_and_measure
+from .common import StudyDirectory, measure_all
+from .runner import Runner
 
 NO_REBOUND_BELOW_ST = 10.0  # Joseph et al. (2001); the paper's runs 25-29
 DRY_ABOVE_ST = 500.0  # Joseph et al. (2001): e close to the dry value above St ~ 500
 
 
 def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), overrides: dict | None = None,
-        ode_points: int = 60) -> list[dict]:
+        ode_points: int = 60, runner: Runner | None = None) -> list[dict]:
     study = StudyDirectory(out, comm)
     planned = restitution.plan(points, st_range)
     lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5)[1][[0, -1]]
     planned += [(restitution.DSS_PLUS_5, st, restitution.gap_for_stokes(restitution.DSS_PLUS_5, st))
                 for name, st, _ in planned if name == "li2011-table3-steel-85" and lo <= st <= hi]
+    trials = [restitution.bounce_scene(scenes.load(name, overrides), gap) for name, _, gap in planned]
+    measured = measure_all([(trial, model, f"{name} St ~ {target:.3g}")
+                            for trial, (name, target, _) in zip(trials, planned)], study, runner)
     rows = []
-    for name, target, gap in planned:
-        trial = restitution.bounce_scene(scenes.load(name, overrides), gap)
-        row = run_and_measure(trial, model, comm, study, f"{name} St ~ {target:.3g}")
+    for (name, target, gap), trial, row in zip(planned, trials, measured):
         summary = load_summary(Path(row["run_dir"]))
         impact = summary["impacts"][0] if summary["impacts"] else None
         rebound = summary["rebounds"][0] if summary["rebounds"] else None

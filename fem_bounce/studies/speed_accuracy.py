@@ -14,21 +14,21 @@ from importlib import resources
 from pathlib import Path
 
 from .. import scene as scenes
-from .common import FIDELITY, LADDERS, StudyDirectory, measured, pareto, primary, relative_error, run_and_measure
+from ..models.registry import FIDELITY, MODELS
+from .common import LADDERS, StudyDirectory, measure_all, pareto, primary, relative_error
+from .runner import Runner
 
 THRESHOLDS = (0.01, 0.05, 0.10)
-COLOURS = {"ode": "C0", "fd": "C1", "ib": "C2", "ale": "C3"}  # the same in every chart
 
 
-def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | None = None) -> dict:
+def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | None = None,
+        runner: Runner | None = None) -> dict:
     study = StudyDirectory(out, comm)
-    rows = []
-    for model in models:
-        ladder = LADDERS[model]
-        for value in (levels or {}).get(model, ladder.values):
-            trial = scene.replace(**{ladder.key: value})
-            rows.append({"setting": {ladder.key: value},
-                         **run_and_measure(trial, model, comm, study, f"{ladder.key} = {value:g}")})
+    plan = [(model, LADDERS[model].key, value) for model in models
+            for value in (levels or {}).get(model, LADDERS[model].values)]
+    measured = measure_all([(scene.replace(**{key: value}), model, f"{key} = {value:g}") for model, key, value in plan],
+                           study, runner)
+    rows = [{"setting": {key: value}, **row} for (_, key, value), row in zip(plan, measured)]
     names = primary(scene)
     reference_model = next(m for m in FIDELITY if m in models)
     finest = [r for r in rows if r["model"] == reference_model][-1]
@@ -90,7 +90,7 @@ def figure(result: dict, path: Path) -> None:
         usable = [r for r in rows if r[key] is not None and r[key] > 0]
         for model in dict.fromkeys(r["model"] for r in usable):
             mine = [r for r in usable if r["model"] == model]
-            ax.loglog([r["wall_time_s"] for r in mine], [r[key] for r in mine], "o-", color=COLOURS.get(model),
+            ax.loglog([r["wall_time_s"] for r in mine], [r[key] for r in mine], "o-", color=MODELS[model].colour,
                       label=model)
         points = [(r["wall_time_s"], r[key]) for r in usable]
         front = [points[i] for i in pareto(points)]

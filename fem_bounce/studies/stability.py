@@ -19,7 +19,8 @@ import numpy as np
 
 from .. import plots
 from .. import scene as scenes
-from .common import LADDERS, StudyDirectory, run_and_measure
+from .common import LADDERS, StudyDirectory, measure_all
+from .runner import Runner
 
 SWEEPS = {
     "density_ratio": (0.5, 0.8, 1.1, 1.5, 2.0, 4.0, 8.0),
@@ -64,16 +65,16 @@ def classify(row: dict, scene: scenes.Scene, safest: dict | None) -> str:
     return "stable"
 
 
-def run(base: scenes.Scene, model: str, comm, out: Path, sweeps: dict | None = None) -> dict:
+def run(base: scenes.Scene, model: str, comm, out: Path, sweeps: dict | None = None,
+        runner: Runner | None = None) -> dict:
     study = StudyDirectory(out, comm)
     sweeps = {name: values for name, values in (sweeps or SWEEPS).items() if name in applicable(model)}
+    plan = [(sweep, value) for sweep, values in sweeps.items() for value in values]
+    measured = measure_all([(scene_for(base, model, sweep, value), model, f"{sweep} = {value:g}")
+                            for sweep, value in plan], study, runner)
     results = {}
     for sweep, values in sweeps.items():
-        rows = []
-        for value in values:
-            trial = scene_for(base, model, sweep, value)
-            rows.append({"sweep": sweep, "value": value,
-                         **run_and_measure(trial, model, comm, study, f"{sweep} = {value:g}")})
+        rows = [{"sweep": sweep, "value": value, **row} for (name, value), row in zip(plan, measured) if name == sweep]
         pick = SAFEST.get(sweep)
         safest = next(r for r in rows if r["value"] == pick([r["value"] for r in rows])) if pick else None
         for row, value in zip(rows, values):

@@ -52,7 +52,7 @@ from pathlib import Path
 
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
-from ...run import RunDiverged
+from ...errors import RunDiverged
 from ...sphere import FluidForce
 from ..fd.domain import steps_to
 from .domain import AleDomain, domain_for, is_steady, is_stream, time_step

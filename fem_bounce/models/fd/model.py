@@ -27,7 +27,7 @@ from petsc4py import PETSc
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
 from ...output import CheckpointError
-from ...run import RunDiverged
+from ...errors import RunDiverged
 from ...scene import SceneError
 from ...sphere import FluidForce, PenetrationError
 from . import checkpoint, coupling

@@ -23,8 +23,10 @@ impact speed; halved if the measured CFL number exceeds `max_cfl`):
    flow is completed with f0 + (V' - V_n) f1.
 
 The flow is a 2-D problem of 10^4-10^5 unknowns solved serially (PETSc on
-COMM_SELF): under mpirun every rank runs the same deterministic computation and
-only rank 0 writes, so results do not depend on the number of ranks.
+COMM_SELF): under mpirun the run goes to rank 0 alone while the other ranks wait
+(fem_bounce.run.SERIAL; a one-line warning says so), so no rank repeats the solve
+and results do not depend on the number of ranks.  Many ib runs use many cores
+through a study's --jobs N or --executor mpi (fem_bounce.studies.runner).
 
 The paper advanced the pair with explicit RK2; this coupling stays stable for
 light spheres (see benchmarks/ib_validation.py for the measured limit).  With
@@ -42,7 +44,7 @@ import numpy as np
 import scipy.linalg as sla
 from petsc4py import PETSc
 
-from ...run import RunDiverged
+from ...errors import RunDiverged
 from ...scene import SceneError
 from ...sphere import FluidForce
 from .body import SphereSurface

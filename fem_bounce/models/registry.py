@@ -1,0 +1,107 @@
+"""Every fact about a model that code outside the model needs, in one place.
+
+    from fem_bounce.models.registry import MODELS
+    MODELS["fd"].restarts                 # True: it writes checkpoints and continues with --restart
+    MODELS["ib"].label(32)                # "ib, 32 cells/D"
+
+The run module, the command line, the study cache, the studies and the figures read these; a model's
+own numerics stay in its package.  Pure data: importing it needs neither dolfinx nor gmsh.  Adding a
+model means writing its FlowModel (fem_bounce.flow_model) and one entry here.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class ModelInfo:
+    name: str  # the --model value
+    module: str  # where its FlowModel class lives (imported on demand)
+    class_name: str
+    liquid: str  # what resolves the liquid, for tables
+    resolved: bool  # f_sim comes from a flow solver (else f_thr everywhere)
+    resolution_key: str  # the scene key of its resolution knob (studies refine it)
+    resolution_unit: str  # how a resolution reads in labels: "cells/D", or "" for a tolerance
+    ladder: tuple  # the studies' resolutions, coarse to fine
+    time_step_key: str | None = None  # its CFL number
+    scaled_with_time_step: tuple = ()  # other step limits a time-step study scales alike
+    checkpoint_every_key: str | None = None  # writes checkpoints (and so restarts) when set
+    checkpoint_files: tuple = ()  # the data files every whole checkpoint holds
+    serial: bool = False  # a serial computation: under mpirun rank 0 runs it alone (run._serial_on_root)
+    min_cells_across_blend_gap: float | None = None  # fewer and the force near the wall is off by > 5 %
+    fields_key: str | None = None  # the setting that writes field snapshots every N steps
+    trajectory_interval_key: str | None = None  # thins the trajectory rows to one per interval [s]
+    colour: str = "k"  # the same in every chart
+    sources: tuple = ()  # package paths whose code decides its numbers (the study cache's key)
+
+    @property
+    def restarts(self) -> bool:
+        return self.checkpoint_every_key is not None
+
+    def setting(self, scene, key: str):
+        value = scene
+        for part in key.split("."):
+            value = getattr(value, part)
+        return value
+
+    def resolution(self, scene) -> float:
+        return self.setting(scene, self.resolution_key)
+
+    def default_resolution(self) -> float:
+        """The resolution a scene gets when it does not set one."""
+        from .. import scene as scenes
+
+        section, name = self.resolution_key.split(".")[1:]
+        numerics = scenes.Numerics()
+        return {f.name: f.default for f in dataclasses.fields(getattr(numerics, section))}[name]
+
+    def label(self, resolution: float) -> str:
+        """'fd, 24 cells/D' (the cost label of tables and figures)."""
+        if self.resolution_unit:
+            return f"{self.name}, {resolution:g} {self.resolution_unit}"
+        return f"{self.name}, {self.resolution_key.rsplit('.', 1)[-1]} {resolution:g}"
+
+
+# The shared core every model's numbers depend on (the cache hashes these with each model's sources).
+CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "sphere.py", "run.py",
+                "errors.py", "output.py", "models/__init__.py")
+
+MODELS: dict[str, ModelInfo] = {
+    "ode": ModelInfo(
+        name="ode", module="fem_bounce.models.ode", class_name="OdeModel",
+        liquid="nothing: the near-wall theory force f_thr everywhere", resolved=False,
+        resolution_key="numerics.ode.rtol", resolution_unit="", ladder=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
+        serial=True, trajectory_interval_key="numerics.ode.output_interval", colour="C0",
+        sources=("models/ode.py",)),
+    "fd": ModelInfo(
+        name="fd", module="fem_bounce.models.fd", class_name="FictitiousDomainModel",
+        liquid="axisymmetric Taylor-Hood Navier-Stokes (FEniCSx), diffuse-interface sphere", resolved=True,
+        resolution_key="numerics.fd.cells_per_diameter", resolution_unit="cells/D",
+        ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.fd.cfl",
+        scaled_with_time_step=("numerics.fd.forcing_number",), checkpoint_every_key="numerics.fd.checkpoint_every",
+        checkpoint_files=("flow.npz",), min_cells_across_blend_gap=1.0, fields_key="numerics.fd.output_every",
+        colour="C1", sources=("models/fd", "fem")),
+    "ib": ModelInfo(
+        name="ib", module="fem_bounce.models.ib", class_name="ImmersedBoundaryModel",
+        liquid="the paper's IB projection method on a staggered grid", resolved=True,
+        resolution_key="numerics.ib.cells_per_diameter", resolution_unit="cells/D",
+        ladder=(16.0, 24.0, 32.0, 48.0, 64.0), time_step_key="numerics.ib.cfl",
+        serial=True, min_cells_across_blend_gap=2.0, fields_key="numerics.ib.output_every", colour="C2",
+        sources=("models/ib",)),
+    "ale": ModelInfo(
+        name="ale", module="fem_bounce.models.ale", class_name="AleModel",
+        liquid="moving mesh with the sphere as a hole: the accuracy reference", resolved=True,
+        resolution_key="numerics.ale.cells_per_diameter", resolution_unit="cells/D",
+        ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.ale.cfl",
+        fields_key="numerics.ale.output_every", colour="C3",
+        sources=("models/ale", "models/fd", "fem")),  # ale still reuses fd.domain and fd.fluid
+}
+
+BEST_FIRST = ("fd", "ib", "ode")  # the default model: the first of these that imports
+FIDELITY = ("ale", "fd", "ib", "ode")  # which model's finest run serves as a study's reference, first found
+
+
+def restarting() -> list[str]:
+    """The models that write checkpoints and continue with --restart."""
+    return [name for name, info in MODELS.items() if info.restarts]

@@ -1,0 +1,60 @@
+"""A study's runs on the workers of an `mpi4py.futures` pool, and on local worker processes.
+
+    mpirun -n K python -m mpi4py.futures -m fem_bounce study ... --executor mpi
+
+Under `-m mpi4py.futures` only rank 0 runs the command; the other K - 1 ranks wait for tasks and never
+join a collective call on COMM_WORLD.  PETSc initialises on COMM_WORLD by default, and that is
+collective, so the study and every worker must give PETSc COMM_SELF before anything imports
+petsc4py.PETSc: this module imports neither PETSc nor the rest of the package at import time.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import warnings
+
+
+def under_mpi_futures() -> bool:
+    """True on the master of `python -m mpi4py.futures` with at least one worker rank.  mpi4py 3.1 has
+    no public query for it; its shared pool is the attribute that the `-m mpi4py.futures` launcher sets."""
+    from mpi4py import MPI
+    from mpi4py.futures import _lib
+
+    return getattr(_lib, "SharedPool", None) is not None and MPI.COMM_WORLD.size > 1
+
+
+def petsc_on_self() -> None:
+    """Initialise PETSc on COMM_SELF, unless it is initialised already (then nothing changes)."""
+    if "petsc4py.PETSc" in sys.modules:
+        return
+    import petsc4py
+    from mpi4py import MPI
+
+    petsc4py.init(comm=MPI.COMM_SELF)
+
+
+def start_worker() -> None:
+    """In each worker process: PETSc on COMM_SELF; SIGTERM stops the current run between two steps (it is
+    recorded as interrupted and redone next time); SIGINT, a terminal's Ctrl-C, is left to the study's
+    process, which passes it on as SIGTERM; warnings are one line each."""
+    petsc_on_self()
+    from .run import Interrupts
+
+    Interrupts(announce=False).__enter__()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    warnings.simplefilter("default")
+    warnings.simplefilter("ignore", ResourceWarning)  # the form compiler's JIT leaves files to the collector
+    warnings.showwarning = lambda message, *args, **kwargs: print(
+        f"fem-bounce: worker {os.getpid()}: warning: {message}", file=sys.stderr, flush=True)
+
+
+def run_one(scene, model: str, root: str) -> str:
+    """One run through the cache, serial, in a worker process; its run directory."""
+    from pathlib import Path
+
+    from mpi4py import MPI
+
+    from .cache import cached_run
+
+    return str(cached_run(scene, model, MPI.COMM_SELF, root=Path(root)))

@@ -1,0 +1,180 @@
+"""How a study's runs are spread: the runs of a study are independent, so they can go to several
+processes at once; the run cache (fem_bounce.cache) makes the result the same whichever way they go.
+
+    fem-bounce study restitution --model fd --jobs 2          # 2 processes on this machine
+    mpirun -n 9 python -m mpi4py.futures -m fem_bounce study restitution --model fd --executor mpi
+                                                              # 8 workers over an MPI allocation
+
+- jobs = 1 (the default): one run after the other on the study's communicator; under plain `mpirun`
+  each run uses every rank (the fd and ale models solve in parallel, ode and ib run on rank 0).
+- jobs = N > 1: N worker processes on this machine (multiprocessing, "spawn"), each run serial.
+- executor "mpi": the workers of an `mpi4py.futures` pool; the study runs on rank 0 of
+  `mpirun -n K python -m mpi4py.futures -m fem_bounce ...` and the K - 1 other ranks run one serial
+  run each at a time, so a study scales past one machine.
+
+Finished runs are read from the cache in the study's own process and never submitted, identical runs
+are submitted once, and a killed study loses only the runs in progress: run the same command again.
+On SIGINT or SIGTERM the study cancels the runs not yet started, asks the running ones to stop
+between two steps (they are recorded as interrupted, and redone next time) and raises RunInterrupted.
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import os
+import signal
+from pathlib import Path
+from typing import Iterator
+
+from .. import scene as scenes
+from ..cache import DEFAULT_ROOT, cached_run, finished, run_directory
+from ..mpi_pool import run_one, start_worker, under_mpi_futures
+from ..run import Interrupts, RunFailed, RunInterrupted, signal_name
+
+EXECUTORS = ("local", "mpi")
+POLL_SECONDS = 0.2  # how often the study looks for a signal while its workers run
+
+
+class RunnerError(ValueError):
+    """--jobs or --executor cannot be used as asked; the message says what to do instead."""
+
+
+class RunnerError(ValueError):
+    """--jobs or --executor cannot be used as asked; the message says what to do instead."""
+
+
+def under_mpi_futures() -> bool:
+    """True on the master of `python -m mpi4py.futures` with at least one worker rank.  mpi4py 3.1 has
+    no public query for it; its shared pool is the attribute that the `-m mpi4py.futures` launcher sets."""
+    from mpi4py import MPI
+    from mpi4py.futures import _lib
+
+    return getattr(_lib, "SharedPool", None) is not None and MPI.COMM_WORLD.size > 1
+
+
+class Runner:
+    """Runs (scene, model) pairs through the cache and yields (index, run directory) as each finishes."""
+
+    def __init__(self, comm, jobs: int = 1, executor: str = "local", root: Path = DEFAULT_ROOT):
+        if executor not in EXECUTORS:
+            raise RunnerError(f"--executor {executor!r}: choose one of {', '.join(EXECUTORS)}")
+        if not isinstance(jobs, int) or jobs < 1:
+            raise RunnerError(f"--jobs {jobs!r}: give a whole number of processes, 1 or more")
+        if executor == "mpi":
+            if jobs != 1:
+                raise RunnerError("--jobs applies to --executor local; with --executor mpi the workers are the "
+                                  "mpirun ranks after the first")
+            if not under_mpi_futures():
+                raise RunnerError("--executor mpi runs the study's runs on the workers of an mpi4py.futures pool: "
+                                  "start it as `mpirun -n K python -m mpi4py.futures -m fem_bounce study ... "
+                                  "--executor mpi` with K >= 2 (K - 1 workers)")
+        elif jobs > 1 and comm.size > 1:
+            raise RunnerError(f"--jobs {jobs} starts its own processes: run it without mpirun, or spread the runs "
+                              "over MPI ranks with `mpirun -n K python -m mpi4py.futures -m fem_bounce ... "
+                              "--executor mpi`")
+        self.comm, self.jobs, self.executor, self.root = comm, jobs, executor, Path(root).absolute()
+
+    @property
+    def workers(self) -> int:
+        if self.executor == "mpi":
+            from mpi4py import MPI
+
+            return MPI.COMM_WORLD.size - 1
+        return self.jobs
+
+    def describe(self) -> str:
+        if self.executor == "mpi":
+            return f"{self.workers} MPI worker(s) of mpi4py.futures"
+        if self.jobs > 1:
+            return f"{self.jobs} local processes"
+        return f"one run at a time on {self.comm.size} rank(s)"
+
+    def run(self, tasks: list[tuple[scenes.Scene, str]]) -> Iterator[tuple[int, Path]]:
+        """(index into tasks, finished run directory), cached runs first, then in the order they finish."""
+        directories = [run_directory(scene, model, self.root) for scene, model in tasks]
+        pending: dict[Path, list[int]] = {}
+        for k, run_dir in enumerate(directories):
+            if finished(run_dir) is not None:
+                yield k, run_dir
+            else:
+                pending.setdefault(run_dir, []).append(k)
+        if not pending:
+            return
+        if self.executor == "local" and self.jobs == 1:
+            for run_dir, indices in pending.items():
+                scene, model = tasks[indices[0]]
+                cached_run(scene, model, self.comm, root=self.root)
+                for k in indices:
+                    yield k, run_dir
+            return
+        yield from self._in_pool({d: (tasks[ks[0]], ks) for d, ks in pending.items()})
+
+    def _pool(self) -> cf.Executor:
+        if self.executor == "mpi":
+            from mpi4py.futures import MPIPoolExecutor
+
+            # main=False: a worker must not import __main__, which is the study itself under `-m fem_bounce`
+            return MPIPoolExecutor(main=False, initializer=start_worker)
+        # spawn, not fork: the study's process has initialised MPI, which a forked child must not inherit;
+        # one thread per worker, so that N workers use N cores (a worker imports numpy after this).
+        previous = {name: os.environ.get(name) for name in _ONE_THREAD}
+        os.environ.update({name: "1" for name in _ONE_THREAD if previous[name] is None})
+        try:
+            return cf.ProcessPoolExecutor(self.jobs, mp_context=multiprocessing.get_context("spawn"),
+                                          initializer=start_worker)
+        finally:
+            for name, value in previous.items():
+                if value is None:
+                    os.environ.pop(name, None)
+
+    def _in_pool(self, pending: dict) -> Iterator[tuple[int, Path]]:
+        pool = self._pool()
+        futures = {pool.submit(run_one, scene, model, str(self.root)): (run_dir, indices)
+                   for run_dir, ((scene, model), indices) in pending.items()}
+        interrupts = Interrupts.active
+        signum, failure = 0, None
+        try:
+            waiting = set(futures)
+            while waiting:
+                done, waiting = cf.wait(waiting, timeout=POLL_SECONDS, return_when=cf.FIRST_COMPLETED)
+                for future in done:
+                    run_dir, indices = futures[future]
+                    if future.cancelled():
+                        continue
+                    error = future.exception()
+                    if error is None:
+                        for k in indices:
+                            yield k, run_dir
+                    elif failure is None:
+                        failure = error
+                if interrupts is not None and interrupts.signum and not signum:
+                    signum = interrupts.signum
+                    self._stop_workers(futures, signum)
+                if failure is not None and not signum:
+                    signum = -1  # stop the rest: the study cannot finish
+                    self._stop_workers(futures, 0)
+        except BaseException:
+            self._stop_workers(futures, signal.SIGTERM)
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown(wait=True, cancel_futures=True)
+        if signum > 0:
+            raise RunInterrupted(f"interrupted by {signal_name(signum)}; the finished runs are cached: run the "
+                                 "same command again to continue the study", signum)
+        if isinstance(failure, (RunFailed, scenes.SceneError)):
+            raise failure
+        if failure is not None:
+            raise RunFailed(f"a study worker failed: {type(failure).__name__}: {failure}") from failure
+
+    def _stop_workers(self, futures: dict, signum: int) -> None:
+        """Cancel the runs not yet started; with a signal, ask the local workers' runs to stop too (an
+        MPI pool's workers receive mpirun's SIGTERM themselves)."""
+        for future in futures:
+            future.cancel()
+        if signum and self.executor == "local":
+            for child in multiprocessing.active_children():
+                if child.pid is not None:
+                    os.kill(child.pid, signal.SIGTERM)
+
+
+_ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
