@@ -22,17 +22,18 @@ def multiplier_model():
 
 
 @pytest.mark.mpi
+@pytest.mark.slow
 def test_the_multiplier_holds_the_interior_rigid(multiplier_model):
     """From a fluid at rest, lambda for U = 0.1 m/s makes u = u~ - A^-1 Phi lambda move with the sphere
-    where phi = 1: the constraint is solved to a tight tolerance, the slip left is small against U and
-    shrinks with the tolerance (the force the step gives is then the multiplier's)."""
+    where phi = 1: solved to a tight tolerance, the largest slip left (on the axis, whose rows the r
+    weighting makes weak) is under 10 % of U and shrinks with the tolerance."""
     model = multiplier_model
     constraint, band, flow = model.constraint, model.sphere.band, model.flow
     speed = 0.1
     depth = band.radius - band.width
     slips = []
-    for tolerance in (1e-2, 1e-3):
-        constraint.tolerance, constraint.max_iterations = tolerance, 1000
+    for tolerance in (1e-2, 1e-4):
+        constraint.tolerance, constraint.max_iterations = tolerance, 2000
         constraint.multiplier.x.array[:] = 0.0
         constraint.response.x.array[:] = 0.0
         predicted = fem.Function(flow.W)  # u~ = 0: the fluid at rest
