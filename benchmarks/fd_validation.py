@@ -51,7 +51,13 @@ def main() -> None:
                         help="a scene setting for every section (recorded in the history key)")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
-    changes = dict(item.split("=", 1) for item in args.set)
+    changes = {}
+    for item in args.set:
+        key, text = item.split("=", 1)
+        try:
+            changes[key] = float(text)
+        except ValueError:
+            changes[key] = text
     resolution = {"numerics.fd.cells_per_diameter": args.cells, **changes}
     tag = f"{args.cells:g}cpd" + "".join(f",{k}={v}" for k, v in sorted(changes.items()))
     found: dict = {}
