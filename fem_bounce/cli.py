@@ -8,7 +8,8 @@
     fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
     fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
-Only this module and the demos touch MPI.COMM_WORLD.  Errors a user can cause print one line
+Only this module and the demos touch MPI.COMM_WORLD (mpi_pool and the study runner ask its size, to find
+the workers of an mpi4py.futures pool).  Errors a user can cause print one line
 (on rank 0 only under mpirun) naming the field or path and exit with status 2; a run that ends
 early prints one line and exits with 1 (diverged, or an output could not be written) or 128 + the
 signal (130 for SIGINT, 143 for SIGTERM) when interrupted.
@@ -283,17 +284,23 @@ def _cmd_restitution(args) -> int:
     out = _out_path(args.out) or Path("results") / f"restitution-{args.model}"
     changes = dict(scenes.parse_override(text) for text in args.overrides)
     comm, runner = _study_runner(args)
-    rows = restitution.run(args.model, comm, out, points, (args.st_min, args.st_max), overrides=changes,
-                           runner=runner)
+    with runner:
+        rows = restitution.run(args.model, comm, out, points, (args.st_min, args.st_max), overrides=changes,
+                               runner=runner)
     if comm.rank == 0:
         print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.png")
     return 0
 
 
 def _cmd_study(args) -> int:
+    comm, runner = _study_runner(args)
+    with runner:  # its worker processes end with the study
+        return _study(args, comm, runner)
+
+
+def _study(args, comm, runner) -> int:
     from . import studies
 
-    comm, runner = _study_runner(args)
     changes = dict(scenes.parse_override(text) for text in args.overrides)
     model_names = (args.models if args.kind == "speed-accuracy" else args.model).split(",")
     for name in model_names:

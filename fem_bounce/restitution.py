@@ -14,10 +14,10 @@ e is the integrator's (sphere.Rebound): the 2 ms mean speed after the minimum ga
 before it, and 0 when the apex stays inside the contact layer (no rebound, as the experiments report it).
 
     fem-bounce restitution --model ode --points 40      # -> results/restitution-ode/
+    fem-bounce restitution --model ode --points 40 --jobs 2     # the same, over 2 processes
 """
 from __future__ import annotations
 
-import functools
 import math
 import warnings
 
@@ -68,10 +68,29 @@ def first_bounce(scene: scenes.Scene, gap: float, rebound: bool = True) -> dict:
     return result
 
 
-@functools.cache
+_BANDS: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # stokes_band's tables, by preset
+
+
 def stokes_band(name: str) -> tuple[np.ndarray, np.ndarray]:
     """(release gaps [m], impact St) of a preset over RELEASE_GAPS with the ODE model, cut where the impact
-    Re passes the axisymmetric limit; St grows with the gap."""
+    Re passes the axisymmetric limit; St grows with the gap.  Tabulated once per process."""
+    if name not in _BANDS:
+        _BANDS[name] = _tabulate_band(name)
+    return _BANDS[name]
+
+
+def tabulate_bands(names, mapper=map) -> None:
+    """Tabulate the bands of several presets at once: `mapper` (map-like) may spread them over processes."""
+    missing = [name for name in dict.fromkeys(names) if name not in _BANDS]
+    _BANDS.update(zip(missing, mapper(_tabulate_band, missing)))
+
+
+def forget_bands() -> None:
+    """Drop the tabulated bands (a benchmark that times the planning)."""
+    _BANDS.clear()
+
+
+def _tabulate_band(name: str) -> tuple[np.ndarray, np.ndarray]:
     scene = scenes.load(name)
     gaps = scene.sphere.diameter * np.geomspace(*RELEASE_GAPS, BAND_SAMPLES)
     found = [first_bounce(scene, gap, rebound=False) for gap in gaps]
@@ -130,7 +149,15 @@ def _union(intervals: list[tuple[float, float]]) -> list[tuple[float, float]]:
     return [(lo, hi) for lo, hi in merged]
 
 
-def sweep(points: int, st_range=(1.0, 1000.0)) -> list[dict]:
-    """The ODE model at each planned release gap, to its first apex (milliseconds each)."""
-    return [{"scene": name, "target_St": st, **first_bounce(scenes.load(name), gap)}
-            for name, st, gap in plan(points, st_range)]
+def sweep(points: int, st_range=(1.0, 1000.0), mapper=map) -> list[dict]:
+    """The ODE model at each planned release gap, to its first apex (a fraction of a second each).  The runs
+    are independent: `mapper` (map-like, e.g. fem_bounce.studies.runner.Runner.map) may spread the band
+    tabulation and the sweep's runs over processes; the builtin map runs them one after the other."""
+    tabulate_bands(MATERIAL_SETS, mapper)
+    planned = plan(points, st_range)
+    found = mapper(_first_bounce_of, [name for name, _, _ in planned], [gap for _, _, gap in planned])
+    return [{"scene": name, "target_St": st, **result} for (name, st, _), result in zip(planned, found)]
+
+
+def _first_bounce_of(name: str, gap: float) -> dict:
+    return first_bounce(scenes.load(name), gap)

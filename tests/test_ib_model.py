@@ -1,6 +1,5 @@
 """The immersed-boundary model end to end, on toy grids (seconds each)."""
 import json
-import math
 import warnings
 
 import numpy as np

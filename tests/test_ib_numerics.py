@@ -1,5 +1,4 @@
 """The immersed-boundary model's numerical core: kernel, operators, projection, forces."""
-import math
 
 import numpy as np
 import pytest

@@ -1,6 +1,10 @@
 """The parallel study runner: N processes give the runs one process gives, a resumed study reuses the
 finished runs and redoes the unfinished ones, and bad --jobs/--executor requests are refused clearly."""
 import json
+import os
+import shutil
+import subprocess
+import sys
 
 import pytest
 from mpi4py import MPI
@@ -61,6 +65,24 @@ def test_identical_runs_are_run_once(tmp_path):
     sc = scene.load("li2011-case1", {"run.bounces": 1})
     found = dict(Runner(MPI.COMM_SELF, jobs=2, root=tmp_path).run([(sc, "ode"), (sc, "ode")]))
     assert found[0] == found[1] and len(list(tmp_path.iterdir())) == 1
+
+
+def test_the_documented_mpi_pool_command_gives_the_runs_of_one_process(tmp_path):
+    """`mpirun -n 2 python -m mpi4py.futures -m fem_bounce study ... --executor mpi` (one worker), as the
+    README gives it, in a fresh MPI job of its own."""
+    if shutil.which("mpirun") is None:
+        pytest.skip("no mpirun")
+    serial = tiny_study(tmp_path, 1, "serial")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}  # not this process's job
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
+    command = ["mpirun", "-n", "2", sys.executable, "-m", "mpi4py.futures", "-m", "fem_bounce", "study", "convergence",
+               "li2011-case1", "--model", "ode", "--set", "run.bounces=1", "--levels", ",".join(map(str, LEVELS)),
+               "--out", "pooled", "--executor", "mpi"]
+    done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "1 MPI worker(s) of mpi4py.futures" in done.stderr
+    pooled = json.loads((tmp_path / "pooled" / "convergence.json").read_text())["rows"]
+    assert same_runs(pooled) == same_runs(serial)
 
 
 @pytest.mark.parametrize("jobs, executor, message", [

@@ -28,6 +28,8 @@ DRY_ABOVE_ST = 500.0  # Joseph et al. (2001): e close to the dry value above St 
 def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), overrides: dict | None = None,
         ode_points: int = 60, runner: Runner | None = None) -> list[dict]:
     study = StudyDirectory(out, comm)
+    runner = runner or Runner(comm)
+    restitution.tabulate_bands((*restitution.MATERIAL_SETS, restitution.DSS_PLUS_5), runner.map)
     planned = restitution.plan(points, st_range)
     lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5)[1][[0, -1]]
     planned += [(restitution.DSS_PLUS_5, st, restitution.gap_for_stokes(restitution.DSS_PLUS_5, st))
@@ -50,7 +52,7 @@ def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), o
                      "wall_time_s": row["wall_time_s"], "run_dir": row["run_dir"]})
     study.write_csv("restitution.csv", rows)
     if comm.rank == 0:
-        ode = restitution.sweep(ode_points, st_range) if model != "ode" else None
+        ode = restitution.sweep(ode_points, st_range, runner.map) if model != "ode" else None
         figure(rows, ode, model, out / "restitution.png")
     return rows
 

@@ -28,8 +28,9 @@ from typing import Iterator
 
 from .. import scene as scenes
 from ..cache import DEFAULT_ROOT, cached_run, finished, run_directory
+from ..errors import RunFailed, RunInterrupted
 from ..mpi_pool import run_one, start_worker, under_mpi_futures
-from ..run import Interrupts, RunFailed, RunInterrupted, signal_name
+from ..run import Interrupts, signal_name
 
 EXECUTORS = ("local", "mpi")
 POLL_SECONDS = 0.2  # how often the study looks for a signal while its workers run
@@ -37,19 +38,6 @@ POLL_SECONDS = 0.2  # how often the study looks for a signal while its workers r
 
 class RunnerError(ValueError):
     """--jobs or --executor cannot be used as asked; the message says what to do instead."""
-
-
-class RunnerError(ValueError):
-    """--jobs or --executor cannot be used as asked; the message says what to do instead."""
-
-
-def under_mpi_futures() -> bool:
-    """True on the master of `python -m mpi4py.futures` with at least one worker rank.  mpi4py 3.1 has
-    no public query for it; its shared pool is the attribute that the `-m mpi4py.futures` launcher sets."""
-    from mpi4py import MPI
-    from mpi4py.futures import _lib
-
-    return getattr(_lib, "SharedPool", None) is not None and MPI.COMM_WORLD.size > 1
 
 
 class Runner:
@@ -73,6 +61,30 @@ class Runner:
                               "over MPI ranks with `mpirun -n K python -m mpi4py.futures -m fem_bounce ... "
                               "--executor mpi`")
         self.comm, self.jobs, self.executor, self.root = comm, jobs, executor, Path(root).absolute()
+        self._executor: cf.Executor | None = None  # the worker pool, started at first use, kept until close()
+
+    def __enter__(self) -> "Runner":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Let the workers go (a Runner that was never asked to spread anything has none)."""
+        if self._executor is not None:
+            self._executor.shutdown(wait=True, cancel_futures=True)
+            self._executor = None
+
+    @property
+    def parallel(self) -> bool:
+        return self.executor == "mpi" or self.jobs > 1
+
+    def map(self, function, *iterables) -> list:
+        """[function(*items)], in order, spread over the workers like the runs; for short, independent
+        pieces of a study (the restitution planning's ODE runs).  function must be a module-level function."""
+        if not self.parallel:
+            return list(map(function, *iterables))
+        return list(self._pool().map(function, *iterables))
 
     @property
     def workers(self) -> int:
@@ -100,7 +112,7 @@ class Runner:
                 pending.setdefault(run_dir, []).append(k)
         if not pending:
             return
-        if self.executor == "local" and self.jobs == 1:
+        if not self.parallel:
             for run_dir, indices in pending.items():
                 scene, model = tasks[indices[0]]
                 cached_run(scene, model, self.comm, root=self.root)
@@ -110,6 +122,11 @@ class Runner:
         yield from self._in_pool({d: (tasks[ks[0]], ks) for d, ks in pending.items()})
 
     def _pool(self) -> cf.Executor:
+        if self._executor is None:
+            self._executor = self._start_pool()
+        return self._executor
+
+    def _start_pool(self) -> cf.Executor:
         if self.executor == "mpi":
             from mpi4py.futures import MPIPoolExecutor
 
@@ -156,8 +173,8 @@ class Runner:
         except BaseException:
             self._stop_workers(futures, signal.SIGTERM)
             pool.shutdown(wait=False, cancel_futures=True)
+            self._executor = None
             raise
-        pool.shutdown(wait=True, cancel_futures=True)
         if signum > 0:
             raise RunInterrupted(f"interrupted by {signal_name(signum)}; the finished runs are cached: run the "
                                  "same command again to continue the study", signum)
