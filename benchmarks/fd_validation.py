@@ -2,6 +2,7 @@
 
     python benchmarks/fd_validation.py                       # every section, 16 cells per diameter
     python benchmarks/fd_validation.py brenner drag --cells 32
+    python benchmarks/fd_validation.py brenner --set numerics.fd.constraint=multiplier
     mpirun -n 2 python benchmarks/fd_validation.py cases
 
 Sections (each a function of fem_bounce.studies.validation, runs under runs/fd-validation/):
@@ -46,10 +47,19 @@ def main() -> None:
     parser.add_argument("sections", nargs="*", default=["brenner", "drag", "tencate", "case3", "cases"])
     parser.add_argument("--cells", type=float, default=16.0, help="numerics.fd.cells_per_diameter")
     parser.add_argument("--out", type=Path, default=Path("runs/fd-validation"))
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a scene setting for every section (recorded in the history key)")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
-    resolution = {"numerics.fd.cells_per_diameter": args.cells}
-    tag = f"{args.cells:g}cpd"
+    changes = {}
+    for item in args.set:
+        key, text = item.split("=", 1)
+        try:
+            changes[key] = float(text)
+        except ValueError:
+            changes[key] = text
+    resolution = {"numerics.fd.cells_per_diameter": args.cells, **changes}
+    tag = f"{args.cells:g}cpd" + "".join(f",{k}={v}" for k, v in sorted(changes.items()))
     found: dict = {}
     started = time.perf_counter()
     if "brenner" in args.sections:
@@ -88,7 +98,7 @@ def main() -> None:
         RESULTS.parent.mkdir(exist_ok=True)
         stored = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
         for key, value in found.items():
-            stored[f"{key}@{tag}"] = {"provenance": provenance(args.cells), "result": value}
+            stored[f"{key}@{tag}"] = {"provenance": {**provenance(args.cells), "settings": changes}, "result": value}
         RESULTS.write_text(json.dumps(stored, indent=1) + "\n")
         print(json.dumps(found, indent=1))
         print(f"{time.perf_counter() - started:.0f} s; results in {RESULTS}")

@@ -335,11 +335,11 @@ def dss_study(args) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(5.6, 3.8))
-    for case, marker in ((1, "o"), (2, "s")):
+    for case, marker, colour in ((1, "o", "C0"), (2, "s", "C1")):
         mine = sorted((r for r in rows if r["case"] == case and r.get("Re_II")), key=lambda r: r["delta_ss_factor"])
         for key, style in (("Re_I", "--"), ("Re_II", "-")):
             ax.plot([0.017 * r["delta_ss_factor"] for r in mine],
-                    [change(r.get(key), measured[case][key]) for r in mine], style, marker=marker,
+                    [change(r.get(key), measured[case][key]) for r in mine], style, marker=marker, color=colour,
                     label=f"case {case}, {key.replace('_', ' ')}")
     ax.axhline(0.0, color="0.5", lw=0.8)
     ax.axvline(0.017 * 1.05, color="0.7", ls=":", label=r"the paper's $\delta_{ss}$ + 5 %")

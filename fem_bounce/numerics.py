@@ -30,9 +30,23 @@ class FdNumerics:
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
+    # the gap under the sphere's path: triangles D / wall_cells_per_diameter (0: no wall box) in
+    # r <= wall_radius D, z <= wall_layer D, where the squeeze flow lives
+    wall_cells_per_diameter: float = _setting(0.0, 0.0, 800.0)
+    wall_layer: float = _setting(0.25, 0.01, 5.0)
+    wall_radius: float = _setting(0.6, 0.05, 10.0)
     cfl: float = _setting(0.2, 0.01, 50.0)  # dt <= cfl * fine size / (1.5 speed scale): explicit convection
-    forcing_number: float = _setting(0.025, 0.001, 10.0)  # dt <= this * fine size^2 / nu (rigid interior)
+    forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
+    # "penalty": the one-shot forcing rho c phi (U - u~), rigid only under forcing_number (the default);
+    # "multiplier" (experimental, see models/fd/multiplier.py): a Lagrange multiplier solved by CG on its Schur
+    # complement, no viscous step bound, but its drag depends on the band (Brenner +5 % at delta 1, 16 cells/D)
+    constraint: str = field(default="penalty", metadata={"choices": ("penalty", "multiplier")})
+    constraint_tolerance: float = _setting(1e-2, 1e-12, 0.5)  # multiplier: rms interior slip / speed scale
+    unit_steps: int = _setting(2, 1, 100)  # multiplier: CG iterations a step that keep dlambda/dU up to date
     time_order: int = _setting(2, 1, 3)  # BDF/extrapolation order of the flow
+    # "direct": MUMPS LU, factorised once; "fieldsplit": GMRES with a Schur field split and BoomerAMG
+    # (options prefix fd_flow_fieldsplit_), for large meshes on many ranks (docs/performance.md)
+    solver: str = field(default="direct", metadata={"choices": ("direct", "fieldsplit")})
     interface_width: float = _setting(2.0, 0.25, 10.0)  # band inside the surface where phi falls to 0, in fine cells
     radius_offset: float = _setting(0.5, -3.0, 3.0)  # the indicator's outer edge at a + this * fine size
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none

@@ -13,7 +13,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 from . import reference  # noqa: E402
 from .output import read_summary, read_trajectory  # noqa: E402,F401 -- also read from here by older scripts

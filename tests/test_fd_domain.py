@@ -57,3 +57,18 @@ def test_a_neutrally_buoyant_free_sphere_is_refused_clearly():
     # the scene check refuses it for every model (tests/test_bad_input.py), before any model's time step
     with pytest.raises(scene.SceneError, match="neutrally buoyant"):
         scene.load("li2011-case3", {"sphere.density": 1203.0})
+
+
+def test_the_wall_box_refines_the_gap_under_the_path_only():
+    from fem_bounce.models.fd.domain import domain_for
+
+    sc = scene.load("li2011-case3", {"numerics.fd.wall_cells_per_diameter": 48})
+    plain = domain_for(scene.load("li2011-case3")).spec
+    spec = domain_for(sc).spec
+    D = sc.sphere.diameter
+    assert spec.size_at(0.3 * D, 0.1 * D) == pytest.approx(D / 48)
+    assert plain.size_at(0.3 * D, 0.1 * D) == pytest.approx(D / 24)
+    # above the layer and far out the sizes are the plain mesh's
+    for r, z in ((0.3 * D, 1.5 * D), (5 * D, 3 * D)):
+        assert spec.size_at(r, z) == pytest.approx(plain.size_at(r, z))
+    assert spec.key() != plain.key()

@@ -38,11 +38,13 @@ MESH_FORMAT_VERSION = 1  # part of the cache key: bump when the meshing below ch
 
 @dataclass(frozen=True)
 class Box:
-    """A region r <= r_max, z_min <= z <= z_max meshed at the fine size [m]."""
+    """A region r <= r_max, z_min <= z <= z_max meshed at `size`, or at the half-plane's fine size when
+    size is None [m] (a finer box inside the fine region, e.g. the gap under a sphere's path)."""
 
     r_max: float
     z_min: float
     z_max: float
+    size: float | None = None
 
     def distance(self, r: np.ndarray, z: np.ndarray) -> np.ndarray:
         dr = np.maximum(r - self.r_max, 0.0)
@@ -117,6 +119,9 @@ class HalfPlane:
         data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION}
         if self.hole is None:
             del data["hole"]  # meshes without a hole keep the keys they had before holes existed
+        for box in data["refined"]:
+            if box["size"] is None:
+                del box["size"]  # nor do boxes at the fine size
         text = json.dumps(data, sort_keys=True, default=lambda x: round(x, 15))
         return hashlib.sha1(text.encode()).hexdigest()[:16]
 
@@ -125,7 +130,8 @@ class HalfPlane:
         r, z = np.asarray(r, float), np.asarray(z, float)
         size = np.full(np.broadcast(r, z).shape, self.coarse_size)
         for box in self.refined:
-            size = np.minimum(size, self.fine_size + self.grading * box.distance(r, z))
+            inside = self.fine_size if box.size is None else box.size
+            size = np.minimum(size, inside + self.grading * box.distance(r, z))
         if self.hole is not None:
             size = np.minimum(size, self.hole.size_at(r, z, self.grading))
         return size
@@ -135,7 +141,8 @@ class HalfPlane:
         for box in self.refined:
             dr = f"max(x - {box.r_max!r}, 0)"
             dz = f"max(max(y - {box.z_max!r}, {box.z_min!r} - y), 0)"
-            terms.append(f"{self.fine_size!r} + {self.grading!r} * sqrt({dr}^2 + {dz}^2)")
+            inside = self.fine_size if box.size is None else box.size
+            terms.append(f"{inside!r} + {self.grading!r} * sqrt({dr}^2 + {dz}^2)")
         if self.hole is not None:
             terms.append(self.hole.gmsh_size(self.grading))
         expression = terms[0]

@@ -8,7 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ...fem.domain import extent, speed_scale
-from ...fem.mesh import HalfPlane
+from ...fem.mesh import Box, HalfPlane
+from ...motion import is_stream
 from ...scene import Scene
 
 
@@ -27,8 +28,14 @@ def domain_for(scene: Scene) -> Domain:
     fine = diameter / fd.cells_per_diameter
     coarse = max(diameter / fd.coarse_cells_per_diameter, fine)
     half_plane = extent(scene, "fd")
+    boxes = (half_plane.refined,)
+    if fd.wall_cells_per_diameter > 0 and not is_stream(scene):  # finer triangles in the gap under the path
+        wall_size = diameter / fd.wall_cells_per_diameter
+        if wall_size < fine:
+            boxes += (Box(r_max=min(fd.wall_radius * diameter, half_plane.radius), z_min=0.0,
+                          z_max=min(fd.wall_layer * diameter, half_plane.height), size=wall_size),)
     spec = HalfPlane(radius=half_plane.radius, height=half_plane.height, fine_size=fine, coarse_size=coarse,
-                     grading=fd.grading, refined=(half_plane.refined,))
+                     grading=fd.grading, refined=boxes)
     return Domain(spec=spec, sides=half_plane.sides, inflow_speed=half_plane.inflow_speed, center=half_plane.center,
                   fine_size=fine)
 
@@ -37,15 +44,19 @@ PEAK_SPEED_FACTOR = 1.5  # the fastest fluid: 1.5 U at the equator of a sphere i
 
 
 def time_step(scene: Scene) -> float:
-    """dt = min(cfl h / (1.5 U), forcing_number h^2 / nu) [s], h the fine size, U the speed scale.
+    """dt = cfl h / (1.5 U) [s], h the fine size, U the speed scale; with the penalty constraint
+    (numerics.fd.constraint = "penalty") also dt <= forcing_number h^2 / nu.
 
     The first bound keeps the extrapolated convection stable where the fluid is
     fastest, beside the sphere (with cfl = 0.2 the flow past a sphere at Re = 200 is
     stable, at 0.3 it blows up there within 40 steps).  The second keeps the immersed
     force rho c phi (U - u~), c ~ 1/dt, stronger than viscous diffusion across the
     indicator's band; it binds at low Re, where it sets how rigid the interior is
-    (Brenner's drag at delta = 1 comes out 1.4 % low at 0.025, 3.4 % at 0.05, 16 cells per D)."""
+    (Brenner's drag at delta = 1 comes out 1.4 % low at 0.025, 3.4 % at 0.05, 16 cells per D).
+    The multiplier constraint holds the interior rigid whatever dt, so it has only the first bound."""
     fd = scene.numerics.fd
     fine = scene.sphere.diameter / fd.cells_per_diameter
     convective = fd.cfl * fine / (PEAK_SPEED_FACTOR * speed_scale(scene, "fd"))
+    if fd.constraint == "multiplier":
+        return convective
     return min(convective, fd.forcing_number * fine**2 / scene.liquid.kinematic_viscosity)

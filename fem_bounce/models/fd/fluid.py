@@ -16,6 +16,7 @@ ale models share).
 """
 from __future__ import annotations
 
+import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_matrix, create_vector, set_bc
@@ -23,7 +24,7 @@ from petsc4py import PETSc
 
 from ...fem import forms
 from ...fem.mesh import AXIS
-from ...fem.solver import FactorizedOperator
+from ...fem.solver import FactorizedOperator, FieldSplitOperator
 from ...fem.taylor_hood import (BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, side_constraints,
                                 taylor_hood_space)
 
@@ -35,7 +36,7 @@ class FlowSolver:
     SIDE_KINDS; `inflow_speed` [m/s] is u_z on "inflow" sides."""
 
     def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
-                 inflow_speed: float = 0.0, order: int = 2, prefix: str = "fd_flow_"):
+                 inflow_speed: float = 0.0, order: int = 2, prefix: str = "fd_flow_", solver: str = "direct"):
         for side, kind in sides.items():
             if kind not in SIDE_KINDS:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
@@ -65,9 +66,24 @@ class FlowSolver:
         A = assemble_matrix(self.a, bcs=self.bcs)
         A.assemble()
         self.matrix = A
-        self.operator = FactorizedOperator(A, prefix)
+        if solver == "fieldsplit":
+            velocity, pressure = (self._field_indices(k) for k in (0, 1))
+            # its own options prefix: the direct solver's defaults (ksp preonly, pc lu) live under `prefix`
+            self.operator = FieldSplitOperator(A, prefix.rstrip("_") + "_fieldsplit_", velocity, pressure)
+            velocity.destroy()
+            pressure.destroy()
+        else:
+            self.operator = FactorizedOperator(A, prefix)
         self.rhs = create_vector(self.L_history)
         self.work = self.rhs.duplicate()
+
+    def _field_indices(self, field: int) -> PETSc.IS:
+        """The owned global indices of the velocity (0) or pressure (1) dofs of W, for a field split."""
+        index_map = self.W.dofmap.index_map
+        _, dofs = self.W.sub(field).collapse()
+        dofs = np.asarray(dofs, dtype=np.int32)
+        owned = np.sort(dofs[dofs < index_map.size_local])
+        return PETSc.IS().createGeneral(owned + index_map.local_range[0], comm=self.mesh.comm)
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides):

@@ -22,6 +22,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...fem.domain import speed_scale
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
@@ -35,7 +36,8 @@ from .domain import Domain, domain_for, time_step
 from .fields import FieldWriter
 from .fluid import FlowSolver
 from .immersed import ImmersedSphere
-from .steady import SteadyStokes
+from .multiplier import RigidConstraint
+from .steady import SteadyMultiplierStokes, SteadyStokes
 
 
 @dataclass
@@ -80,6 +82,7 @@ class FictitiousDomainModel(FlowModel):
         self.dt = time_step(scene)
         self.flow: FlowSolver | None = None
         self.sphere: ImmersedSphere | None = None
+        self.constraint: RigidConstraint | None = None
         self.fields: FieldWriter | None = None
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
         self.steady_iterations: int | None = None
@@ -96,11 +99,14 @@ class FictitiousDomainModel(FlowModel):
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
         self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
-                               inflow_speed=domain.inflow_speed, order=fd.time_order)
+                               inflow_speed=domain.inflow_speed, order=fd.time_order, solver=fd.solver)
         self.flow.set_uniform((0.0, domain.inflow_speed))
         radius = scene.sphere.radius + fd.radius_offset * domain.fine_size
         self.sphere = ImmersedSphere(self.flow, radius, fd.interface_width * domain.fine_size, domain.center)
         velocity = start_velocity(scene)
+        if fd.constraint == "multiplier":
+            self.constraint = RigidConstraint(self.flow, self.sphere, fd.constraint_tolerance, fd.unit_steps,
+                                              speed_scale(scene, "fd"))
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.sphere.volume] * order)
         self.timings["setup"] = time.perf_counter() - start
@@ -118,11 +124,22 @@ class FictitiousDomainModel(FlowModel):
         return radius + max(prediction.center(radius) - radius, self.hold_gap, 0.0)
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
-        flow, sphere, h = self.flow, self.sphere, self.history
+        sphere = self.sphere
         t_next = (self.step + 1) * self.dt
         center = self.predicted_center(prediction)
         if center != sphere.center:
             sphere.place(center)
+        linear = self._linearise_multiplier() if self.constraint is not None else self._linearise_penalty()
+        if not all(math.isfinite(v) for v in (linear.explicit, linear.added_mass)):
+            raise FloatingPointError(f"the fluid force became {linear.explicit} N at t = {t_next:.6g} s")
+        self.last_force = linear
+        self._integrator_start = time.perf_counter()
+        added_mass = linear.added_mass if self.settings.coupling == "implicit" else 0.0
+        return FluidForce(explicit=linear.explicit, added_mass=added_mass)
+
+    def _linearise_penalty(self) -> coupling.Linearised:
+        """The penalty forcing rho c phi (U - u~) (the default scheme)."""
+        flow, sphere, h = self.flow, self.sphere, self.history
         # predictor and (if the sphere moved) the unit response share one pass over the factors
         predicted = flow.predicted
         if sphere.unit_stale:
@@ -131,40 +148,62 @@ class FictitiousDomainModel(FlowModel):
             flow.solve([flow.predictor_rhs()], [predicted])
         flow.solve([sphere.forcing(predicted)], [sphere.forced])
         self.integrals = integrals = sphere.integrals(predicted)
+        return coupling.linearise(integrals, self.scene.liquid.density, flow.c, h.momentum_history,
+                                  h.reference_velocity)
+
+    def _linearise_multiplier(self) -> coupling.Linearised:
+        """The rigid-body constraint (multiplier.RigidConstraint): the predictor and the response to the
+        last multiplier share one pass over the factors, CG corrects the multiplier for the extrapolated
+        velocity U_e, and lambda_1 carries the force's dependence on U."""
+        flow, sphere, h, constraint = self.flow, self.sphere, self.history, self.constraint
+        predicted = flow.predicted
+        vectors, functions = constraint.first_pass()
+        flow.solve([flow.predictor_rhs(), *vectors], [predicted, *functions])
+        v = h.velocities
+        self._extrapolated = extrapolated = 2.0 * v[0] - v[1] if len(v) > 1 else v[0]
+        constraint.solve(predicted, extrapolated, responses_ready=True)
         rho, c = self.scene.liquid.density, flow.c
-        linear = coupling.linearise(integrals, rho, c, h.momentum_history, h.reference_velocity)
-        if not all(math.isfinite(v) for v in (linear.explicit, linear.added_mass)):
-            raise FloatingPointError(f"the fluid force became {linear.explicit} N at t = {t_next:.6g} s")
-        self.last_force = linear
-        self._integrator_start = time.perf_counter()
-        added_mass = linear.added_mass if self.settings.coupling == "implicit" else 0.0
-        return FluidForce(explicit=linear.explicit, added_mass=added_mass)
+        volume = sphere.volume
+        # F(U) = I(lambda(U)) + rho c (U V_phi - J), lambda(U) = lambda(U_e) + (U - U_e) lambda_1
+        reference = h.reference_velocity
+        explicit = (constraint.hold_force() + (reference - extrapolated) * constraint.unit_force()
+                    + rho * c * (reference * volume - h.momentum_history))
+        added_mass = -(constraint.unit_force() + rho * c * volume) / c
+        return coupling.Linearised(explicit, added_mass, reference)
 
     def complete(self, velocity: float, time_now: float) -> None:
         self.timings["integrator"] += time.perf_counter() - self._integrator_start
-        flow, sphere, integrals = self.flow, self.sphere, self.integrals
+        flow, sphere = self.flow, self.sphere
         t_next = (self.step + 1) * self.dt
-        s = coupling.rigid_amplitude(integrals, velocity)
-        new = flow.work
-        flow.predicted.vector.copy(new)
-        new.axpy(1.0, sphere.forced.vector)
-        new.axpy(s, sphere.unit.vector)
+        if self.constraint is not None:
+            new = self.constraint.field(flow.predicted, velocity - self._extrapolated, flow.work)
+            volume = sphere.volume
+        else:
+            s = coupling.rigid_amplitude(self.integrals, velocity)
+            new = flow.work
+            flow.predicted.vector.copy(new)
+            new.axpy(1.0, sphere.forced.vector)
+            new.axpy(s, sphere.unit.vector)
+            volume = self.integrals.volume
         if not math.isfinite(new.norm()):
             raise FloatingPointError(f"the flow field became non-finite at t = {t_next:.6g} s")
         flow.commit(new)
-        self.history.push(velocity, velocity * integrals.volume)
+        self.history.push(velocity, velocity * volume)
         self.step += 1
 
     def solve_steady(self, integrator) -> None:
         """Jump to the steady Stokes state of the step (steady.SteadyStokes) at the end time."""
-        steady = SteadyStokes(self.flow, self.sphere)
+        if self.constraint is not None:
+            steady = SteadyMultiplierStokes(self.flow, self.sphere, tolerance=1e-6)
+        else:
+            steady = SteadyStokes(self.flow, self.sphere)
         try:
             force, integrals = steady.solve(self.scene.motion.velocity)
         finally:
             steady.destroy()
         self.steady_iterations = steady.iterations
-        self.last_force = coupling.Linearised(force, coupling.added_mass(integrals, self.scene.liquid.density),
-                                              self.scene.motion.velocity)
+        added_mass = coupling.added_mass(integrals, self.scene.liquid.density) if self.constraint is None else 0.0
+        self.last_force = coupling.Linearised(force, added_mass, self.scene.motion.velocity)
         n_steps = steps_to(self.scene.run.end_time, self.dt)
         integrator.advance(n_steps * self.dt, FluidForce(explicit=force))
         self.step = n_steps
@@ -226,15 +265,30 @@ class FictitiousDomainModel(FlowModel):
             "step_cost_in_back_solves": self.timings["steps"] / steps / single if single else None,
             "peak_memory_bytes": self.comm.allreduce(peak),  # sum over ranks of each rank's peak RSS
             "factorisation_memory_bytes": operator.factor_memory(),
+            "solver": self.settings.solver,
+            "krylov_iterations_per_solve": (operator.iterations / max(solves, 1) if hasattr(operator, "iterations")
+                                            else None),
             "mesh_key": self.domain.spec.key(),
             "added_mass_over_displaced": (self.last_force.added_mass / self.scene.displaced_mass
                                           if self.last_force is not None else None),
             "indicator_volume_over_sphere": self.sphere.volume / self.scene.sphere.volume,
             "steady_gmres_iterations": self.steady_iterations,
+            **(self.constraint_report() if self.constraint is not None else {}),
         }
+
+    def constraint_report(self) -> dict:
+        """The multiplier's cost and how rigid the interior is at the end (max |u - U e_z| where phi = 1)."""
+        constraint, band = self.constraint, self.sphere.band
+        slip = constraint.interior_slip(self.flow.now, self.history.velocity, band.radius - band.width)
+        return {"constraint": "multiplier", "constraint_cg_iterations": constraint.iterations,
+                "constraint_cg_iterations_per_step": constraint.iterations / max(self.steps_this_run, 1),
+                "constraint_unit_cg_iterations": constraint.unit_iterations,
+                "constraint_unconverged": constraint.unconverged, "interior_slip_m_s": slip}
 
     def destroy(self) -> None:
         """Free the PETSc objects (the mesh and the report's numbers stay)."""
+        if self.constraint is not None:
+            self.constraint.destroy()
         if self.sphere is not None:
             self.sphere.destroy()
         if self.flow is not None:

@@ -143,3 +143,56 @@ class _Apply:
 
     def __init__(self, fn, method: str = "mult"):
         setattr(self, method, fn)
+
+
+class SteadyMultiplierStokes:
+    """The steady Stokes state of a held sphere with the multiplier constraint (multiplier.RigidConstraint):
+    with S the steady Stokes operator, u = -S^-1 Phi lambda and Phi^T (u - U e_z) = 0, so lambda solves
+    Phi^T S^-1 Phi lambda = U Phi^T e_z by the same conjugate gradients, and the force on the sphere is
+    the multiplier's hold force (nothing inside accelerates).  No step, so no dt in the answer."""
+
+    def __init__(self, flow, sphere, tolerance: float = 1e-6, prefix: str = "fd_steady_stokes_"):
+        from .multiplier import RigidConstraint
+
+        self.flow, self.sphere = flow, sphere
+        (u, p), (v, q) = ufl.TrialFunctions(flow.W), ufl.TestFunctions(flow.W)
+        stokes = forms.stokes_operator(u, p, v, q, 0.0, flow.viscosity, flow.r, flow.dx)
+        self.matrix = assemble_matrix(fem.form(stokes), bcs=flow.bcs)
+        self.matrix.assemble()
+        self.operator = FactorizedOperator(self.matrix, prefix)
+        self.constraint = RigidConstraint(_SteadyFlow(flow, self.operator), sphere, tolerance, max_iterations=2000)
+        self.iterations = 0
+
+    def solve(self, velocity: float) -> tuple[float, InteriorIntegrals]:
+        """Set the flow's states to the steady state for sphere velocity U [m/s]; return (F [N], integrals)."""
+        flow, sphere, constraint = self.flow, self.sphere, self.constraint
+        zero = fem.Function(flow.W)
+        constraint.solve(zero, velocity)
+        if constraint.unconverged:
+            raise SolverError(f"steady Stokes multiplier CG did not converge in {constraint.max_iterations} iterations")
+        self.iterations = constraint.iterations
+        for state in flow.states:
+            state.x.array[:] = -constraint.response.x.array
+        flow.predicted.x.array[:] = 0.0
+        volume = sphere.volume
+        integrals = InteriorIntegrals(volume=volume, predicted=0.0, forced=velocity * volume, unit=volume)
+        return constraint.hold_force(), integrals
+
+    def destroy(self) -> None:
+        self.constraint.destroy()
+        self.operator.destroy()
+        self.matrix.destroy()
+
+
+class _SteadyFlow:
+    """The parts of fluid.FlowSolver the constraint uses, with the steady Stokes operator's solve."""
+
+    def __init__(self, flow, operator):
+        self.W, self.rhs, self.work, self.mesh = flow.W, flow.rhs, flow.work.duplicate(), flow.mesh
+        self.force_rhs = flow.force_rhs
+        self.operator = operator
+
+    def solve(self, rhs: list, solutions: list) -> None:
+        self.operator.solve_many(rhs, [x.vector for x in solutions])
+        for x in solutions:
+            x.x.scatter_forward()
