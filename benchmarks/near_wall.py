@@ -62,7 +62,10 @@ def run(study: str, name: str, scene: str, model: str, changes: dict, force: boo
 
 
 def run_all(study: str, jobs: list[tuple], args) -> dict[str, Path]:
-    """Run (name, scene, model, changes) tuples, `args.jobs` at a time; name -> run directory."""
+    """Run (name, scene, model, changes) tuples, `args.jobs` at a time; name -> run directory.  With
+    --report-only nothing runs: the tables show the completed runs there are, "-" for the others."""
+    if args.report_only:
+        return {name: ROOT / study / "runs" / name for name, *_ in jobs}
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
         futures = {name: pool.submit(run, study, name, sc, model, changes, args.force)
                    for name, sc, model, changes in jobs}
@@ -70,7 +73,9 @@ def run_all(study: str, jobs: list[tuple], args) -> dict[str, Path]:
 
 
 def measures(run_dir: Path) -> dict:
-    """V_i, Re_I, Re_II, first restitution and apex of a run [SI]."""
+    """V_i, Re_I, Re_II, first restitution and apex of a run [SI]; only the status if it did not complete."""
+    if not finished(run_dir):
+        return {"status": "not run", "wall_time_s": None, "steps": 0}
     summary = json.loads((run_dir / "summary.json").read_text())
     impacts, rebounds = summary["impacts"], summary["rebounds"]
     found = {"status": summary["status"], "wall_time_s": summary["wall_time_s"], "steps": summary["steps"]}
@@ -154,7 +159,7 @@ def reference_study(args) -> None:
         rows.append({"name": name, "case": case, **found})
         lines.append(f"| {case} | {name.split('-', 1)[1]} | | {fmt(found.get('V_i'), '.4f')} | "
                      f"{fmt(found.get('Re_I'), '.2f')} | {fmt(found.get('Re_II'), '.2f')} | {fmt(found.get('e_1'), '.3f')} | "
-                     f"{fmt(found.get('apex_1', 0) / diameter, '.4f')} | {found['steps']} | {found['wall_time_s']:.0f} s |")
+                     f"{fmt(found['apex_1'] / diameter if 'apex_1' in found else None, '.4f')} | {found['steps']} | {fmt(found['wall_time_s'], '.0f')} s |")
     lines += ["", "Convergence (the two finest levels of each ladder) and the reference against Table 2:", "",
               "| case | mesh (two finest): V_i, Re_II | dt (cfl 0.25 -> 0.125): V_i, Re_II | reference V_i | Re_I | Re_II | "
               "e_1 | V_i vs Table 2 | Re_II vs Table 2 |", "|---|---|---|---|---|---|---|---|---|"]
@@ -200,7 +205,7 @@ def insensitivity_study(args) -> None:
     for r in rows:
         model, mode, dsl = r["name"].split("-")
         lines.append(f"| {model} | {mode} | {dsl[3:]} | {fmt(r.get('V_i'), '.4f')} | {fmt(r.get('Re_I'), '.2f')} | "
-                     f"{fmt(r.get('Re_II'), '.2f')} | {fmt(r.get('e_1'), '.3f')} | {r['wall_time_s']:.0f} s |")
+                     f"{fmt(r.get('Re_II'), '.2f')} | {fmt(r.get('e_1'), '.3f')} | {fmt(r['wall_time_s'], '.0f')} s |")
     lines += ["", "Change from delta_sl = 0.1 to 0.3 (targets: V_i < 1 %, Re_II < 3 %):", "",
               "| model | near_wall | V_i | Re_II |", "|---|---|---|---|"]
     by_name = {r["name"]: r for r in rows}
@@ -358,6 +363,7 @@ def main() -> None:
     parser.add_argument("study", choices=["reference", "insensitivity", "fig7", "dss"])
     parser.add_argument("--jobs", type=int, default=1, help="simulations at once (default 1)")
     parser.add_argument("--force", action="store_true", help="re-run simulations that have a summary")
+    parser.add_argument("--report-only", action="store_true", help="tabulate the completed runs, run nothing")
     parser.add_argument("--cases", default="1,3,4,7", help="reference: Table 2 cases")
     parser.add_argument("--case3-extra", action="store_true",
                         help="reference: also case 3 at cfl 0.0625 and at delta_sl = 0.025")
