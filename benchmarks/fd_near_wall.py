@@ -22,7 +22,6 @@ About 3-6 min per variant on one core.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import subprocess
 import sys
@@ -33,6 +32,7 @@ import numpy as np
 
 from fem_bounce import plots
 from fem_bounce import scene as scenes
+from near_wall import prescribed_approach  # benchmarks/ is on the path of a script run from it
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_near_wall.json"
@@ -60,19 +60,7 @@ def path_overrides() -> dict:
     ode_dir = ROOT / "ode"
     if not (ode_dir / "summary.json").exists():
         fem_bounce(["li2011-case3", "--model", "ode", "--set", "run.bounces=1", "--out", str(ode_dir)])
-    ode = plots.read_trajectory(ode_dir)
-    sc = scenes.load("li2011-case3")
-    diameter = sc.sphere.diameter
-    series_end = float(ode["t"][np.argmax(ode["gap"] <= sc.contact.delta_ss * diameter)])
-    end = float(ode["t"][np.argmax(ode["gap"] <= 0.03 * diameter)])
-    keep = ode["t"] <= series_end
-    series = (ROOT / "case3-approach.csv").resolve()
-    with open(series, "w", newline="") as stream:
-        writer = csv.writer(stream)
-        writer.writerow(["t", "velocity"])
-        writer.writerows(zip(ode["t"][keep], ode["velocity"][keep]))
-    return {"motion.mode": "prescribed", "motion.series": str(series), "run.end_time": end, "run.bounces": 0,
-            "contact.near_wall": "blend"}
+    return prescribed_approach(ode_dir, ROOT)
 
 
 def forces_along(run_dir: Path) -> dict:

@@ -219,15 +219,12 @@ def insensitivity_study(args) -> None:
 
 # -- Fig. 7: the theory force against the converged resolved force ---------------------------------------
 
-def fig7_study(args) -> None:
-    """The paper's Fig. 7.  The case-3 approach (the ODE model's path to its first contact) is prescribed;
-    the ALE model resolves the flow along it at two meshes and two steps (no hold, near_wall = blend so
-    that the runs carry f_thr's history modes); f_thr is the default theory force along the same path."""
+def prescribed_approach(ode_dir: Path, folder: Path) -> dict:
+    """Scene changes that prescribe the case-3 approach of the ODE run in `ode_dir` (its velocity series,
+    written to folder/case3-approach.csv, up to delta_ss; the run ends at delta = 0.03), with the paper's
+    blend so that f_sim is the resolved force at the true gap.  Shared with benchmarks/fd_near_wall.py."""
     import csv
 
-    folder = ROOT / "fig7"
-    folder.mkdir(parents=True, exist_ok=True)
-    ode_dir = run("fig7", "ode", "li2011-case3", "ode", {"run.bounces": 1}, args.force)
     ode = output.read_trajectory(ode_dir)
     sc = scenes.load("li2011-case3")
     diameter = sc.sphere.diameter
@@ -239,8 +236,20 @@ def fig7_study(args) -> None:
         writer = csv.writer(stream)
         writer.writerow(["t", "velocity"])
         writer.writerows(zip(ode["t"][keep], ode["velocity"][keep]))
-    path = {"motion.mode": "prescribed", "motion.series": str(series), "run.end_time": end, "run.bounces": 0,
-            "contact.near_wall": "blend", "numerics.ale.hold_delta": 0.01}
+    return {"motion.mode": "prescribed", "motion.series": str(series), "run.end_time": end, "run.bounces": 0,
+            "contact.near_wall": "blend"}
+
+
+def fig7_study(args) -> None:
+    """The paper's Fig. 7.  The case-3 approach (the ODE model's path to its first contact) is prescribed;
+    the ALE model resolves the flow along it at two meshes and two steps (no hold, near_wall = blend so
+    that the runs carry f_thr's history modes); f_thr is the default theory force along the same path."""
+    folder = ROOT / "fig7"
+    folder.mkdir(parents=True, exist_ok=True)
+    ode_dir = run("fig7", "ode", "li2011-case3", "ode", {"run.bounces": 1}, args.force)
+    path = {**prescribed_approach(ode_dir, folder), "numerics.ale.hold_delta": 0.01}
+    sc = scenes.load("li2011-case3")
+    diameter = sc.sphere.diameter
     variants = {"ale16": {CELLS["ale"]: 16, CFL: 0.125}, "ale24": {CELLS["ale"]: 24, CFL: 0.125},
                 "ale16-dt/2": {CELLS["ale"]: 16, CFL: 0.0625}}
     if args.fd:

@@ -31,6 +31,17 @@ def _default_option(name: str, value) -> None:
         options[name] = value
 
 
+def _counted_solve(operator, b: PETSc.Vec, x: PETSc.Vec) -> None:
+    """operator.ksp.solve(b, x), its time and count added to the operator's tallies."""
+    start = time.perf_counter()
+    operator.ksp.solve(b, x)
+    elapsed = time.perf_counter() - start
+    operator.solve_time += elapsed
+    operator.single_solve_time += elapsed
+    operator.single_solves += 1
+    operator.back_solves += 1
+
+
 class FactorizedOperator:
     """Factorise A (PETSc Mat) once on construction; `solve` back-substitutes."""
 
@@ -84,13 +95,7 @@ class FactorizedOperator:
             return 0
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
-        start = time.perf_counter()
-        self.ksp.solve(b, x)
-        elapsed = time.perf_counter() - start
-        self.solve_time += elapsed
-        self.single_solve_time += elapsed
-        self.single_solves += 1
-        self.back_solves += 1
+        _counted_solve(self, b, x)
         reason = self.ksp.getConvergedReason()
         if reason < 0:
             raise SolverError(f"back-solve failed ({self.prefix}): KSP reason {reason}")
@@ -184,14 +189,8 @@ class FieldSplitOperator:
         self.ksp.setUp()
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
-        start = time.perf_counter()
         x.set(0.0)
-        self.ksp.solve(b, x)
-        elapsed = time.perf_counter() - start
-        self.solve_time += elapsed
-        self.single_solve_time += elapsed
-        self.single_solves += 1
-        self.back_solves += 1
+        _counted_solve(self, b, x)
         self.iterations += self.ksp.getIterationNumber()
         reason = self.ksp.getConvergedReason()
         if reason < 0:
