@@ -34,7 +34,9 @@ def test_the_multiplier_holds_the_interior_rigid(multiplier_model):
     depth = band.radius - band.width
     slips = []
     for tolerance in (1e-2, 1e-4):
-        constraint.tolerance, constraint.max_iterations = tolerance, 2000
+        # CG from a cold start needs ~1500 iterations at 1e-4 (serial, measured); 2000 left too little room on
+        # 2 ranks, whose round-off differs (one failure in four MPI passes): the cap leaves room, the tolerance stays
+        constraint.tolerance, constraint.max_iterations = tolerance, 5000
         constraint.multiplier.x.array[:] = 0.0
         constraint.response.x.array[:] = 0.0
         predicted = fem.Function(flow.W)  # u~ = 0: the fluid at rest
