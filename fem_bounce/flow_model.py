@@ -20,13 +20,19 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from .sphere import FluidForce
 
 
 @dataclass(frozen=True)
 class Prediction:
     """Where the sphere will be at the end of the coming fluid step: from its gap now, the step and its
-    mean velocity over the step, 1.5 V_n - 0.5 V_{n-1} (Adams-Bashforth 2) [SI]."""
+    mean velocity over the step, 1.5 V_n - 0.5 V_{n-1} (Adams-Bashforth 2) [SI].
+
+    For a pair (scene.pair) gap_now, velocity_now and mean_velocity are arrays, one entry per sphere
+    (sphere 1 first): each sphere's lowest point above z = 0 and its velocity; `flow_gaps` says where a
+    resolved flow places them."""
 
     time: float  # t_n [s]
     gap_now: float  # h(t_n) [m]
@@ -42,6 +48,18 @@ class Prediction:
     def center(self, radius: float) -> float:
         """The sphere centre's height at t_n + dt [m]."""
         return radius + self.gap_now + self.dt * self.mean_velocity
+
+
+def flow_gaps(gaps, diameters, wall_hold: float, pair_hold: float) -> np.ndarray:
+    """Where a resolved flow places the spheres of a pair: their lowest points above z = 0 [m], the
+    predicted `gaps` with sphere 1 kept at least `wall_hold` above the wall and sphere 2 at least
+    `pair_hold` above sphere 1's flow position (the near-wall correction holds the flow's geometry at
+    delta_sl and adds what it misses; contact.py).  A hold of 0 places them where predicted."""
+    placed = np.array(gaps, dtype=float)
+    placed[0] = max(placed[0], wall_hold)
+    if len(placed) > 1:
+        placed[1] = max(placed[1], placed[0] + diameters[0] + pair_hold)
+    return placed
 
 
 class Predictor:

@@ -115,6 +115,12 @@ class Sphere:
         return self.density * self.volume
 
 
+def pair_diameter(first: Sphere, second: Sphere) -> float:
+    """2 a*, the pair's reduced diameter, a* = a1 a2 / (a1 + a2) [m]: the length that scales the gap of a
+    pair (delta = h / (2 a*)), as D scales a sphere's gap to a wall (a2 -> infinity gives D1)."""
+    return 2.0 * first.radius * second.radius / (first.radius + second.radius)
+
+
 @dataclass(frozen=True)
 class Liquid:
     density: float = _positive(unit="kg/m3")
@@ -126,9 +132,25 @@ class Liquid:
 
 
 @dataclass(frozen=True)
+class SecondSphere(Sphere):
+    """A second sphere on the axis above the first (a head-on pair): its own material, the initial gap
+    between the two surfaces and its initial velocity (positive away from the wall).  free: moves under
+    the liquid, gravity and contact; fixed: held at its initial position; prescribed: moves at
+    `velocity` throughout."""
+
+    gap: float = _positive(unit="m")
+    velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s")
+    mode: str = _choice("free", "fixed", "prescribed")
+
+
+@dataclass(frozen=True)
 class Wall:
-    youngs_modulus: float = _positive(unit="Pa")
-    poisson_ratio: float = _between(-1.0, 0.5, open_ends=True, note="an isotropic solid's range")
+    """The plane z = 0.  Without it (present = false) z = 0 is only the origin (and the bottom of the
+    domain a resolved model meshes, an open boundary there); its elastic constants are then unused."""
+
+    youngs_modulus: float | None = _positive(None, unit="Pa")
+    poisson_ratio: float | None = _between(-1.0, 0.5, None, open_ends=True, note="an isotropic solid's range")
+    present: bool = True
 
 
 @dataclass(frozen=True)
@@ -213,8 +235,9 @@ class Scene:
     liquid: Liquid
     wall: Wall
     initial_gap: float = _positive(unit="m")
-    gravity: float = _between(0.0, 1000.0, 9.81, unit="m/s2", open_low=True,
-                              note="it pulls the sphere to the wall and sets the time unit sqrt(D/g)")
+    gravity: float = _between(0.0, 1000.0, 9.81, unit="m/s2",
+                              note="it pulls the sphere to the wall and sets the time unit sqrt(D/g); 0 only "
+                                   "for a pair set in motion by second_sphere.velocity")
     name: str = "scene"
     description: str = ""
     container: Container = field(default_factory=Container)
@@ -223,8 +246,26 @@ class Scene:
     run: Run = field(default_factory=Run)
     reference: Reference = field(default_factory=Reference)
     numerics: Numerics = field(default_factory=Numerics)
+    second_sphere: SecondSphere | None = None
 
     # -- derived quantities (never typed in) --
+    @property
+    def pair(self) -> bool:
+        """Two spheres on the axis (second_sphere given)."""
+        return self.second_sphere is not None
+
+    @property
+    def spheres(self) -> tuple[Sphere, ...]:
+        """Sphere 1 (nearest z = 0), then the second sphere if there is one."""
+        return (self.sphere,) if self.second_sphere is None else (self.sphere, self.second_sphere)
+
+    @property
+    def initial_gaps(self) -> tuple[float, ...]:
+        """Each sphere's lowest point above z = 0 at the start [m]."""
+        if self.second_sphere is None:
+            return (self.initial_gap,)
+        return (self.initial_gap, self.initial_gap + self.sphere.diameter + self.second_sphere.gap)
+
     @property
     def density_ratio(self) -> float:
         return self.sphere.density / self.liquid.density
@@ -236,13 +277,15 @@ class Scene:
 
     @property
     def time_unit(self) -> float:
-        """sqrt(D/g), the paper's time unit [s]."""
+        """sqrt(D/g), the paper's time unit [s]; without gravity D / |second_sphere.velocity|."""
+        if self.gravity == 0.0:
+            return self.sphere.diameter / abs(self.second_sphere.velocity)
         return math.sqrt(self.sphere.diameter / self.gravity)
 
     @property
     def velocity_unit(self) -> float:
-        """sqrt(g D), the paper's velocity unit [m/s]."""
-        return math.sqrt(self.gravity * self.sphere.diameter)
+        """sqrt(g D), the paper's velocity unit [m/s]; without gravity |second_sphere.velocity|."""
+        return self.sphere.diameter / self.time_unit
 
     def reynolds(self, speed: float) -> float:
         return self.liquid.density * self.sphere.diameter * abs(speed) / self.liquid.viscosity
@@ -289,6 +332,16 @@ class Scene:
             raise SceneError(f"initial_gap = {self.initial_gap:.4g} m is {self.initial_gap / diameter:.3g} diameters: "
                              f"allowed up to {MAX_GAP_DIAMETERS:g} D = {MAX_GAP_DIAMETERS * diameter:.4g} m in an "
                              "unbounded liquid (or give a container)")
+        wall = self.wall
+        if wall.present and (wall.youngs_modulus is None or wall.poisson_ratio is None):
+            raise SceneError("wall.youngs_modulus and wall.poisson_ratio are required when wall.present = true")
+        second = self.second_sphere
+        if self.gravity == 0.0 and (second is None or second.velocity == 0.0):
+            raise SceneError("gravity = 0 moves nothing: allowed only for a pair set in motion by "
+                             "second_sphere.velocity (or give gravity > 0, e.g. 9.81)")
+        if second is not None and second.gap <= self.contact.delta_ss * pair_diameter(self.sphere, second):
+            raise SceneError(f"second_sphere.gap = {second.gap:g} m must exceed contact.delta_ss times the pair's "
+                             f"reduced diameter ({pair_diameter(self.sphere, second):.4g} m): start outside contact")
         c = self.contact
         if c.delta_ss >= c.delta_sl:
             raise SceneError(
@@ -300,16 +353,18 @@ class Scene:
         if box.radius is not None:
             if box.radius <= self.sphere.radius:
                 raise SceneError(f"container.radius = {box.radius:g} m must exceed the sphere radius")
-            if box.height <= self.initial_gap + self.sphere.diameter:
-                raise SceneError(
-                    f"container.height = {box.height:g} m must exceed initial_gap + diameter "
-                    f"= {self.initial_gap + self.sphere.diameter:g} m"
-                )
+            top = self.initial_gaps[-1] + self.spheres[-1].diameter
+            if box.height <= top:
+                raise SceneError(f"container.height = {box.height:g} m must exceed the top of the highest sphere "
+                                 f"at the start, {top:g} m")
+            if second is not None and box.radius <= second.radius:
+                raise SceneError(f"container.radius = {box.radius:g} m must exceed second_sphere's radius")
         if self.motion.mode == "prescribed" and self.motion.series:
             if not Path(self.motion.series).is_file():
                 raise SceneError(f"motion.series = {self.motion.series!r}: no such file")
-        speed = max(abs(self.motion.velocity), abs(self.motion.stream_velocity))
-        re_max = self.reynolds(self.estimated_impact_speed() if self.motion.mode == "free" else speed)
+        speed = max(abs(self.motion.velocity), abs(self.motion.stream_velocity),
+                    abs(second.velocity) if second is not None else 0.0)
+        re_max = self.reynolds(max(self.estimated_impact_speed(), speed) if self.motion.mode == "free" else speed)
         if re_max > AXISYMMETRIC_RE_LIMIT:
             warnings.warn(
                 f"scene {self.name!r}: estimated Re = {re_max:.3g} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
@@ -337,14 +392,23 @@ def _build(cls, data: dict, prefix: str):
             near = difflib.get_close_matches(key, list(fields), n=1)
             hint = f"; did you mean {prefix}{near[0]}?" if near else f"; known: {', '.join(fields)}"
             raise SceneError(f"unknown key {prefix}{key}{hint}")
-        if dataclasses.is_dataclass(hints[key]):
-            kwargs[key] = _build(hints[key], value, f"{prefix}{key}.")
+        table = _table_type(hints[key])
+        if table is not None:
+            kwargs[key] = _build(table, value, f"{prefix}{key}.")
         else:
             kwargs[key] = _coerce(value, hints[key], prefix + key)
     for name, f in fields.items():
         if name not in kwargs and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             raise SceneError(f"missing key {prefix}{name}")
     return cls(**kwargs)
+
+
+def _table_type(hint: Any):
+    """The dataclass a key's value is built as (a table, also an optional one like second_sphere), or None."""
+    if dataclasses.is_dataclass(hint):
+        return hint
+    tables = [t for t in typing.get_args(hint) if dataclasses.is_dataclass(t)]
+    return tables[0] if tables else None
 
 
 def _coerce(value: Any, expected: Any, key: str) -> Any:

@@ -40,7 +40,8 @@ from .scene import Scene, SceneError
 @dataclass(frozen=True)
 class FluidForce:
     """A resolved model's force on the sphere over one fluid step [N, kg]:
-    f_sim = explicit - added_mass * dV/dt."""
+    f_sim = explicit - added_mass * dV/dt.  For a pair: explicit has one entry per sphere and
+    added_mass is the 2 x 2 matrix of f_sim_i = explicit_i - sum_j added_mass_ij dV_j/dt."""
 
     explicit: float
     added_mass: float = 0.0
