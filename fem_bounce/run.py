@@ -359,7 +359,7 @@ class Controller:
                 observers.append(Every(model.checkpoint_every, self.save_checkpoint))
             if model.observe_integrator_steps:
                 integrator.observers.append(
-                    lambda row: self.monitor(row["t"], integrator.steps, row["gap"], row["velocity"]))
+                    lambda row: self.monitor(row["t"], integrator.steps, integrator.gap, integrator.velocity))
             start = time.perf_counter()
             if model.steady:
                 model.solve_steady(integrator)
@@ -422,7 +422,8 @@ class Controller:
         model, integrator, comm = self.model, self.integrator, self.comm
         flow, arrays = model.checkpoint_state()  # collective; arrays on rank 0
         state = {"step": model.step, "time": integrator.time, "ranks": comm.size,
-                 "velocities": self.predictor.velocities, "flow": flow, "integrator": integrator.state_dict()}
+                 "velocities": [np.asarray(v).tolist() for v in self.predictor.velocities],  # a pair's: arrays
+                 "flow": flow, "integrator": integrator.state_dict()}
 
         def commit() -> None:
             data, = self.entry.checkpoint_files
@@ -453,7 +454,7 @@ class Controller:
         if failures:
             raise output.CheckpointError(f"the checkpoint in {self.out_dir} cannot continue this run: {failures[0]}")
         self.model.step = state["step"]
-        self.predictor.velocities = list(state["velocities"])
+        self.predictor.velocities = [np.asarray(v) if isinstance(v, list) else v for v in state["velocities"]]
         self.integrator.load_state_dict(state["integrator"])
         self.last_checkpoint = (state["step"], state["time"])
 
@@ -469,6 +470,9 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     if models.info(model).serial and comm.size > 1:
         return _serial_on_root(scene, model, comm, out_dir, force=force, restart=restart, command=command,
                                progress=progress, plots=plots, interrupts=interrupts)
+    if scene.pair and not models.info(model).pairs:
+        raise models.ModelError(f"the {model} model cannot run a pair of spheres ([second_sphere]): use one of "
+                                f"{', '.join(models.registry.pairing())}")
     model_cls = models.get(model)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active
