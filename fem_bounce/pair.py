@@ -347,10 +347,14 @@ class PairIntegrator:
         return self.wall_record.blend_crossings if self.wall_record else []
 
     def collisions(self) -> list[dict]:
-        """Every collision, in time order: kind ("pair" or "wall"), time of the minimum gap, the
-        relative impact speed (2 ms mean), Re and St of it, min_gap, and what followed (restitution
-        e = rebound speed / impact speed, the 2 ms means, 0 when the gap did not open beyond 3 delta_ss
-        of its scale; apex_gap: where the gap turned, or for a pair where it passed delta_sl apart)."""
+        """Every collision, in time order: kind ("pair" or "wall"), time of the minimum gap, min_gap,
+        the relative impact speed, Re and St of it, and the restitution e.
+
+        A pair's e and impact speed are taken where the pair gap passes delta_sl 2a* (on the way in, and
+        out after the collision): e = separation speed / approach speed there, 0 when the gap does not
+        open beyond delta_sl 2a* before the next collision or the end (docs/physics.md section 6: the 2 ms
+        means of the wall, also given as *_2ms, lie inside the contact layer at a pendulum's speeds).
+        A wall collision's are the wall's 2 ms means (bounces.Rebound)."""
         found = []
         for kind, record in (("pair", self.pair_record), ("wall", self.wall_record)):
             if record is None:
@@ -359,8 +363,25 @@ class PairIntegrator:
                 entry = {"kind": kind, **dataclasses.asdict(impact)}
                 if k < len(record.rebounds):
                     entry.update(dataclasses.asdict(record.rebounds[k]))
+                if kind == "pair":
+                    following = record.impacts[k + 1].time if k + 1 < len(record.impacts) else math.inf
+                    self._at_blend_gap(entry, record.blend_crossings, following)
                 found.append(entry)
         return sorted(found, key=lambda c: c["time"])
+
+    def _at_blend_gap(self, entry: dict, crossings: list[dict], following: float) -> None:
+        """Speeds, St, Re and e of a pair collision where its gap passes delta_sl 2a* (collisions)."""
+        before = [c for c in crossings if c["direction"] == "in" and c["time"] <= entry["time"]]
+        after = [c for c in crossings if c["direction"] == "out" and entry["time"] < c["time"] < following]
+        for key in ("impact_speed", "Re", "St", "restitution"):
+            entry[f"{key}_2ms"] = entry.get(key)
+        if not before:  # it started inside delta_sl 2a*: the 2 ms means stand
+            return
+        approach = before[-1]["speed"]
+        entry["impact_speed"] = approach
+        entry["Re"], entry["St"] = self.pair.numbers(approach)
+        entry["separation_speed"] = after[0]["speed"] if after else 0.0
+        entry["restitution"] = entry["separation_speed"] / approach
 
     def destroy(self) -> None:
         """Free the PETSc objects (the records, and the last state as plain numbers, stay)."""
