@@ -265,6 +265,7 @@ class PairResistance:
         smooth = np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1) * squeeze[:, None]
         self._spline = CubicSpline(log_gap, smooth, axis=0)
         # plain floats for a scalar evaluation without numpy overhead
+        self.gaps = gaps  # [m], the table's knots
         self._knots = log_gap.tolist()
         self._coefficients = [tuple(tuple(self._spline.c[p, i, :]) for p in range(4)) for i in range(len(gaps) - 1)]
 
