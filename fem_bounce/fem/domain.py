@@ -4,7 +4,7 @@ the speed that sets the time step.  Nothing is tuned per case: everything follow
 (the sphere's path from release to the wall, the wake behind it, the stream for a fixed sphere) and the
 model's `[numerics.*]` settings (refined_radius, wake_length, far_field), all in diameters.
 
-- free / prescribed / fixed without a stream: the wall z = 0 is no-slip; an unbounded scene closes with
+- free / prescribed / fixed without a stream: the wall z = 0 is no-slip (slip when wall.present is false); an unbounded scene closes with
   slip (zero normal velocity) at r = R = far_field D and at z = Z = top of the path + far_field D, as the
   paper does; a container is no-slip all round.  The fine region covers r <= refined_radius D from the wall
   to wake_length D above the highest sphere top.
@@ -47,11 +47,17 @@ def extent(scene: Scene, model: str) -> Extent:
         sides = {WALL: "inflow", OUTER: "slip" if scene.container.unbounded else "no-slip", TOP: "outflow"}
         top_of_interest = refined.z_max
     else:
-        top_of_interest = scene.initial_gap + diameter + settings.wake_length * diameter
-        refined = Box(r_max=band, z_min=0.0, z_max=top_of_interest)
-        sides = {WALL: "no-slip", OUTER: "slip", TOP: "slip"}
+        # a pair: the fine region spans both spheres (the first sphere's D sets the cells); without the
+        # wall z = 0 is a slip side below the pair and the fine region starts wake_length D under it
+        widest = max(sphere.diameter for sphere in scene.spheres)
+        band = settings.refined_radius * widest
+        top_of_interest = scene.initial_gaps[-1] + scene.spheres[-1].diameter + settings.wake_length * widest
+        bottom = 0.0 if scene.wall.present else max(scene.initial_gap - settings.wake_length * widest, 0.0)
+        refined = Box(r_max=band, z_min=bottom, z_max=top_of_interest)
+        floor = "no-slip" if scene.wall.present else "slip"
+        sides = {WALL: floor, OUTER: "slip", TOP: "slip"}
         if not scene.container.unbounded:
-            sides = {WALL: "no-slip", OUTER: "no-slip", TOP: "no-slip"}
+            sides = {WALL: floor, OUTER: "no-slip", TOP: "no-slip"}
     if scene.container.unbounded:
         size_r = settings.far_field * diameter
         size_z = top_of_interest + settings.far_field * diameter
@@ -68,6 +74,8 @@ def speed_scale(scene: Scene, model: str = "fd") -> float:
     """The speed that sets the time step [m/s]: the estimated impact speed of a free sphere,
     the largest imposed speed otherwise."""
     motion = scene.motion
+    if scene.pair and motion.mode == "free":
+        return max(scene.estimated_impact_speed(), abs(scene.second_sphere.velocity))
     if motion.mode == "free":
         if scene.estimated_impact_speed() <= 0.0:
             raise SceneError(f"sphere.density = {scene.sphere.density:g} kg/m3 equals liquid.density: a neutrally "
