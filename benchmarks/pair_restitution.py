@@ -32,7 +32,6 @@ import numpy as np  # noqa: E402
 
 from fem_bounce import scene as scenes  # noqa: E402
 from fem_bounce.pair import PairIntegrator  # noqa: E402
-from fem_bounce.pair_contact import PairResistance  # noqa: E402
 
 PRESET = "yang-hunt2006-pair"
 VISCOSITIES = np.geomspace(0.8, 0.004, 16)  # Pa s
@@ -82,8 +81,7 @@ def main() -> None:
             stream.write(",".join("" if v is None else f"{v:.6g}" for v in row.values()) + "\n")
     figure(rows)
     record = {"command": "PYTHONPATH=. python benchmarks/pair_restitution.py", "preset": PRESET,
-              "resistance": "pair_theory.PairResistance" if PairResistance is not None
-              else "TEMPORARY fallback: leading lubrication only (pair_theory not merged)",
+              "resistance": "pair_theory.PairResistance (exact two-sphere series, tabulated)",
               "rows": rows, "liquid_off": dry_check, "wall_time_s": time.perf_counter() - start,
               "date": time.strftime("%Y-%m-%d")}
     HISTORY.write_text(json.dumps(record, indent=1) + "\n")

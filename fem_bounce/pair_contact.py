@@ -35,10 +35,7 @@ from .scene import Scene
 # Trial states of an implicit step may close the pair gap; real penetration is an event of the integrator.
 MIN_PAIR_DELTA = 1e-12
 
-try:
-    from .pair_theory import PairResistance
-except ImportError:  # TEMPORARY, until branch pair-theory lands: the leading lubrication term only
-    PairResistance = None
+from .pair_theory import PairResistance
 
 
 def reduced_radius(a1: float, a2: float) -> float:
@@ -59,14 +56,6 @@ def hertz_contact_time(radius: float, mass: float, e_star: float, speed: float) 
     not Hertz's deformation and lasts longer (docs/physics.md section 6)."""
     depth = (15.0 * mass * speed**2 / (16.0 * e_star * math.sqrt(radius))) ** 0.4
     return 2.94 * depth / speed
-
-
-def leading_lubrication(a1: float, a2: float, gap: float) -> np.ndarray:
-    """X of the leading lubrication term alone, F_1 = -F_2 = -6 pi mu a*^2 (U_1 - U_2) / h on top of each
-    sphere's Stokes drag (Jeffrey 1982's 1/h term): the TEMPORARY fallback until pair_theory lands."""
-    star = reduced_radius(a1, a2)
-    squeeze = star**2 / gap
-    return np.array([[1.0 + squeeze / a1, -squeeze / a1], [-squeeze / a2, 1.0 + squeeze / a2]])
 
 
 class PairContactModel:
@@ -91,8 +80,7 @@ class PairContactModel:
         self._liquid = scene.liquid
         # the hold and the correction belong to a resolved flow with a free sphere (as at the wall)
         self.correcting = resolved and c.near_wall == "correction" and any(free)
-        self._resistance = (PairResistance(first.radius, second.radius) if PairResistance is not None
-                            else lambda gap: leading_lubrication(first.radius, second.radius, gap))
+        self._resistance = PairResistance(first.radius, second.radius)  # tabulated once, ~3 us a call
         self._resistance_hold = self.resistance(self.blend_gap)
 
     @property
@@ -134,7 +122,7 @@ class PairContactModel:
 
     def resistance(self, gap: float) -> np.ndarray:
         """X(h): F_i = -6 pi mu a_i sum_j X_ij U_j in Stokes flow, at the pair gap h [m]."""
-        return np.asarray(self._resistance(max(gap, MIN_PAIR_DELTA * self.diameter)), dtype=float)
+        return self._resistance(max(gap, MIN_PAIR_DELTA * self.diameter))
 
     def interaction(self, gap: float, velocities: np.ndarray) -> np.ndarray:
         """The pair's Stokes interaction on each sphere, -6 pi mu a_i sum_j (X_ij - delta_ij) U_j [N]."""
