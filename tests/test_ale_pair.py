@@ -63,3 +63,47 @@ def test_holes_that_overlap_or_come_with_hole_are_refused():
         HalfPlane(radius=3 * D, height=8 * D, fine_size=D / 6, coarse_size=D, grading=0.3, holes=(upper, lower))
     with pytest.raises(ValueError, match="not both"):
         HalfPlane(radius=3 * D, height=8 * D, fine_size=D / 6, coarse_size=D, grading=0.3, hole=lower, holes=(upper,))
+
+
+def steady_pair_drag(gap, velocities, cells=6.0, far_field=2000.0):
+    """F_i / (6 pi mu a (1 mm/s)) of the steady Stokes flow around two spheres of diameter D held in the
+    middle of a slip box far_field D across, their surfaces at `velocities` [mm/s]: with the velocities
+    -1 (down) that is sum_j X_ij (-velocities_j) of pair_theory.resistance."""
+    from fem_bounce.fem.mesh import OUTER, TOP, WALL, Box
+    from fem_bounce.models.ale.flow import SphereFlow
+
+    fine = D / cells
+    lower = SphereHole(center=far_field * D, radius=RADIUS, surface_size=fine, gap_cells=2.0)
+    upper = SphereHole(center=lower.top + gap + RADIUS, radius=RADIUS, surface_size=fine, gap_cells=2.0)
+    spec = HalfPlane(radius=far_field * D, height=2 * far_field * D, fine_size=fine, coarse_size=far_field * D / 4,
+                     grading=0.2, refined=(Box(r_max=D, z_min=lower.gap - D / 2, z_max=upper.top + D / 2),),
+                     holes=(lower, upper))
+    mesh, _, facet_tags = create_mesh(MPI.COMM_WORLD, spec, cache=False)
+    flow = SphereFlow(mesh, facet_tags, {WALL: "slip", OUTER: "slip", TOP: "slip"}, 1000.0, 1.0, 1.0,
+                      ufl.as_vector((0.0, 0.0)), sphere_tags=(SPHERE, SPHERE_2))
+    forces = flow.steady(np.array(velocities) * 1e-3, convection=False)
+    flow.destroy()
+    return forces / (6 * math.pi * 1.0 * RADIUS * 1e-3)
+
+
+@pytest.mark.mpi
+def test_two_spheres_moving_together_have_stimson_and_jefferys_drag_on_a_toy_mesh():
+    """Centre distance 3 D: lambda = 0.8047 (Stimson & Jeffery 1926); 6 cells/D gives -0.54 % (8 cells/D:
+    -0.25 %, benchmarks/pair_stokes_ale.py); a single sphere would have 1."""
+    from fem_bounce import pair_theory
+
+    lam = steady_pair_drag(2 * D, [-1.0, -1.0])
+    exact = pair_theory.stimson_jeffery(RADIUS, 2 * D)
+    assert lam[0] == pytest.approx(exact, rel=0.01) and lam[1] == pytest.approx(exact, rel=0.01)
+    assert lam[0] == pytest.approx(lam[1], rel=1e-3)  # the pair is symmetric in Stokes flow
+
+
+def test_a_sphere_approaching_a_held_one_has_cooley_and_oneills_drag_on_a_toy_mesh():
+    """Gap 0.1 D, the upper sphere moving down onto the held lower one: X22 = 2.641 (Cooley & O'Neill
+    1969) on the moving sphere, X12 = -1.984 pushing the held one along (8 cells/D: -1.7 %, -2.2 %)."""
+    from fem_bounce import pair_theory
+
+    lam = steady_pair_drag(0.1 * D, [0.0, -1.0])
+    exact = pair_theory.resistance(RADIUS, RADIUS, 0.1 * D)
+    assert lam[1] == pytest.approx(exact[1, 1], rel=0.035)
+    assert lam[0] == pytest.approx(exact[0, 1], rel=0.035)
