@@ -133,7 +133,7 @@ def lubrication(a1: float, a2: float, h: float) -> float:
     g1 = 2 k^2/(1+k)^3, g2 = k (1 + 7k + k^2)/(5 (1+k)^3), xi = 2h/(a1 + a2)) rewritten with a*,
     the logarithm's argument changed to a*/h (only the O(1) constant, which is not included,
     depends on it).  Equal spheres: a/(2h) + (9/20) ln(a/(2h)); a2 -> inf: Cox & Brenner's (1967)
-    a/h + (1/5) ln(a/h).  Relative error against the exact series: 1e-3 at h = 1e-4 a* (the missing
+    a/h + (1/5) ln(a/h).  Relative error against the exact series: 2e-4 at h = 1e-4 a* (the missing
     constant), tending to zero as h -> 0.  Dimensionless; h and the radii in one unit."""
     k = a2 / a1
     a_star = reduced_radius(a1, a2)
@@ -241,7 +241,7 @@ class PairResistance:
     (as `resistance`); above it: `far_field`.  X21 = a1 X12 / a2 (reciprocity).
     Measured error against the series (docs/pair_theory.md, tests/test_pair_theory.py): below 2e-7 of
     |X_i1| + |X_i2| for radius ratios 1 to 1000 (INTERPOLATION_TOLERANCE is the stated 1e-6); the jumps
-    at the table's ends are below 1e-8.  About 3 us per call; building the table takes about 0.15 s."""
+    at the table's ends are below 1e-8.  About 3 us per call; building the table takes 0.1-0.5 s."""
 
     TABLE_MIN = 1e-4  # in units of a*
     TABLE_MAX = 100.0  # in units of a1 + a2
@@ -265,6 +265,7 @@ class PairResistance:
         smooth = np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1) * squeeze[:, None]
         self._spline = CubicSpline(log_gap, smooth, axis=0)
         # plain floats for a scalar evaluation without numpy overhead
+        self.gaps = gaps  # [m], the table's knots
         self._knots = log_gap.tolist()
         self._coefficients = [tuple(tuple(self._spline.c[p, i, :]) for p in range(4)) for i in range(len(gaps) - 1)]
 
