@@ -107,3 +107,64 @@ def test_a_sphere_approaching_a_held_one_has_cooley_and_oneills_drag_on_a_toy_me
     exact = pair_theory.resistance(RADIUS, RADIUS, 0.1 * D)
     assert lam[1] == pytest.approx(exact[1, 1], rel=0.035)
     assert lam[0] == pytest.approx(exact[0, 1], rel=0.035)
+
+
+def pair_motion_and_flow(gap=0.5 * D, viscosity=0.05, dt=0.01):
+    """A toy pair mesh (the lower sphere at 3 D, wall below) with its motion and a time-stepping flow."""
+    from fem_bounce.fem.mesh import OUTER, TOP, WALL
+    from fem_bounce.models.ale.flow import SphereFlow
+    from fem_bounce.models.ale.motion import MeshMotion
+
+    spec = pair_spec(gap)
+    mesh, _, facet_tags = create_mesh(MPI.COMM_WORLD, spec, cache=False)
+    centers = np.array([hole.center for hole in spec.holes])
+    motion = MeshMotion(mesh, facet_tags, centers, sphere_tags=(SPHERE, SPHERE_2))
+    flow = SphereFlow(mesh, facet_tags, {WALL: "no-slip", OUTER: "slip", TOP: "slip"}, 1000.0, viscosity, dt,
+                      motion.velocity, sphere_tags=(SPHERE, SPHERE_2))
+    return spec, motion, flow
+
+
+@pytest.mark.mpi
+def test_each_sphere_has_its_own_mesh_extension_and_the_gap_between_them_squeezes():
+    spec, motion, flow = pair_motion_and_flow()
+    points = motion.reference
+    on = [np.isclose(np.hypot(points[:, 0], points[:, 1] - hole.center), hole.radius, atol=1e-9)
+          for hole in spec.holes]
+    psi_1, psi_2 = motion.extension_nodes
+    assert np.allclose(psi_1[on[0]], 1.0) and np.allclose(psi_1[on[1]], 0.0)
+    assert np.allclose(psi_2[on[1]], 1.0) and np.allclose(psi_2[on[0]], 0.0)
+    assert (psi_1 + psi_2).max() < 1 + 1e-12 and min(psi_1.min(), psi_2.min()) > -1e-12  # maximum principle
+    # both spheres moved alike, the liquid between them moves with them: psi_1 + psi_2 ~ 1 on the axis there
+    lower, upper = spec.holes
+    between = (points[:, 0] < 1e-12) & (points[:, 1] > lower.top) & (points[:, 1] < upper.gap)
+    assert MPI.COMM_WORLD.allreduce(int(between.sum())) > 0 and np.all(psi_1[between] + psi_2[between] > 0.97)
+    # moved toward each other: the pair gap squeezes, and past contact the mesh inverts
+    squeezes = [motion.quality(np.array([0.0, -f * 0.5 * D])) for f in (0.0, 0.5, 0.9)]
+    assert squeezes[0] > squeezes[1] > squeezes[2] and motion.quality(np.array([0.0, -0.55 * D])) < 0.0
+    motion.move(np.array([0.1 * D, -0.2 * D]))
+    assert np.allclose(motion.mesh.geometry.x[:, 1], points[:, 1] + 0.1 * D * psi_1 - 0.2 * D * psi_2)
+    flow.destroy()
+
+
+@pytest.mark.mpi
+def test_the_pair_force_is_affine_in_both_velocities_and_its_resistance_is_reciprocal():
+    """One factorisation, three back-solves: F_i(U) = F*_i + sum_j dF_i/dU_j (U_j - U_ref,j) against a
+    plain solve at other velocities; with the liquid at rest and the mesh still, the step is a symmetric
+    (unsteady Stokes) problem and dF_i/dU_j = -2 pi a(x_unit,j, x_unit,i) is a symmetric matrix
+    (Lorentz reciprocity, exactly for the discrete variational force)."""
+    spec, motion, flow = pair_motion_and_flow()
+    flow.set_uniform((0.0, 0.0))
+    force, slope = flow.step(np.array([0.0, 0.0]))
+    assert slope.shape == (2, 2) and np.allclose(force, 0.0, atol=1e-15)
+    assert slope[0, 1] == pytest.approx(slope[1, 0], rel=1e-9)
+    assert slope[0, 0] < 0 and slope[1, 1] < 0 and slope[0, 1] > 0  # drag; the other sphere is dragged along
+    for state in flow.states:  # a history not at rest, the mesh moving
+        state.x.array[:] = 0.01 * np.sin(np.arange(state.x.array.size))
+    motion.move(np.array([-0.1 * D, -0.3 * D]))
+    motion.set_rates([-0.01, -0.03])
+    reference = np.array([-0.01, -0.03])
+    force, slope = flow.step(reference)
+    other = np.array([0.02, -0.05])
+    again, _ = flow.step(other)
+    assert np.allclose(again, force + slope @ (other - reference), rtol=1e-9)
+    flow.destroy()
