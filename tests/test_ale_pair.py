@@ -168,3 +168,67 @@ def test_the_pair_force_is_affine_in_both_velocities_and_its_resistance_is_recip
     again, _ = flow.step(other)
     assert np.allclose(again, force + slope @ (other - reference), rtol=1e-9)
     flow.destroy()
+
+
+FREE_PAIR = ["yang-hunt2006-pair", "--model", "ale", "--quiet", "--set", "numerics.ale.cells_per_diameter=6",
+             "--set", "numerics.ale.checkpoint_every=12"]  # a checkpoint after the remesh at step 10 of 17
+
+
+@pytest.fixture(scope="module")
+def free_pair(tmp_path_factory):
+    """The yang-hunt2006-pair preset at 6 cells/D through the first collision (~20 s on a quiet core)."""
+    from fem_bounce import cli
+
+    out = tmp_path_factory.mktemp("pair") / "straight"
+    assert cli.main(["run", *FREE_PAIR, "--out", str(out)]) == 0
+    return out
+
+
+def test_a_free_projectile_hits_a_free_target_through_the_command_line_with_a_valid_mesh(free_pair):
+    """The mesh follows both spheres, is remade when the pair gap squeezes it, holds the pair gap at the
+    contact model's delta_sl 2a* while the integrator carries the spheres through the contact, and the
+    pair separates."""
+    import json
+
+    out = free_pair
+    summary = json.loads((out / "summary.json").read_text())
+    ale = summary["ale"]
+    assert summary["status"] == "completed" and [c["kind"] for c in summary["collisions"]] == ["pair"]
+    collision = summary["collisions"][0]
+    assert collision["rebounded"] and 0.0 < collision["restitution"] < 1.0 + 0.05
+    assert ale["remesh_count"] >= 1 and ale["held_steps"] >= 1
+    assert ale["min_mesh_pair_delta"] == pytest.approx(0.2)  # contact.delta_sl: the flow's pair gap held there
+    for remesh in ale["remeshes"]:  # momentum kept up to the two polygonal spheres' volume ratio
+        ratio = remesh["sphere_volume"] / remesh["sphere_volume_old"]
+        assert remesh["momentum_projected"] == pytest.approx(remesh["momentum_old"] * ratio, rel=1e-7)
+    # the added-mass matrix is reciprocal (M_12 = M_21 for equal spheres) and each sphere carries about
+    # half its displaced mass and a viscous part; the target is pushed by the projectile's flow (M_12 < 0)
+    added = np.array(ale["added_mass_over_displaced"])
+    assert added[0, 1] == pytest.approx(added[1, 0], rel=0.05) and added[0, 1] < 0
+    assert 0.5 < added[0, 0] < 1.5 and 0.5 < added[1, 1] < 1.5
+    final = summary["final"]
+    assert final["velocity"][0] < final["velocity"][1] < 0.0  # the target now leads, the projectile trails
+
+
+@pytest.mark.slow
+def test_a_pair_run_stopped_after_a_checkpoint_restarts_to_the_same_run(free_pair, tmp_path):
+    """Ctrl-C after the checkpoint at step 12 (the mesh was remade at step 10: the restart meshes both
+    holes again), then --restart: the trajectory and summary of the uninterrupted run."""
+    import json
+    import signal
+
+    from test_bad_input import spawn, wait_for
+
+    from fem_bounce import cli
+
+    out = tmp_path / "stopped"
+    process = spawn(["run", *FREE_PAIR, "--out", str(out)], cwd=tmp_path)
+    wait_for(lambda: (out / "checkpoint" / "model.txt").is_file(), process)
+    process.send_signal(signal.SIGINT)
+    process.communicate(timeout=120)
+    assert process.returncode == 130
+    assert cli.main(["run", "--restart", str(out), "--quiet"]) == 0
+    # every row once, to the last digit (the pair's rows have their own columns: output.PAIR_TRAJECTORY_COLUMNS)
+    assert (out / "trajectory.csv").read_text() == (free_pair / "trajectory.csv").read_text()
+    a, b = (json.loads((path / "summary.json").read_text()) for path in (free_pair, out))
+    assert b["final"] == a["final"] and b["collisions"] == a["collisions"]
