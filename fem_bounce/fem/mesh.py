@@ -10,7 +10,9 @@ The boundary carries named physical groups (WALL z = 0, AXIS r = 0, OUTER r = R,
 TOP z = Z) so a model can pick its conditions per side.  A boundary-fitted model
 cuts a sphere on the axis out of the half-plane (`hole=SphereHole(...)`): its
 surface is the group SPHERE, meshed at its own size, and the thin gap between it
-and the wall keeps a set number of triangles across.
+and the wall keeps a set number of triangles across.  A head-on pair cuts two
+(`holes=(lower, upper)`): their surfaces are the groups SPHERE and SPHERE_2, and the
+thin gap between the two surfaces keeps its triangles across in the same way.
 
 gmsh runs on rank 0 only; `dolfinx.io.gmshio` distributes the mesh.  The .msh
 file is cached under the mesh cache directory (see `cache_directory`), keyed by
@@ -31,8 +33,9 @@ import numpy as np
 
 # physical group tags
 FLUID = 1
-WALL, AXIS, OUTER, TOP, SPHERE = 1, 2, 3, 4, 5
-BOUNDARY_NAMES = {WALL: "wall", AXIS: "axis", OUTER: "outer", TOP: "top", SPHERE: "sphere"}
+WALL, AXIS, OUTER, TOP, SPHERE, SPHERE_2 = 1, 2, 3, 4, 5, 6
+BOUNDARY_NAMES = {WALL: "wall", AXIS: "axis", OUTER: "outer", TOP: "top", SPHERE: "sphere", SPHERE_2: "sphere_2"}
+SPHERE_TAGS = (SPHERE, SPHERE_2)  # the surface of the k-th hole from the bottom
 MESH_FORMAT_VERSION = 1  # part of the cache key: bump when the meshing below changes
 
 
@@ -75,23 +78,38 @@ class SphereHole:
         """Distance from the sphere's lowest point to the wall z = 0 [m]."""
         return self.center - self.radius
 
-    def size_at(self, r: np.ndarray, z: np.ndarray, grading: float) -> np.ndarray:
-        """The size limit of the surface and the gap at (r, z) [m] (the same law as gmsh_size)."""
+    @property
+    def top(self) -> float:
+        """z of the sphere's highest point [m]."""
+        return self.center + self.radius
+
+    def size_at(self, r: np.ndarray, z: np.ndarray, grading: float, below: SphereHole | None = None) -> np.ndarray:
+        """The size limit of the surface and the gap at (r, z) [m] (the same law as gmsh_size).  The gap
+        is the one down to the wall, or up from the sphere `below` (a pair)."""
         a, zc = self.radius, self.center
         size = self.surface_size + grading * np.maximum(np.hypot(r, z - zc) - a, 0.0)
         if self.gap_cells > 0:
             local_gap = zc - np.sqrt(np.maximum(a * a - r * r, 0.0))
             # only beneath the sphere's centre: the rule must not refine the axis above it
-            size = np.minimum(size, local_gap / self.gap_cells + 1e6 * np.maximum(z - zc, 0.0))
+            cap = 1e6 * np.maximum(z - zc, 0.0)
+            if below is not None:  # the local gap between the two surfaces, between the two centres
+                local_gap = local_gap - below.center - np.sqrt(np.maximum(below.radius**2 - r * r, 0.0))
+                cap = cap + 1e6 * np.maximum(below.center - z, 0.0)
+            size = np.minimum(size, local_gap / self.gap_cells + cap)
         return size
 
-    def gmsh_size(self, grading: float) -> str:
+    def gmsh_size(self, grading: float, below: SphereHole | None = None) -> str:
         """size_at as a gmsh MathEval expression in x = r, y = z."""
         a, zc = self.radius, self.center
         text = f"{self.surface_size!r} + {grading!r} * max(sqrt(x^2 + (y - {zc!r})^2) - {a!r}, 0)"
         if self.gap_cells > 0:
-            gap = f"({zc!r} - sqrt(max({a * a!r} - x^2, 0))) / {self.gap_cells!r} + 1e6 * max(y - {zc!r}, 0)"
-            text = f"min({text}, {gap})"
+            local_gap = f"({zc!r} - sqrt(max({a * a!r} - x^2, 0)))"
+            cap = f"1e6 * max(y - {zc!r}, 0)"
+            if below is not None:
+                b, zb = below.radius, below.center
+                local_gap = f"({zc!r} - sqrt(max({a * a!r} - x^2, 0)) - {zb!r} - sqrt(max({b * b!r} - x^2, 0)))"
+                cap = f"{cap} + 1e6 * max({zb!r} - y, 0)"
+            text = f"min({text}, {local_gap} / {self.gap_cells!r} + {cap})"
         return text
 
 
@@ -106,19 +124,34 @@ class HalfPlane:
     grading: float
     refined: tuple[Box, ...] = ()
     hole: SphereHole | None = None
+    holes: tuple[SphereHole, ...] = ()  # several spheres on the axis, lowest first (instead of `hole`)
 
     def __post_init__(self):
         if not (self.radius > 0 and self.height > 0 and 0 < self.fine_size <= self.coarse_size and self.grading > 0):
             raise ValueError(f"inconsistent mesh spec {self}")
-        hole = self.hole
-        if hole is not None and not (hole.radius < self.radius and hole.center + hole.radius < self.height):
-            raise ValueError(f"the sphere hole {hole} does not fit in the half-plane {self.radius} x {self.height}")
+        if self.hole is not None and self.holes:
+            raise ValueError("give one sphere as `hole` or several as `holes`, not both")
+        if len(self.holes) > len(SPHERE_TAGS):
+            raise ValueError(f"at most {len(SPHERE_TAGS)} sphere holes (one boundary tag each), got {len(self.holes)}")
+        for hole in self.spheres:
+            if not (hole.radius < self.radius and hole.top < self.height):
+                raise ValueError(f"the sphere hole {hole} does not fit in the half-plane {self.radius} x {self.height}")
+        for lower, upper in zip(self.spheres, self.spheres[1:]):
+            if not upper.gap > lower.top:
+                raise ValueError(f"the sphere holes {lower} and {upper} overlap or are not listed lowest first")
+
+    @property
+    def spheres(self) -> tuple[SphereHole, ...]:
+        """The holes, lowest first (`hole` alone, or `holes`)."""
+        return (self.hole,) if self.hole is not None else self.holes
 
     def key(self) -> str:
         """A short hash of everything that shapes the mesh (the cache file name)."""
         data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION}
         if self.hole is None:
             del data["hole"]  # meshes without a hole keep the keys they had before holes existed
+        if not self.holes:
+            del data["holes"]  # nor do those with one `hole`, from before pairs
         for box in data["refined"]:
             if box["size"] is None:
                 del box["size"]  # nor do boxes at the fine size
@@ -132,8 +165,8 @@ class HalfPlane:
         for box in self.refined:
             inside = self.fine_size if box.size is None else box.size
             size = np.minimum(size, inside + self.grading * box.distance(r, z))
-        if self.hole is not None:
-            size = np.minimum(size, self.hole.size_at(r, z, self.grading))
+        for below, hole in zip((None,) + self.spheres, self.spheres):
+            size = np.minimum(size, hole.size_at(r, z, self.grading, below))
         return size
 
     def _gmsh_size_expression(self) -> str:
@@ -143,8 +176,8 @@ class HalfPlane:
             dz = f"max(max(y - {box.z_max!r}, {box.z_min!r} - y), 0)"
             inside = self.fine_size if box.size is None else box.size
             terms.append(f"{inside!r} + {self.grading!r} * sqrt({dr}^2 + {dz}^2)")
-        if self.hole is not None:
-            terms.append(self.hole.gmsh_size(self.grading))
+        for below, hole in zip((None,) + self.spheres, self.spheres):
+            terms.append(hole.gmsh_size(self.grading, below))
         expression = terms[0]
         for term in terms[1:]:
             expression = f"min({expression}, {term})"
@@ -168,18 +201,24 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
     points = [geo.addPoint(r, z, 0.0) for r, z in corners]
     wall, outer, top = (geo.addLine(points[k], points[k + 1]) for k in range(3))
     curves = {WALL: [wall], OUTER: [outer], TOP: [top]}
-    if spec.hole is None:
+    if not spec.spheres:
         curves[AXIS] = [geo.addLine(points[3], points[0])]
         loop = [wall, outer, top, *curves[AXIS]]
     else:
-        # down the axis from the top, around the sphere's right half (two quarter arcs), down to the wall
-        a, zc = spec.hole.radius, spec.hole.center
-        north, center, equator, south = (geo.addPoint(r, z, 0.0) for r, z in ((0.0, zc + a), (0.0, zc), (a, zc),
-                                                                               (0.0, zc - a)))
-        upper, lower = geo.addLine(points[3], north), geo.addLine(south, points[0])
-        arcs = [geo.addCircleArc(north, center, equator), geo.addCircleArc(equator, center, south)]
-        curves[AXIS], curves[SPHERE] = [upper, lower], arcs
-        loop = [wall, outer, top, upper, *arcs, lower]
+        # down the axis from the top, around each sphere's right half (two quarter arcs from its north to
+        # its south pole), down to the next sphere or the wall; the entities are created in the order a
+        # single hole always had (its points, the axis lines, the arcs), so its meshes stay the same
+        poles = []
+        for hole in spec.spheres[::-1]:
+            a, zc = hole.radius, hole.center
+            poles.append([geo.addPoint(r, z, 0.0) for r, z in ((0.0, zc + a), (0.0, zc), (a, zc), (0.0, zc - a))])
+        stops = [points[3]] + [p for north, _, _, south in poles for p in (north, south)] + [points[0]]
+        curves[AXIS] = [geo.addLine(stops[2 * k], stops[2 * k + 1]) for k in range(len(poles) + 1)]
+        loop = [wall, outer, top, curves[AXIS][0]]
+        for k, ((north, center, equator, south), axis) in enumerate(zip(poles, curves[AXIS][1:])):
+            arcs = [geo.addCircleArc(north, center, equator), geo.addCircleArc(equator, center, south)]
+            curves[SPHERE_TAGS[len(poles) - 1 - k]] = arcs
+            loop += [*arcs, axis]
     surface = geo.addPlaneSurface([geo.addCurveLoop(loop)])
     geo.synchronize()
     for tag, group in curves.items():

@@ -97,7 +97,7 @@ MODELS: dict[str, ModelInfo] = {
         resolution_key="numerics.ale.cells_per_diameter", resolution_unit="cells/D",
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.ale.cfl",
         checkpoint_every_key="numerics.ale.checkpoint_every", checkpoint_files=("flow.npz",),
-        fields_key="numerics.ale.output_every", colour="C3",
+        fields_key="numerics.ale.output_every", colour="C3", pairs=True,
         sources=("models/ale", "fem")),
 }
 

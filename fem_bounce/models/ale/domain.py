@@ -8,14 +8,21 @@ Around the sphere the triangles have the fine size on its surface, and in the ga
 below it at most (local gap) / min_gap_cells (fem.mesh.SphereHole), so a remeshed gap
 is always resolved.  The mesh holds the sphere at hold_delta D above the wall at the
 closest (see model.py for why that is harmless below delta_sl).
+
+A head-on pair (scene.pair) cuts both spheres out, sphere 1 (the lower) first; the gap between
+the two surfaces keeps its triangles across like the gap to the wall, and the mesh holds the
+pair gap at hold_delta 2a* at the closest (a* the pair's reduced radius), or at the contact
+model's hold when that is larger (model.py).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from ...fem.domain import extent, speed_scale
 from ...fem.mesh import Box, HalfPlane, SphereHole
-from ...scene import Scene, SceneError
+from ...scene import Scene, SceneError, pair_diameter
 
 
 @dataclass(frozen=True)
@@ -29,18 +36,35 @@ class AleDomain:
     coarse_size: float
     grading: float
     gap_cells: float
-    sphere_radius: float
+    radii: tuple  # of the spheres, sphere 1 (the lower) first
     sides: dict  # WALL/OUTER/TOP -> boundary kind
     inflow_speed: float  # [m/s]
-    initial_center: float  # z of the sphere centre at t = 0
+    initial_centers: tuple  # z of the sphere centres at t = 0
     hold_gap: float  # the mesh's sphere stays at least this far above the wall
+    pair_hold: float = 0.0  # and a pair's upper sphere this far above the lower one (numerics.ale.hold_delta 2a*)
 
-    def spec(self, center: float) -> HalfPlane:
-        """The half-plane with the sphere cut out at z = center."""
-        hole = SphereHole(center=center, radius=self.sphere_radius, surface_size=self.fine_size,
-                          gap_cells=self.gap_cells)
-        return HalfPlane(radius=self.radius, height=self.height, fine_size=self.fine_size,
-                         coarse_size=self.coarse_size, grading=self.grading, refined=(self.refined,), hole=hole)
+    @property
+    def sphere_radius(self) -> float:
+        """Sphere 1's radius [m]."""
+        return self.radii[0]
+
+    @property
+    def initial_center(self) -> float:
+        """z of sphere 1's centre at t = 0 [m]."""
+        return self.initial_centers[0]
+
+    @property
+    def pair(self) -> bool:
+        return len(self.radii) > 1
+
+    def spec(self, center) -> HalfPlane:
+        """The half-plane with the sphere cut out at z = center (a pair: both, at the centres given) [m]."""
+        holes = tuple(SphereHole(center=float(z), radius=a, surface_size=self.fine_size, gap_cells=self.gap_cells)
+                      for z, a in zip(np.atleast_1d(center), self.radii))
+        shape = dict(radius=self.radius, height=self.height, fine_size=self.fine_size, coarse_size=self.coarse_size,
+                     grading=self.grading, refined=(self.refined,))
+        # one sphere as `hole`: the meshes (and cache keys) it had before pairs
+        return HalfPlane(**shape, holes=holes) if self.pair else HalfPlane(**shape, hole=holes[0])
 
     def mesh_center(self, center: float) -> float:
         """Where the mesh puts a sphere whose centre is at `center` [m]: never below the hold gap."""
@@ -62,10 +86,22 @@ def domain_for(scene: Scene) -> AleDomain:
     if scene.motion.mode == "fixed" and scene.initial_gap < hold_gap:
         raise SceneError(f"numerics.ale.hold_delta = {ale.hold_delta:g} is above the held sphere's gap "
                          f"{scene.initial_gap / diameter:g} D: lower it")
+    radii = tuple(sphere.radius for sphere in scene.spheres)
+    centers = tuple(gap + a for gap, a in zip(scene.initial_gaps, radii))
+    pair_hold = 0.0
+    if scene.pair:
+        # the contact model's holds come from the integrator (model.py); here the ale model's own
+        hold_gap = ale.hold_delta * diameter
+        pair_hold = ale.hold_delta * pair_diameter(scene.sphere, scene.second_sphere)
+        if centers[-1] + radii[-1] + 2.0 * fine > half_plane.height:
+            raise SceneError(f"numerics.ale: the domain height {half_plane.height:g} m leaves no fluid above the "
+                             "second sphere")
+        if scene.second_sphere.mode == "fixed" and scene.motion.mode == "fixed" and scene.second_sphere.gap < pair_hold:
+            raise SceneError(f"numerics.ale.hold_delta = {ale.hold_delta:g} is above the held pair's gap: lower it")
     return AleDomain(radius=half_plane.radius, height=half_plane.height, refined=half_plane.refined, fine_size=fine,
-                     coarse_size=coarse, grading=ale.grading, gap_cells=ale.min_gap_cells, sphere_radius=radius,
-                     sides=half_plane.sides, inflow_speed=half_plane.inflow_speed, initial_center=center,
-                     hold_gap=hold_gap)
+                     coarse_size=coarse, grading=ale.grading, gap_cells=ale.min_gap_cells, radii=radii,
+                     sides=half_plane.sides, inflow_speed=half_plane.inflow_speed, initial_centers=centers,
+                     hold_gap=hold_gap, pair_hold=pair_hold)
 
 
 def time_step(scene: Scene) -> float:
@@ -75,6 +111,8 @@ def time_step(scene: Scene) -> float:
 
 
 def is_steady(scene: Scene) -> bool:
-    """A held sphere is solved for its steady state unless the scene asks for time marching."""
-    return scene.motion.mode == "fixed" and scene.numerics.ale.fixed_solver == "steady"
+    """A held sphere (a pair: both held) is solved for its steady state unless the scene asks for time
+    marching."""
+    held = scene.motion.mode == "fixed" and (not scene.pair or scene.second_sphere.mode == "fixed")
+    return held and scene.numerics.ale.fixed_solver == "steady"
 

@@ -17,7 +17,9 @@ Karniadakis, Israeli & Orszag (1991), as in the fd model.  Gravity is not in the
 The sphere surface is a no-slip boundary moving with the sphere, u = (0, U).  The flow
 is affine in U, so one factorisation and two back-solves give it for every U:
 x(U) = x_ref + (U - U_ref) x_unit, x_ref for the reference velocity U_ref and x_unit the
-response to U = 1 with everything else zero.
+response to U = 1 with everything else zero.  A head-on pair (two holes, tagged SPHERE and
+SPHERE_2) is the same with one unit response per sphere: x(U_1, U_2) = x_ref + sum_k
+(U_k - U_ref,k) x_unit,k, three back-solves with one factorisation.
 
 The force on the sphere is the consistent variational (reaction) force: with phi the
 finite-element function equal to e_z on the sphere and 0 at every other node,
@@ -27,8 +29,12 @@ finite-element function equal to e_z on the sphere and 0 at every other node,
 which is the surface integral of the traction for the exact solution (Green's formula)
 and converges faster than the integrated discrete stress (Babuska & Miller 1984,
 CMAME 45; Brummelen et al. 2012).  R is affine in x, so F(U) = F(U_ref) + (U - U_ref) dF/dU
-with dF/dU = -2 pi a(x_unit, phi).  The stress integral over the surface is kept as a
-diagnostic.
+with dF/dU = -2 pi a(x_unit, phi).  For a pair, phi_i is e_z on sphere i only, F_i = -2 pi
+R(x; phi_i) and dF_i/dU_j = -2 pi a(x_unit,j, phi_i), a 2 x 2 matrix.  The stress integral
+over the surface is kept as a diagnostic.
+
+Per-sphere quantities (velocities, forces) are floats for one sphere and arrays, sphere 1
+(the lower) first, for a pair, as in the FlowModel interface (flow_model.Prediction).
 
 Boundaries are named by the mesh's facet tags: "no-slip", "slip", "inflow" (u = (0, U_in)),
 "outflow" (do nothing); the axis has u_r = 0.  When every side fixes the normal velocity
@@ -38,6 +44,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, create_vector, set_bc
@@ -51,13 +58,15 @@ from ...fem.taylor_hood import BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, press
 
 
 class SphereFlow:
-    """The flow around the sphere on one mesh (moved in place by a MeshMotion).
+    """The flow around the sphere (or the spheres whose surfaces carry `sphere_tags`, lowest first) on
+    one mesh (moved in place by a MeshMotion).
 
     density [kg/m3], viscosity [Pa s], dt [s]; `sides` maps WALL/OUTER/TOP to a kind in
     SIDE_KINDS; `mesh_velocity` is a UFL vector (motion.MeshMotion.velocity)."""
 
     def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
-                 mesh_velocity, inflow_speed: float = 0.0, order: int = 2, prefix: str = "ale_flow_"):
+                 mesh_velocity, inflow_speed: float = 0.0, order: int = 2, prefix: str = "ale_flow_",
+                 sphere_tags: tuple[int, ...] = (SPHERE,)):
         for kind in sides.values():
             if kind not in SIDE_KINDS:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
@@ -66,12 +75,13 @@ class SphereFlow:
         self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference)
         self.prefix = prefix
         self.inflow_speed = inflow_speed
+        self.sphere_tags = tuple(sphere_tags)
         self.W = taylor_hood_space(mesh)
         self.states = [fem.Function(self.W) for _ in range(order)]  # u^n, u^{n-1} (nodal, with p)
         self.now = self.states[0]
         self.solution = fem.Function(self.W)  # x_ref, then the step's field
-        self.unit = fem.Function(self.W)  # x_unit
-        self.phi = fem.Function(self.W)  # e_z on the sphere, 0 elsewhere
+        self.units = [fem.Function(self.W) for _ in self.sphere_tags]  # x_unit,k
+        self.phis = [fem.Function(self.W) for _ in self.sphere_tags]  # e_z on sphere k, 0 elsewhere
         self._boundary_conditions(facet_tags, sides)
 
         r = forms.radial_coordinate(mesh)
@@ -87,10 +97,11 @@ class SphereFlow:
              + rho * forms.convection(extrapolated - mesh_velocity, u, v, r, dx))
         L = forms.source(history, v, r, dx)
         self.a, self.L = fem.form(a), fem.form(L)
-        self.force_form = fem.form(-2.0 * math.pi * (ufl.action(ufl.action(a, self.solution), self.phi)
-                                                     - ufl.action(L, self.phi)))
-        self.force_slope_form = fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, self.unit), self.phi))
-        self.surface_force_form = fem.form(surface_force(self.solution, mu, r, ds(SPHERE)))
+        self.force_forms = [fem.form(-2.0 * math.pi * (ufl.action(ufl.action(a, self.solution), phi)
+                                                       - ufl.action(L, phi))) for phi in self.phis]
+        self.force_slope_forms = [[fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, unit), phi))
+                                   for unit in self.units] for phi in self.phis]
+        self.surface_force_forms = [fem.form(surface_force(self.solution, mu, r, ds(tag))) for tag in self.sphere_tags]
 
         self.matrix = assemble_matrix(self.a, bcs=self.bcs)
         self.matrix.assemble()
@@ -113,27 +124,43 @@ class SphereFlow:
             self.bcs.append(fem.dirichletbc(g, dofs, sub))
             return dofs
 
-        sphere = facet_tags.find(SPHERE)
         component_bc(0, facet_tags.find(AXIS))
-        component_bc(0, sphere)
-        sphere_dofs = component_bc(1, sphere, "sphere")
+        sphere_dofs = []
+        for k, tag in enumerate(self.sphere_tags):
+            sphere = facet_tags.find(tag)
+            component_bc(0, sphere)
+            sphere_dofs.append(component_bc(1, sphere, f"sphere {k}"))
         fixed, pinned = side_constraints(facet_tags, sides)
         for component, facets, inflow in fixed:
             component_bc(component, facets, "inflow" if inflow else None)
         if pinned:
             self.bcs.append(pressure_pin(W, self.mesh))
         self.pressure_pinned = pinned
-        # phi = e_z on the sphere: a Dirichlet condition of value 1 set into a zero vector
+        # phi_k = e_z on sphere k: a Dirichlet condition of value 1 set into a zero vector
         sub = W.sub(0).sub(1)
         space, _ = sub.collapse()
         one = fem.Function(space)
         one.x.array[:] = 1.0
-        set_bc(self.phi.vector, [fem.dirichletbc(one, sphere_dofs, sub)])
-        self.phi.x.scatter_forward()
+        for phi, dofs in zip(self.phis, sphere_dofs):
+            set_bc(phi.vector, [fem.dirichletbc(one, dofs, sub)])
+            phi.x.scatter_forward()
 
-    def set_boundary_values(self, sphere_velocity: float, inflow: float | None = None) -> None:
-        """u_z = sphere_velocity on the sphere [m/s]; u_z on the inflow side (default: the scene's)."""
-        self.values["sphere"].x.array[:] = sphere_velocity
+    # -- one value per sphere: a float for one sphere, an array for several -------------------------
+    def per_sphere(self, values) -> np.ndarray:
+        """The spheres' values as an array (a float is accepted for a single sphere)."""
+        values = np.atleast_1d(np.asarray(values, dtype=float))
+        if values.shape != (len(self.sphere_tags),):
+            raise ValueError(f"expected one value per sphere ({len(self.sphere_tags)}), got {values.shape}")
+        return values
+
+    def _result(self, values: np.ndarray):
+        return float(values.ravel()[0]) if len(self.sphere_tags) == 1 else values
+
+    def set_boundary_values(self, sphere_velocity, inflow: float | None = None) -> None:
+        """u_z = sphere_velocity on the sphere (one per sphere for a pair) [m/s]; u_z on the inflow side
+        (default: the scene's)."""
+        for k, velocity in enumerate(self.per_sphere(sphere_velocity)):
+            self.values[f"sphere {k}"].x.array[:] = velocity
         if "inflow" in self.values:
             self.values["inflow"].x.array[:] = self.inflow_speed if inflow is None else inflow
 
@@ -143,9 +170,10 @@ class SphereFlow:
         for state in self.states:
             set_velocity(state, velocity)
 
-    def commit(self, velocity_change: float) -> None:
-        """The step's field x_ref + velocity_change x_unit becomes u^n; the history shifts."""
-        self.solution.vector.axpy(velocity_change, self.unit.vector)
+    def commit(self, velocity_change) -> None:
+        """The step's field x_ref + sum_k velocity_change_k x_unit,k becomes u^n; the history shifts."""
+        for change, unit in zip(self.per_sphere(velocity_change), self.units):
+            self.solution.vector.axpy(change, unit.vector)
         self.solution.x.scatter_forward()
         for older, newer in zip(self.states[::-1], self.states[-2::-1]):
             older.x.array[:] = newer.x.array
@@ -168,22 +196,26 @@ class SphereFlow:
         self.operator.solve(b, out.vector)
         out.x.scatter_forward()
 
-    def step(self, reference_velocity: float) -> tuple[float, float]:
-        """Factorise, solve for U_ref and for the unit response; return (F(U_ref) [N], dF/dU [N s/m])."""
+    def step(self, reference_velocity):
+        """Factorise, solve for U_ref and for the unit response of each sphere; return (F(U_ref) [N],
+        dF/dU [N s/m]): floats for one sphere, for a pair F_i and the matrix dF_i/dU_j."""
         self.factorise()
         self.set_boundary_values(reference_velocity)
         self._solve(True, self.solution)
-        self.set_boundary_values(1.0, inflow=0.0)
-        self._solve(False, self.unit)
+        for k, unit in enumerate(self.units):
+            self.set_boundary_values(np.eye(len(self.units))[k], inflow=0.0)
+            self._solve(False, unit)
         self.set_boundary_values(reference_velocity)
-        return self.assemble(self.force_form), self.assemble(self.force_slope_form)
+        forces = np.array([self.assemble(form) for form in self.force_forms])
+        slopes = np.array([[self.assemble(form) for form in row] for row in self.force_slope_forms])
+        return self._result(forces), self._result(slopes)
 
     def assemble(self, form) -> float:
         return self.mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
-    def surface_force(self) -> float:
-        """The traction integrated over the sphere, of the last committed field [N] (a diagnostic)."""
-        return self.assemble(self.surface_force_form)
+    def surface_force(self):
+        """The traction integrated over each sphere, of the last committed field [N] (a diagnostic)."""
+        return self._result(np.array([self.assemble(form) for form in self.surface_force_forms]))
 
     def momentum(self, state: fem.Function) -> float:
         """The fluid's axial momentum 2 pi rho int u_z r dx of a (u, p) function on this mesh [kg m/s]."""
@@ -194,10 +226,10 @@ class SphereFlow:
         return self.assemble(fem.form(2.0 * math.pi * self.r * ufl.dx(domain=self.mesh)))
 
     # -- steady states (a held sphere) -----------------------------------------------------------
-    def steady(self, sphere_velocity: float, convection: bool, rtol: float = 1e-10, max_iterations: int = 30,
-               log=None) -> float:
+    def steady(self, sphere_velocity, convection: bool, rtol: float = 1e-10, max_iterations: int = 30, log=None):
         """Solve the steady Stokes (or Navier-Stokes, by Newton from the Stokes state) problem with the
-        sphere surface at sphere_velocity; set every history level to it; return the force [N]."""
+        sphere surface at sphere_velocity (one per sphere for a pair) [m/s]; set every history level to
+        it; return the force on each sphere [N]."""
         rho, mu, r, dx = self.density, self.viscosity, self.r, self.dx
         (u_trial, p_trial), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         x = self.solution
@@ -207,7 +239,7 @@ class SphereFlow:
         if convection:
             residual = residual + rho * forms.convection(u, u, v, r, dx)
         jacobian = ufl.derivative(residual, x)
-        force = fem.form(-2.0 * math.pi * ufl.action(residual, self.phi))
+        force_forms = [fem.form(-2.0 * math.pi * ufl.action(residual, phi)) for phi in self.phis]
         self.set_boundary_values(sphere_velocity)
         J, F = fem.form(jacobian), fem.form(residual)
         A = assemble_matrix(J, bcs=self.bcs)
@@ -248,8 +280,9 @@ class SphereFlow:
             b.destroy()
         for state in self.states:
             state.x.array[:] = x.x.array
-        self.unit.x.array[:] = 0.0
-        return self.assemble(force)
+        for unit in self.units:
+            unit.x.array[:] = 0.0
+        return self._result(np.array([self.assemble(form) for form in force_forms]))
 
     @property
     def unknowns(self) -> int:

@@ -36,6 +36,16 @@ momentum.  Every new vertex is given the past positions x - (z^{n+1} - z^k) psi(
 the new mesh's own motion law, so the nodal time derivative and the mesh velocity stay
 consistent across the remesh.
 
+A head-on pair (scene.pair) is the same with two holes, one mesh extension and one unit
+response per sphere (motion.py, flow.py): the force on each sphere is affine in both new
+velocities, F_i = F*_i - c sum_j M_ij (U_j - U_ref,j), and the integrator gets F* and the 2 x 2
+added-mass matrix M = -(dF_i/dU_j) / c.  The flow's spheres are placed by flow_model.flow_gaps:
+sphere 1 at least the wall hold above z = 0 and the pair gap at least the pair hold, each the
+larger of the contact model's hold (integrator.hold_gaps: delta_sl D1 and delta_sl 2a* under the
+near-wall correction) and the ale model's own hold_delta D1 and hold_delta 2a*, so the mesh
+between the spheres never collapses; the contact model carries the real gap through the
+collision as at the wall.  Remeshing moves both holes and carries the flow over as above.
+
 A held sphere (motion.mode = "fixed") is solved for its steady state directly: steady
 Navier-Stokes by Newton in a stream (Cd), steady Stokes when only its surface moves (the
 quasi-steady approach of Brenner's check, defined only at Re -> 0).  numerics.ale.fixed_solver
@@ -50,14 +60,17 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
-from ...fem.mesh import create_mesh
+from ...fem.mesh import SPHERE_TAGS, create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
-from ...flow_model import FlowModel, Prediction
+from ...flow_model import FlowModel, Prediction, flow_gaps
 from ...output import CheckpointError, segment_path
+from ...scene import pair_diameter
 from ...sphere import FluidForce
-from ...motion import is_stream, start_velocity
+from ...motion import is_stream, start_velocities, start_velocity
 from .domain import AleDomain, domain_for, is_steady, time_step
 from .fields import MovingFieldWriter
 from .flow import SphereFlow
@@ -65,12 +78,17 @@ from .motion import MeshMotion
 from .transfer import DivergenceFreeProjection, SerialField, interpolate_from
 
 FORCE_COLUMNS = ("t", "mesh_gap", "f_variational", "f_surface", "added_mass", "min_quality", "remeshed")
+# a pair: sphere 1's gap to z = 0 and the pair gap of the mesh, per-sphere forces, the added-mass matrix
+PAIR_FORCE_COLUMNS = ("t", "mesh_gap", "mesh_pair_gap", "f_variational_1", "f_variational_2", "f_surface_1",
+                      "f_surface_2", "added_mass_11", "added_mass_12", "added_mass_21", "added_mass_22",
+                      "min_quality", "remeshed")
 
 
 @dataclass
 class Kinematics:
     """The sphere velocities U [m/s] the flow was given and the mesh's sphere centres z [m] at the
-    last time levels, newest first; `bdf` are the time scheme's coefficients."""
+    last time levels, newest first (a pair: arrays, sphere 1 first); `bdf` are the time scheme's
+    coefficients."""
 
     bdf: tuple
     velocities: list
@@ -107,6 +125,7 @@ class Remesh:
     sphere_volume_old: float  # of the old mesh's polygonal sphere [m^3]: a closed domain's fluid momentum
     sphere_volume: float  # is -rho V_h U exactly, so it changes by the ratio of these two
     seconds: float
+    pair_gap: float | None = None  # a pair: the mesh's gap between the two surfaces, after the move [m]
 
 
 @dataclass
@@ -119,6 +138,7 @@ class Statistics:
     held_steps: int = 0
     min_mesh_gap: float = math.inf
     max_unknowns: int = 0
+    min_mesh_pair_gap: float = math.inf  # a pair: the smallest gap between the mesh's two spheres [m]
 
 
 class AleModel(FlowModel):
@@ -135,6 +155,10 @@ class AleModel(FlowModel):
         self.dt = time_step(scene)
         self.mesh = self.motion = self.flow = None
         self.stats = Statistics()
+        self.pair = scene.pair
+        self.sphere_tags = SPHERE_TAGS[: len(scene.spheres)]
+        self.diameters = np.array([sphere.diameter for sphere in scene.spheres])
+        self.holds = (self.domain.hold_gap, self.domain.pair_hold)  # a pair's, with the contact model's (build)
         self.last_force = (0.0, 0.0)
         self._force_file = None
         self._force_rows = 0  # rows of ale_forces.csv (every rank counts them; rank 0 writes)
@@ -144,9 +168,10 @@ class AleModel(FlowModel):
         """(mesh, motion, flow) with the sphere centred at z = center [m]."""
         scene, domain = self.scene, self.domain
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec(center), cache=cache)
-        motion = MeshMotion(mesh, facet_tags, center)
+        motion = MeshMotion(mesh, facet_tags, center, sphere_tags=self.sphere_tags)
         flow = SphereFlow(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
-                          motion.velocity, inflow_speed=domain.inflow_speed, order=self.settings.time_order)
+                          motion.velocity, inflow_speed=domain.inflow_speed, order=self.settings.time_order,
+                          sphere_tags=self.sphere_tags)
         self.stats.max_unknowns = max(self.stats.max_unknowns, flow.unknowns)
         return mesh, motion, flow
 
@@ -158,8 +183,10 @@ class AleModel(FlowModel):
         try:
             mesh, motion, flow = self.build_mesh(center, cache=False)
         except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception; the run ends cleanly
-            delta = (center - self.domain.sphere_radius) / self.scene.sphere.diameter
-            raise RunDiverged(f"remeshing at gap {delta:.4g} D failed: {err}") from err
+            delta = (np.min(center) - self.domain.sphere_radius) / self.scene.sphere.diameter
+            where = f"pair gap {self.pair_gap(center) / self.scene.sphere.diameter:.4g} D" if self.pair else \
+                f"gap {delta:.4g} D"
+            raise RunDiverged(f"remeshing at {where} failed: {err}") from err
         tolerance = 1e-9 * self.scene.sphere.diameter
         momenta = []
         volumes = [self.sphere_volume(old_flow), self.sphere_volume(flow)]
@@ -183,14 +210,18 @@ class AleModel(FlowModel):
         seconds = time.perf_counter() - start
         self.stats.remesh_s += seconds
         self.stats.remeshes.append(Remesh(
-            step=k.step, time=k.step * self.dt, gap=center - self.domain.sphere_radius, quality=quality,
+            step=k.step, time=k.step * self.dt, gap=float(np.min(center) - self.domain.sphere_radius), quality=quality,
             cells=mesh.topology.index_map(2).size_global, momentum_old=momenta[0][0],
             momentum_interpolated=momenta[0][1], momentum_projected=momenta[0][2], sphere_volume_old=volumes[0],
-            sphere_volume=volumes[1], seconds=seconds))
+            sphere_volume=volumes[1], seconds=seconds, pair_gap=self.pair_gap(center) if self.pair else None))
 
     def resolved_top(self) -> float:
         """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
         return self.domain.refined.z_max
+
+    def pair_gap(self, centers) -> float:
+        """The gap between the two surfaces of a pair whose centres are `centers` [m]."""
+        return float(centers[1] - centers[0] - self.domain.radii[0] - self.domain.radii[1])
 
     def sphere_volume(self, flow: SphereFlow) -> float:
         """The volume of the mesh's polygonal sphere: the domain's cylinder less the liquid [m^3]."""
@@ -199,21 +230,41 @@ class AleModel(FlowModel):
     # -- one step -------------------------------------------------------------------------------
     def next_center(self, prediction: Prediction) -> tuple[float, bool]:
         """(z, held): where the mesh puts the sphere at t_{n+1} [m], the controller's AB2 prediction, and
-        whether the hold gap stopped it there; a fixed sphere stays put."""
+        whether the hold gap stopped it there; a fixed sphere stays put.  A pair: both centres, placed by
+        flow_gaps with the wall and pair holds."""
+        if self.pair:
+            return self._pair_centers(prediction)
         if self.scene.motion.mode == "fixed":
             return self.domain.initial_center, False
         predicted = prediction.center(self.domain.sphere_radius)
         center = self.domain.mesh_center(predicted)
         return center, center > predicted
 
+    def _pair_centers(self, prediction: Prediction) -> tuple[np.ndarray, bool]:
+        radii = np.array(self.domain.radii)
+        predicted = np.asarray(prediction.gap, dtype=float)
+        gaps = flow_gaps(predicted, self.diameters, *self.holds)
+        held_spheres = np.array([self.scene.motion.mode, self.scene.second_sphere.mode]) == "fixed"
+        centers = np.where(held_spheres, self.domain.initial_centers, gaps + radii)
+        return centers, bool(np.any(gaps > predicted))
+
     # -- the FlowModel interface ------------------------------------------------------------------
     def build(self, integrator) -> None:
         start = time.perf_counter()
         scene, domain = self.scene, self.domain
-        self.mesh, self.motion, self.flow = self.build_mesh(domain.initial_center)
-        velocity = start_velocity(scene)
         order = self.settings.time_order
-        self.kinematics = Kinematics(self.flow.bdf, [velocity] * order, [domain.initial_center] * order)
+        if self.pair:
+            # the larger of the contact model's holds (wall, pair) and the ale model's own
+            self.holds = tuple(max(own, contact) for own, contact in zip(self.holds, integrator.hold_gaps))
+            centers = np.array(domain.initial_centers)
+            self.mesh, self.motion, self.flow = self.build_mesh(centers)
+            velocities = np.array(start_velocities(scene), dtype=float)
+            self.kinematics = Kinematics(self.flow.bdf, [velocities.copy() for _ in range(order)],
+                                         [centers.copy() for _ in range(order)])
+        else:
+            self.mesh, self.motion, self.flow = self.build_mesh(domain.initial_center)
+            velocity = start_velocity(scene)
+            self.kinematics = Kinematics(self.flow.bdf, [velocity] * order, [domain.initial_center] * order)
         self.flow.set_uniform((0.0, domain.inflow_speed))
         self.stats.setup_s = time.perf_counter() - start
 
@@ -224,27 +275,33 @@ class AleModel(FlowModel):
         k, settings = self.kinematics, self.settings
         t_next = (k.step + 1) * self.dt
         center, held = self.next_center(prediction)
-        gap = center - self.domain.sphere_radius
+        gap = center - self.domain.sphere_radius if not self.pair else float(center[0] - self.domain.sphere_radius)
         if gap <= 0.0:
             raise RunDiverged(f"the mesh cannot follow the sphere: the step to t = {t_next:.6g} s would put it "
                               f"{-gap:.3g} m into the wall (smallest mesh gap reached "
                               f"{self.stats.min_mesh_gap / self.scene.sphere.diameter:.4g} D)")
+        if self.pair:
+            pair_gap = self.pair_gap(center)
+            if pair_gap <= 0.0:  # flow_gaps keeps the hold: only with both holds 0
+                raise RunDiverged(f"the mesh cannot follow the pair: the step to t = {t_next:.6g} s would put the "
+                                  f"spheres {-pair_gap:.3g} m into each other")
+            self.stats.min_mesh_pair_gap = min(self.stats.min_mesh_pair_gap, pair_gap)
         quality, remeshed = math.inf, False
-        if center != k.centers[0]:
+        if np.any(center != k.centers[0]):
             quality = self.motion.quality(center - self.motion.reference_center)
             if quality < settings.min_quality:
                 self.remesh(center, quality)
                 remeshed = True
         self.stats.held_steps += held
         self.motion.move_to(center)
-        self.motion.rate.value = k.center_rate(center, self.dt)
+        self.motion.set_rates(k.center_rate(center, self.dt))
         self.stats.min_mesh_gap = min(self.stats.min_mesh_gap, gap)
         reference = k.reference_velocity
         start = time.perf_counter()
         force, slope = self.flow.step(reference)
         self.stats.factorisation_s += time.perf_counter() - start
-        added_mass = -slope / self.flow.c
-        if not (math.isfinite(force) and math.isfinite(added_mass)):
+        added_mass = -slope / self.flow.c  # a pair: the matrix M_ij = -(dF_i/dU_j) / c
+        if not (np.all(np.isfinite(force)) and np.all(np.isfinite(added_mass))):
             raise FloatingPointError(f"the fluid force became {force} N at t = {t_next:.6g} s")
         self.last_force = (force, added_mass)
         self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed)
@@ -254,30 +311,43 @@ class AleModel(FlowModel):
     def complete(self, velocity: float, time_now: float) -> None:
         self.stats.integrator_s += time.perf_counter() - self._integrator_start
         t_next, center, gap, reference, force, slope, added_mass, quality, remeshed = self._pending
-        self.flow.commit(velocity - reference)
+        if self.pair:
+            velocity = np.array(velocity, dtype=float)  # the integrator's, copied
+        change = velocity - reference
+        self.flow.commit(change)
         self.kinematics.push(velocity, center)
         self.step = self.kinematics.step
-        self._record_force(t_next, gap, force + slope * (velocity - reference), added_mass,
+        self._record_force(t_next, gap, force + (slope @ change if self.pair else slope * change), added_mass,
                            quality if remeshed else self.motion.quality(self.motion.shift), remeshed)
 
     def _record_force(self, t, gap, force, added_mass, quality, remeshed) -> None:
         surface = self.flow.surface_force()
         self._force_rows += 1
-        if self._force_file is not None:
-            self._force_writer.writerow([f"{x:.10g}" for x in (t, gap, force, surface, added_mass, quality)]
-                                        + [int(remeshed)])
+        if self._force_file is None:
+            return
+        if self.pair:
+            values = [t, gap, self.pair_gap(self.kinematics.centers[0]), *force, *surface,
+                      *np.ravel(added_mass), quality]
+        else:
+            values = [t, gap, force, surface, added_mass, quality]
+        self._force_writer.writerow([f"{x:.10g}" for x in values] + [int(remeshed)])
 
     def solve_steady(self, integrator) -> None:
         """The held sphere's steady state; the integrator then holds it to end_time with that force."""
         start = time.perf_counter()
-        force = self.flow.steady(self.scene.motion.velocity, convection=is_stream(self.scene))
+        # a held pair: sphere 1's surface at motion.velocity (as one held sphere's), the second at rest
+        surfaces = np.array(start_velocities(self.scene)) if self.pair else self.scene.motion.velocity
+        force = self.flow.steady(surfaces, convection=is_stream(self.scene))
         self.stats.factorisation_s += time.perf_counter() - start
-        self.last_force = (force, 0.0)
+        no_added_mass = np.zeros((2, 2)) if self.pair else 0.0
+        self.last_force = (force, no_added_mass)
         self.stats.min_mesh_gap = self.domain.initial_center - self.domain.sphere_radius
-        integrator.advance(self.scene.run.end_time, FluidForce(explicit=force, added_mass=0.0))
+        if self.pair:
+            self.stats.min_mesh_pair_gap = self.pair_gap(self.domain.initial_centers)
+        integrator.advance(self.scene.run.end_time, FluidForce(explicit=force, added_mass=no_added_mass))
         self.kinematics.step = self.step = 1
-        self._record_force(integrator.time, self.stats.min_mesh_gap, force, 0.0,
-                           self.motion.quality(0.0), False)
+        self._record_force(integrator.time, self.stats.min_mesh_gap, force, no_added_mass,
+                           self.motion.quality(self.motion.shift), False)
 
     # -- checkpoints: the mesh's reference centre (remade by gmsh on restart), the flow's history by dof
     # coordinates on the mesh where it is now, the mesh's and the sphere's past, the statistics -----
@@ -285,8 +355,9 @@ class AleModel(FlowModel):
         k = self.kinematics
         arrays = gather_history(self.flow.states)
         stats = asdict(self.stats)
-        state = {"dt": self.dt, "mesh_center": self.motion.reference_center, "velocities": k.velocities,
-                 "centers": k.centers, "kinematics_step": k.step, "last_force": list(self.last_force),
+        state = {"dt": self.dt, "mesh_center": _plain(self.motion.reference_center),
+                 "velocities": [_plain(v) for v in k.velocities], "centers": [_plain(z) for z in k.centers],
+                 "kinematics_step": k.step, "last_force": [_plain(x) for x in self.last_force],
                  "statistics": stats, "force_rows": self._force_rows}
         return state, arrays
 
@@ -294,11 +365,13 @@ class AleModel(FlowModel):
         if not math.isclose(state["dt"], self.dt, rel_tol=1e-12):
             raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
                                   f"{self.dt:g} s: the scene was changed")
-        if state["mesh_center"] != self.motion.reference_center:  # remeshed: gmsh makes the same mesh again
+        per_sphere = np.array if self.pair else (lambda x: x)  # a pair's values were stored as lists
+        mesh_center = per_sphere(state["mesh_center"])
+        if np.any(mesh_center != self.motion.reference_center):  # remeshed: gmsh makes the same mesh again
             self.flow.destroy()
-            self.mesh, self.motion, self.flow = self.build_mesh(state["mesh_center"], cache=False)
-        k = self.kinematics = Kinematics(self.flow.bdf, list(state["velocities"]), list(state["centers"]),
-                                         step=state["kinematics_step"])
+            self.mesh, self.motion, self.flow = self.build_mesh(mesh_center, cache=False)
+        k = self.kinematics = Kinematics(self.flow.bdf, [per_sphere(v) for v in state["velocities"]],
+                                         [per_sphere(z) for z in state["centers"]], step=state["kinematics_step"])
         self.motion.move_to(k.centers[0])
         try:
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.domain.fine_size)
@@ -307,7 +380,7 @@ class AleModel(FlowModel):
         statistics = dict(state["statistics"])
         statistics["remeshes"] = [Remesh(**r) for r in statistics["remeshes"]]
         self.stats = Statistics(**statistics)
-        self.last_force = tuple(state["last_force"])
+        self.last_force = tuple(per_sphere(x) for x in state["last_force"])
         self._force_rows = state["force_rows"]
 
     # -- outputs ----------------------------------------------------------------------------------
@@ -325,7 +398,7 @@ class AleModel(FlowModel):
             else:
                 self._force_file = open(forces, "w", newline="")
                 self._force_writer = csv.writer(self._force_file)
-                self._force_writer.writerow(FORCE_COLUMNS)
+                self._force_writer.writerow(PAIR_FORCE_COLUMNS if self.pair else FORCE_COLUMNS)
 
     def write_fields(self, time_now: float) -> None:
         self.writer.write(self.flow.now, time_now)
@@ -353,6 +426,11 @@ class AleModel(FlowModel):
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
         diameter = self.scene.sphere.diameter
         force, added_mass = self.last_force
+        displaced = np.array([self.scene.liquid.density * sphere.volume for sphere in self.scene.spheres])
+        pair = {}
+        if self.pair:
+            pair = {"min_mesh_pair_delta": self.stats.min_mesh_pair_gap / pair_diameter(*self.scene.spheres),
+                    "holds_m": list(self.holds)}
         return {
             "solver": "steady" if self.steady else "march",
             "timings_s": {"setup": stats.setup_s, "steps": self.loop_seconds, "factorise_and_solve": stats.factorisation_s,
@@ -364,7 +442,15 @@ class AleModel(FlowModel):
             "hold_delta": self.settings.hold_delta,
             "held_steps": stats.held_steps,
             "min_mesh_delta": stats.min_mesh_gap / diameter,
-            "last_force_N": force,
-            "added_mass_over_displaced": added_mass / self.scene.displaced_mass,
+            "last_force_N": _plain(force),
+            # a pair: M_ij / (rho V_i), row i the force on sphere i
+            "added_mass_over_displaced": _plain(np.asarray(added_mass) / displaced[:, None]) if self.pair
+            else added_mass / self.scene.displaced_mass,
             "peak_memory_bytes": self.comm.allreduce(peak),
+            **pair,
         }
+
+
+def _plain(value):
+    """A per-sphere value as JSON takes it: an array (a pair's) as a list, a float as it is."""
+    return value.tolist() if isinstance(value, np.ndarray) else value

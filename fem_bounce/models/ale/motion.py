@@ -18,6 +18,13 @@ same BDF formula as the flow's time derivative, so the position of every vertex 
 velocity agree; with the non-conservative ALE form (flow.py) a uniform flow then stays
 uniform on the moving mesh to round-off (the geometric conservation law; tested).
 
+A head-on pair moves with one extension per sphere: psi_k = 1 on sphere k and 0 on the other
+sphere and the outer sides, x = X + (s_1 psi_1 + s_2 psi_2) e_z and w = sum_k psi_k e_z (BDF
+rate of s_k); both come from one factorisation.  psi_1 + psi_2 <= 1 (maximum principle), so the
+mesh between the spheres is squeezed or stretched by their relative motion and is remade when
+its triangles degrade, like the gap to the wall.  Per-sphere values (centres, shifts, rates)
+are floats for one sphere and arrays (sphere 1 first) for a pair.
+
 Quality of a triangle: q = 4 sqrt(3) A / (sum of its squared edge lengths), 1 for an
 equilateral triangle, 0 for a degenerate one, negative when the motion inverted it.
 """
@@ -45,24 +52,34 @@ def triangle_quality(points: np.ndarray, cells: np.ndarray, orientation: np.ndar
 
 
 class MeshMotion:
-    """Moves `mesh` (in place) with the sphere; `center` is the sphere centre z it was made with [m]."""
+    """Moves `mesh` (in place) with the sphere; `center` is the sphere centre z it was made with [m]
+    (a pair: the centres of the spheres whose surfaces carry `sphere_tags`, lowest first)."""
 
-    def __init__(self, mesh, facet_tags, center: float, prefix: str = "ale_mesh_"):
+    def __init__(self, mesh, facet_tags, center, prefix: str = "ale_mesh_", sphere_tags: tuple = (SPHERE,)):
         self.mesh = mesh
         self.reference_center = center
         self.space = fem.FunctionSpace(mesh, ("Lagrange", 1))
-        self.psi = fem.Function(self.space, name="psi")
-        self._solve_extension(facet_tags, prefix)
+        self.extensions = [fem.Function(self.space, name=f"psi_{k + 1}") for k in range(len(sphere_tags))]
+        self.psi = self.extensions[0]
+        if len(sphere_tags) == 1:
+            self.psi.name = "psi"
+        self._solve_extensions(facet_tags, sphere_tags, prefix)
         self.cells = mesh.geometry.dofmap.array.reshape(-1, 3)
         self.reference = mesh.geometry.x[:, :2].copy()
-        self.psi_nodes = self._at_geometry_nodes(self.psi)
+        self.extension_nodes = [self._at_geometry_nodes(psi) for psi in self.extensions]
+        self.psi_nodes = self.extension_nodes[0]
         self.orientation = np.sign(triangle_quality(self.reference, self.cells))
-        self.shift = 0.0
-        # d(shift)/dt of the current step [m/s]: the mesh velocity is rate * psi e_z
-        self.rate = fem.Constant(mesh, PETSc.ScalarType(0.0))
-        self.velocity = ufl.as_vector((0.0, self.rate * self.psi))
+        self.shift = 0.0 if len(sphere_tags) == 1 else np.zeros(len(sphere_tags))
+        # d(shift_k)/dt of the current step [m/s]: the mesh velocity is sum_k rate_k psi_k e_z
+        self.rates = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in sphere_tags]
+        self.rate = self.rates[0]
+        axial = self.rate * self.psi
+        for rate, psi in zip(self.rates[1:], self.extensions[1:]):
+            axial = axial + rate * psi
+        self.velocity = ufl.as_vector((0.0, axial))
 
-    def _solve_extension(self, facet_tags, prefix: str) -> None:
+    def _solve_extensions(self, facet_tags, sphere_tags, prefix: str) -> None:
+        """psi_k for every sphere k: one matrix (the same Dirichlet rows for all), one factorisation."""
         V, mesh = self.space, self.mesh
         fdim = mesh.topology.dim - 1
         u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
@@ -71,23 +88,30 @@ class MeshMotion:
         L = fem.form(fem.Constant(mesh, PETSc.ScalarType(0.0)) * v * ufl.dx)
         one, zero = fem.Function(V), fem.Function(V)
         one.x.array[:] = 1.0
-        fixed = np.concatenate([facet_tags.find(tag) for tag in (WALL, OUTER, TOP)])
-        bcs = [fem.dirichletbc(one, fem.locate_dofs_topological(V, fdim, facet_tags.find(SPHERE))),
-               fem.dirichletbc(zero, fem.locate_dofs_topological(V, fdim, fixed))]
-        A = assemble_matrix(a, bcs=bcs)
+        conditions = []
+        for tag in sphere_tags:
+            others = [other for other in sphere_tags if other != tag]
+            fixed = np.concatenate([facet_tags.find(side) for side in (WALL, OUTER, TOP, *others)])
+            conditions.append([fem.dirichletbc(one, fem.locate_dofs_topological(V, fdim, facet_tags.find(tag))),
+                               fem.dirichletbc(zero, fem.locate_dofs_topological(V, fdim, fixed))])
+        A = assemble_matrix(a, bcs=conditions[0])
         A.assemble()
         b = assemble_vector(L)
-        apply_lifting(b, [a], [bcs])
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(b, bcs)
         solver = FactorizedOperator(A, prefix)
         try:
-            solver.solve(b, self.psi.vector)
+            for psi, bcs in zip(self.extensions, conditions):
+                with b.localForm() as local:
+                    local.set(0.0)
+                assemble_vector(b, L)
+                apply_lifting(b, [a], [bcs])
+                b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                set_bc(b, bcs)
+                solver.solve(b, psi.vector)
+                psi.x.scatter_forward()
         finally:
             solver.destroy()
             A.destroy()
             b.destroy()
-        self.psi.x.scatter_forward()
 
     def _at_geometry_nodes(self, function: fem.Function) -> np.ndarray:
         """Values of a P1 function at the mesh's geometry nodes (the two numberings differ)."""
@@ -98,23 +122,33 @@ class MeshMotion:
         values[node_of_dof] = function.x.array
         return values
 
-    def positions(self, shift: float) -> np.ndarray:
+    def positions(self, shift) -> np.ndarray:
         """Vertex positions (r, z) with the sphere moved by `shift` from the reference [m]."""
         points = self.reference.copy()
-        points[:, 1] += shift * self.psi_nodes
+        for s, nodes in zip(np.atleast_1d(shift), self.extension_nodes):
+            points[:, 1] += s * nodes
         return points
 
-    def quality(self, shift: float) -> float:
+    def quality(self, shift) -> float:
         """The worst triangle quality (over all ranks) of the mesh moved by `shift` [m]."""
         local = triangle_quality(self.positions(shift), self.cells, self.orientation)
         worst = local.min() if local.size else np.inf
         return self.mesh.comm.allreduce(worst, op=MPI.MIN)
 
-    def move(self, shift: float) -> None:
+    def move(self, shift) -> None:
         """Put the mesh where a sphere displaced by `shift` from the reference has it."""
-        self.mesh.geometry.x[:, 1] = self.reference[:, 1] + shift * self.psi_nodes
+        shifts = np.atleast_1d(shift)
+        z = self.reference[:, 1] + shifts[0] * self.extension_nodes[0]
+        for s, nodes in zip(shifts[1:], self.extension_nodes[1:]):
+            z += s * nodes
+        self.mesh.geometry.x[:, 1] = z
         self.shift = shift
 
-    def move_to(self, center: float) -> None:
+    def move_to(self, center) -> None:
         """Put the mesh where a sphere centred at z = center [m] has it."""
         self.move(center - self.reference_center)
+
+    def set_rates(self, rates) -> None:
+        """The BDF rates of the sphere centres this step [m/s]: the mesh velocity."""
+        for constant, rate in zip(self.rates, np.atleast_1d(rates)):
+            constant.value = rate
