@@ -74,8 +74,9 @@ def speed_scale(scene: Scene, model: str = "fd") -> float:
     """The speed that sets the time step [m/s]: the estimated impact speed of a free sphere,
     the largest imposed speed otherwise."""
     motion = scene.motion
-    if scene.pair and motion.mode == "free":
-        return max(scene.estimated_impact_speed(), abs(scene.second_sphere.velocity))
+    if scene.pair:  # the faster of sphere 1's fall or imposed speed and the second sphere's start
+        own = scene.estimated_impact_speed() if motion.mode == "free" else abs(motion.velocity)
+        return max(own, abs(scene.second_sphere.velocity))
     if motion.mode == "free":
         if scene.estimated_impact_speed() <= 0.0:
             raise SceneError(f"sphere.density = {scene.sphere.density:g} kg/m3 equals liquid.density: a neutrally "
