@@ -48,13 +48,21 @@ class Rebound:
 class BounceRecord:
     """A small state machine over the events: approach -> (contact) -> impact at the minimum gap ->
     rebound -> apex -> approach ...  PETSc may report one crossing more than once; the phases make that
-    harmless.  `stop_at` is when the run may stop: the bounce limit's apex plus the rebound's 2 ms window."""
+    harmless.  `stop_at` is when the run may stop: the bounce limit's apex plus the rebound's 2 ms window.
+
+    The gap h and its rate v = dh/dt are a sphere's to the wall, or a pair's (fem_bounce.pair: the gap
+    between the two surfaces and the relative velocity), with `numbers(speed) -> (Re, St)` of an impact.
+    `separating` (a pair, which gravity need not bring back): a rebound also ends when the gap passes
+    the contact model's blend gap (delta_sl) outward, and a rebound still opening at the end counts with
+    its last gap."""
 
     STATE = ("in_contact", "hertz_force", "_contact_speed", "_phase", "_entered_contact", "_left_contact",
              "_peak_speed", "_rebound_speed", "stop_at")
 
-    def __init__(self, scene, contact, stop_after_impacts: int = 0):
+    def __init__(self, scene, contact, stop_after_impacts: int = 0, numbers=None, separating: bool = False):
         self.scene, self.contact = scene, contact
+        self.numbers = numbers or (lambda speed: (scene.reynolds(speed), scene.stokes(speed)))
+        self.separating = separating
         self.stop_after_impacts = stop_after_impacts
         self.stop_at = math.inf
         self.impacts: list[Impact] = []
@@ -95,29 +103,37 @@ class BounceRecord:
             self.in_contact = False
             self._left_contact = True
 
-    def blend_crossing(self, t: float, v: float) -> None:
-        """The gap passing delta_sl, where f_thr and f_sim weigh equally (recorded once per crossing)."""
+    def blend_crossing(self, t: float, v: float, h: float | None = None) -> None:
+        """The gap passing delta_sl, where f_thr and f_sim weigh equally (recorded once per crossing);
+        for a `separating` record, passing it outward after an impact ends the rebound there."""
         direction = "in" if v < 0.0 else "out"
         if not self.blend_crossings or self.blend_crossings[-1]["direction"] != direction:
             self.blend_crossings.append({"time": t, "direction": direction, "speed": abs(v)})
+        if self.separating and direction == "out" and self._phase == "rebound" and self._left_contact:
+            self._end_rebound(t, h)
 
     def turning_point(self, t: float, h: float) -> None:
         """A sign change of V: the minimum gap of an impact, or the apex of a rebound."""
         if self._phase == "approach" and self._entered_contact:
             impact_speed = self._mean_speed_before(t)
+            reynolds, stokes = self.numbers(impact_speed)
             self.impacts.append(Impact(
                 time=t, impact_speed=impact_speed, peak_speed=self._peak_speed, contact_speed=self._contact_speed,
-                Re=self.scene.reynolds(impact_speed), St=self.scene.stokes(impact_speed), min_gap=h,
+                Re=reynolds, St=stokes, min_gap=h,
             ))
             self._phase, self._left_contact, self._rebound_speed = "rebound", False, 0.0
             if self.stop_after_impacts and len(self.impacts) >= self.stop_after_impacts:
                 self.stop_at = t
         elif self._phase == "rebound" and self._left_contact:
-            self.rebounds.append(self._rebound(apex_gap=h, apex_time=t))
-            self._phase, self._entered_contact, self._peak_speed = "approach", False, 0.0
-            bounces = self.scene.run.bounces
-            if bounces and len(self.rebounds) >= bounces:
-                self.stop_at = self.impacts[-1].time + IMPACT_WINDOW  # complete the rebound's 2 ms window
+            self._end_rebound(t, h)
+
+    def _end_rebound(self, t: float, h: float) -> None:
+        """The rebound's apex (or a pair's separation) at (t, h): the next approach begins."""
+        self.rebounds.append(self._rebound(apex_gap=h, apex_time=t))
+        self._phase, self._entered_contact, self._peak_speed = "approach", False, 0.0
+        bounces = self.scene.run.bounces
+        if bounces and len(self.rebounds) >= bounces:
+            self.stop_at = self.impacts[-1].time + IMPACT_WINDOW  # complete the rebound's 2 ms window
 
     def _rebound(self, apex_gap: float | None, apex_time: float | None) -> Rebound:
         impact = self.impacts[-1]
@@ -137,6 +153,8 @@ class BounceRecord:
         """Close the records: 2 ms rebound means, and restitution 0 for an impact that never left contact."""
         if len(self.rebounds) < len(self.impacts) and not self._left_contact:
             self.rebounds.append(self._rebound(None, None))
+        elif len(self.rebounds) < len(self.impacts) and self.separating:  # still opening: its last gap
+            self.rebounds.append(self._rebound(self._log_h[-1], None))
         min_apex = REBOUND_MIN_APEX_IN_CONTACT_LAYERS * self.contact.contact_gap
         for impact, rebound in zip(self.impacts, self.rebounds):
             if rebound.apex_gap is None:

@@ -248,6 +248,9 @@ def _print_records(summary: dict) -> None:
     print(f"{summary['status']} in {summary['wall_time_s']:.2f} s, {summary['steps']} steps "
           f"(stop: {summary.get('stop_reason')})")
     diameter = summary["scene"]["sphere"]["diameter"]
+    if "collisions" in summary:  # a pair
+        _print_collisions(summary)
+        return
     if not summary["impacts"]:
         print(f"no impact: the sphere ended {summary['final']['gap'] / diameter:.4g} D above the wall "
               f"at t = {summary['final']['time']:.4g} s")
@@ -259,6 +262,20 @@ def _print_records(summary: dict) -> None:
             line += f"  e = {rebound['restitution']:.3f}"
             if rebound["apex_gap"] is not None:
                 line += f"  apex gap = {rebound['apex_gap'] * 1e3:.3f} mm"
+        print(line)
+
+
+def _print_collisions(summary: dict) -> None:
+    """A pair's collisions, pair and wall, in time order (relative impact speed, binary St, e)."""
+    if not summary["collisions"]:
+        final = summary["final"]
+        print(f"no collision: the pair gap ended at {final['gap'][1] - final['gap'][0] - summary['scene']['sphere']['diameter']:.4g} m "
+              f"at t = {final['time']:.4g} s")
+    for k, c in enumerate(summary["collisions"], 1):
+        line = (f"collision {k} ({c['kind']}): t = {c['time']:.4f} s  V_rel = {c['impact_speed']:.4f} m/s  "
+                f"Re = {_number(c['Re'])}  St = {_number(c['St'])}  min gap = {c['min_gap'] * 1e3:.4g} mm")
+        if "restitution" in c:
+            line += f"  e = {c['restitution']:.3f}"
         print(line)
 
 

@@ -63,7 +63,8 @@ def flow_gaps(gaps, diameters, wall_hold: float, pair_hold: float) -> np.ndarray
 
 
 class Predictor:
-    """The sphere's last velocities, newest first (order 2: AB2; order 1: the last velocity held)."""
+    """The sphere's last velocities, newest first (order 2: AB2; order 1: the last velocity held).  For a
+    pair each is an array (sphere 1 first), and so is the Prediction's; checkpoints store them as lists."""
 
     def __init__(self, velocities: list[float]):
         self.velocities = list(velocities)
@@ -122,8 +123,13 @@ class FlowModel(ABC):
         """Make the meshes and solvers and set the liquid at rest (or in its stream); collective.  The
         shared sphere integrator is given for what the flow needs of it (its contact model's hold gap)."""
 
-    def initial_velocities(self) -> list[float]:
-        """The predictor's history at the start, newest first [m/s]."""
+    def initial_velocities(self) -> list:
+        """The predictor's history at the start, newest first [m/s]; for a pair, arrays (one entry per
+        sphere: each starts at rest, or the second at its velocity)."""
+        if self.scene.pair:
+            from .motion import start_velocities
+
+            return [np.array(start_velocities(self.scene))]
         return [0.0]
 
     # -- one step ---------------------------------------------------------------------------------
@@ -146,7 +152,8 @@ class FlowModel(ABC):
 
     @abstractmethod
     def complete(self, velocity: float, time: float) -> None:
-        """Finish the step with the velocity the sphere reached at `time` [m/s, s]."""
+        """Finish the step with the velocity the sphere reached at `time` [m/s, s] (a pair: an array of
+        the two velocities, sphere 1 first)."""
 
     def solve_steady(self, integrator) -> None:
         """For a `steady` model: solve the held sphere's steady state and hold it to the end time."""

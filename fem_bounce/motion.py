@@ -34,6 +34,15 @@ def start_velocity(scene: Scene) -> float:
     return scene.motion.velocity if not is_free(scene) else 0.0
 
 
+def start_velocities(scene: Scene) -> tuple[float, ...]:
+    """Each sphere's velocity at the start [m/s], sphere 1 first: a pair's second sphere starts at its
+    `velocity` (a projectile) unless it is fixed."""
+    if scene.second_sphere is None:
+        return (start_velocity(scene),)
+    second = scene.second_sphere
+    return start_velocity(scene), (0.0 if second.mode == "fixed" else second.velocity)
+
+
 def series_speed(scene: Scene) -> float:
     """The largest speed in a prescribed motion's series [m/s] (0 without one)."""
     motion = scene.motion

@@ -40,6 +40,12 @@ from . import scene as scenes
 
 TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_history", "f_added_mass", "f_theory",
                       "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
+# A pair (scene.second_sphere): one row per instant, both spheres side by side (suffix _1: sphere 1, the
+# lower one; _2: the second sphere); gap_i is sphere i's lowest point above z = 0, pair_gap the distance
+# between the two surfaces, f_pair_i the pair's Stokes interaction in the theory force (docs/usage.md).
+PAIR_TRAJECTORY_COLUMNS = ("t", "pair_gap", *(f"{name}_{k}" for k in (1, 2) for name in (
+    "gap", "velocity", "acceleration", "f_drag", "f_pair", "f_added_mass", "f_theory", "f_sim", "f_liquid",
+    "f_elastic", "f_correction")))
 MARKER = ".fem-bounce-run"
 MARKER_TEXT = "fem-bounce run directory: `fem-bounce run --force` may replace everything in it.\n"
 
@@ -227,8 +233,10 @@ class TrajectoryWriter:
 
     BUFFER_BYTES = 1 << 16
 
-    def __init__(self, path: Path | None, interval: float = 0.0, continue_from: int | None = None):
+    def __init__(self, path: Path | None, interval: float = 0.0, continue_from: int | None = None,
+                 columns: tuple = TRAJECTORY_COLUMNS):
         self.path = None if path is None else Path(path)
+        self.columns = columns
         self.interval = interval
         self.rows = 0 if continue_from is None else continue_from
         self.failure: OutputError | None = None
@@ -241,7 +249,7 @@ class TrajectoryWriter:
         try:
             if continue_from is None:
                 self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)  # read: to cut a half row
-                self._write(",".join(TRAJECTORY_COLUMNS).encode() + b"\n")
+                self._write(",".join(self.columns).encode() + b"\n")
             else:
                 self._fd = os.open(self.path, os.O_RDWR | os.O_APPEND)
         except OSError as err:
@@ -252,7 +260,7 @@ class TrajectoryWriter:
         if self._fd is None or row["t"] - self._last_t < self.interval:
             return
         self._last_t = row["t"]
-        line = _format_row(row[c] for c in TRAJECTORY_COLUMNS)
+        line = _format_row(row[c] for c in self.columns)
         self._pending.append(line)
         self._pending_bytes += len(line)
         self.rows += 1
@@ -511,6 +519,11 @@ def read_summary(run_dir: Path) -> dict:
 # -- the summary ----------------------------------------------------------------------------------
 
 
+def _plain(value):
+    """A number, or a pair's array as a list (JSON)."""
+    return value.tolist() if hasattr(value, "tolist") and getattr(value, "ndim", 0) else value
+
+
 def versions() -> dict:
     found = {"fem_bounce": __version__, "python": platform.python_version()}
     for module in ("numpy", "scipy", "petsc4py", "dolfinx", "gmsh", "mpi4py"):
@@ -535,7 +548,8 @@ def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: 
         "sphere_steps": integrator.steps,
         "ranks": ranks,
         "sizes": sizes or {},
-        "final": {"time": integrator.time, "gap": integrator.gap, "velocity": integrator.velocity},
+        "final": {"time": integrator.time, "gap": _plain(integrator.gap), "velocity": _plain(integrator.velocity)},
+        **({"collisions": integrator.collisions()} if scene.pair else {}),
         "versions": versions(),
         "command": command,
         "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
@@ -562,8 +576,12 @@ class Progress:
         left = f"~{elapsed * (1.0 - fraction) / fraction:4.0f} s left" if fraction > 0.01 else ""
         width = 24
         bar = "#" * int(width * fraction) + "-" * (width - int(width * fraction))
-        line = (f"[{bar}] t = {t:.4f}/{self.end_time:g} s  step {steps}  gap/D {gap / self.diameter:7.4f}  "
-                f"V {velocity:+.4f} m/s  {elapsed:5.0f} s elapsed {left}")
+        if getattr(gap, "ndim", 0):  # a pair: sphere 1's gap to z = 0 and the pair gap, both velocities
+            where = (f"gap_1/D {gap[0] / self.diameter:7.4f}  pair gap/D "
+                     f"{(gap[1] - gap[0] - self.diameter) / self.diameter:8.5f}  V {velocity[0]:+.4f}, {velocity[1]:+.4f} m/s")
+        else:
+            where = f"gap/D {gap / self.diameter:7.4f}  V {velocity:+.4f} m/s"
+        line = f"[{bar}] t = {t:.4f}/{self.end_time:g} s  step {steps}  {where}  {elapsed:5.0f} s elapsed {left}"
         print(("\r" + line) if self._tty else line, end="" if self._tty else "\n", file=sys.stderr, flush=True)
 
     def close(self) -> None:

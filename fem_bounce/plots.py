@@ -2,7 +2,8 @@
 
     python -m fem_bounce.plots runs/li2011-case3-ode     # redraw one run's figures
 
-Units follow the paper: time in sqrt(D/g), velocity in sqrt(g D), gap in D.
+Units follow the paper: time in sqrt(D/g), velocity in sqrt(g D), gap in D; a pair's figure is in
+milliseconds, sphere 1's diameter D1 and m/s (a pair may have no gravity).
 """
 from __future__ import annotations
 
@@ -27,6 +28,8 @@ def units(scene: dict) -> tuple[float, float, float]:
 def draw_run(run_dir: Path) -> list[Path]:
     run_dir = Path(run_dir)
     traj, summary = read_trajectory(run_dir), read_summary(run_dir)
+    if "second_sphere" in summary["scene"]:
+        return [pair_figure(traj, summary, run_dir / "trajectory.png")]
     return [trajectory_figure(traj, summary, run_dir / "trajectory.png"),
             velocity_gap_figure(traj, summary, run_dir / "velocity_gap.png")]
 
@@ -96,6 +99,55 @@ def velocity_gap_figure(traj: dict, summary: dict, path: Path) -> Path:
         ax.set_title(title + r" near the wall ($\delta_{ss}$ dashed)", fontsize=9)
         ax.set_xlabel(r"$\delta$")
     fig.suptitle(f"{scene['name']}: velocity against gap ({summary['model']} model)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+
+def pair_figure(traj: dict, summary: dict, path: Path) -> Path:
+    """A pair of spheres: (a) each sphere's lowest point above z = 0, (b) the pair gap (and sphere 1's
+    gap to the wall, if there is one) on a log scale with delta_ss and delta_sl, (c) both velocities and
+    the relative one, with the collisions marked."""
+    scene = summary["scene"]
+    d1, second = scene["sphere"]["diameter"], scene["second_sphere"]
+    pair_d = 2.0 * (0.5 * d1) * (0.5 * second["diameter"]) / (0.5 * d1 + 0.5 * second["diameter"])  # 2 a*
+    contact, wall = scene["contact"], scene["wall"].get("present", True)
+    t = traj["t"] * 1e3
+    fig, (ax_pos, ax_gap, ax_vel) = plt.subplots(3, 1, figsize=(7, 8.5), sharex=True)
+    ax_pos.plot(t, traj["gap_1"] / d1, lw=1.2, label="sphere 1 (lower)")
+    ax_pos.plot(t, traj["gap_2"] / d1, lw=1.2, label="sphere 2")
+    if wall:
+        ax_pos.axhline(0.0, color="k", lw=1.0)
+    ax_pos.set_ylabel(r"lowest point above $z=0$, $/D_1$")
+    ax_pos.legend(loc="best", fontsize=8)
+    ax_gap.semilogy(t, traj["pair_gap"] / pair_d, lw=1.2, color="C4", label=r"pair gap $h/2a^*$")
+    if wall:
+        ax_gap.semilogy(t, traj["gap_1"] / d1, lw=1.0, color="C0", ls="--", label=r"sphere 1 to wall $h_1/D_1$")
+    ax_gap.axhline(contact["delta_sl"], color="0.6", ls=":", lw=0.8, label=r"$\delta_{sl}$")
+    ax_gap.axhline(contact["delta_ss"], color="0.3", ls="--", lw=0.8, label=r"$\delta_{ss}$")
+    ax_gap.set_ylabel("gap (scaled)")
+    ax_gap.legend(loc="best", fontsize=8)
+    ax_vel.plot(t, traj["velocity_1"], lw=1.2, label="sphere 1")
+    ax_vel.plot(t, traj["velocity_2"], lw=1.2, label="sphere 2")
+    ax_vel.plot(t, traj["velocity_2"] - traj["velocity_1"], lw=0.9, color="C4", ls="--",
+                label=r"relative $V_2 - V_1$")
+    collisions = summary.get("collisions", [])
+    for k, collision in enumerate(collisions):
+        colour = "C3" if collision["kind"] == "pair" else "C2"
+        for ax in (ax_gap, ax_vel):
+            ax.axvline(collision["time"] * 1e3, color=colour, lw=0.6, ls="-.")
+        if k < 4:  # the first few in the legend; summary.json has them all
+            label = f"{collision['kind']}: St {collision['St']:.3g}, e {collision.get('restitution', 0.0):.2f}"
+            ax_vel.plot([], [], "|", color=colour, label=label)
+    ax_vel.axhline(0.0, color="0.7", lw=0.6)
+    ax_vel.set_xlabel("t [ms]")
+    ax_vel.set_ylabel("V [m/s] (up +)")
+    ax_vel.legend(loc="best", fontsize=7)
+    kinds = [c["kind"] for c in collisions]
+    fig.suptitle(f"{scene['name']}: {summary['model']} model ({kinds.count('pair')} pair and "
+                 f"{kinds.count('wall')} wall collisions)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)

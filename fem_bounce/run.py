@@ -42,6 +42,7 @@ from . import scene as scenes
 from .contact import ContactModel
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel, Predictor
+from .pair import PairIntegrator
 from .sphere import PenetrationError, SphereIntegrator
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
@@ -121,10 +122,10 @@ def on_root(comm, action):
 # -- what every step shares ----------------------------------------------------------------------
 
 
-class _RunIntegrator(SphereIntegrator):
-    """The shared sphere integrator whose checkpoint state also carries the run's record (the
-    trajectory's rows, put on the disk first; the wall time; the scene): every model that checkpoints
-    the integrator, as it must to restart, so checkpoints the run whole."""
+class _CarriesRunRecord:
+    """An integrator whose checkpoint state also carries the run's record (the trajectory's rows, put on
+    the disk first; the wall time; the scene): every model that checkpoints the integrator, as it must
+    to restart, so checkpoints the run whole."""
 
     record: "_RunRecord | None" = None
 
@@ -133,6 +134,14 @@ class _RunIntegrator(SphereIntegrator):
         if self.record is not None:
             state["run"] = self.record.checkpoint()
         return state
+
+
+class _RunIntegrator(_CarriesRunRecord, SphereIntegrator):
+    """The shared sphere integrator, carrying the run's record."""
+
+
+class _RunPairIntegrator(_CarriesRunRecord, PairIntegrator):
+    """The pair's integrator (pair.py), carrying the run's record."""
 
 
 class _RunRecord:
@@ -201,6 +210,47 @@ class _Safeguards:
             self.stop_reason = (f"the light sphere {self.where} (gap {h / d:.3g} D at t = {row['t']:.4g} s); "
                                 "it never reaches the wall")
             self.integrator.done = True
+
+
+class _PairSafeguards:
+    """The energy bound of a free pair (checked after every integrator step): the spheres' kinetic
+    energy and the potential energy of their net weights, sum_i 1/2 m_i V_i^2 + (m_i - m_l,i) g h_i, can
+    never exceed its value at the start plus the kinetic energy the liquid can hold at the start, at most
+    sum_i 1/2 m_l,i V_i0^2 (potential flow around a moving sphere, C_M = 1/2, and up to 0.80 at contact:
+    taken as 1): the elastic energy and the liquid's are >= 0 and viscosity only dissipates.  A held or
+    prescribed sphere is worked on by its prescription, so the bound is not checked then.  A light pair
+    is not stopped at a ceiling: it runs to run.end_time or its collision limit."""
+
+    light, stop_reason = False, None
+
+    def __init__(self, scene, model: str):
+        self.scene, self.model = scene, model
+        spheres = scene.spheres
+        self.masses = np.array([s.mass for s in spheres])
+        displaced = np.array([scene.liquid.density * s.volume for s in spheres])
+        self.weights = (self.masses - displaced) * scene.gravity
+        from .motion import start_velocities
+
+        v0, h0 = np.array(start_velocities(scene)), np.array(scene.initial_gaps)
+        self.free = scene.motion.mode == "free" and scene.second_sphere.mode == "free"
+        self.start_energy = float(0.5 * self.masses @ v0**2 + self.weights @ h0)
+        liquid_energy = float(0.5 * displaced @ v0**2)
+        self.bound = self.start_energy + liquid_energy
+        self.tolerance = ENERGY_TOLERANCE * (abs(self.weights) @ np.abs(h0) + 0.5 * (self.masses + displaced) @ v0**2)
+
+    def __call__(self, row: dict) -> None:
+        if not self.free:
+            return
+        v, h = np.array([row["velocity_1"], row["velocity_2"]]), np.array([row["gap_1"], row["gap_2"]])
+        energy = float(0.5 * self.masses @ v**2 + self.weights @ h)
+        if energy - self.bound > self.tolerance:
+            entry = models.info(self.model)
+            hint = f"tighten {entry.resolution_key}" if not entry.resolved else f"use a smaller numerics.{self.model}.cfl"
+            raise RunDiverged(
+                f"the pair gained energy it cannot have: at t = {row['t']:.6g} s (pair gap {row['pair_gap']:.3g} m, "
+                f"V = {v[0]:+.3g}, {v[1]:+.3g} m/s) its kinetic + potential energy exceeds its bound by "
+                f"{(energy - self.bound) / self.tolerance * ENERGY_TOLERANCE:.0%} of its scale; the coupling or "
+                f"the time step is unstable ({hint})")
 
 
 class _Monitor:
@@ -359,7 +409,7 @@ class Controller:
                 observers.append(Every(model.checkpoint_every, self.save_checkpoint))
             if model.observe_integrator_steps:
                 integrator.observers.append(
-                    lambda row: self.monitor(row["t"], integrator.steps, row["gap"], row["velocity"]))
+                    lambda row: self.monitor(row["t"], integrator.steps, integrator.gap, integrator.velocity))
             start = time.perf_counter()
             if model.steady:
                 model.solve_steady(integrator)
@@ -406,8 +456,9 @@ class Controller:
             settings = getattr(self.model.scene.numerics, name)
             hint = (f"for a light sphere use numerics.{name}.coupling = \"implicit\"; otherwise "
                     if hasattr(settings, "coupling") else "")
+            speed = ", ".join(f"{v:.3g}" for v in np.atleast_1d(integrator.velocity))
             return (f"the coupled step broke down ({type(err).__name__}: {err}) near t = {integrator.time:.6g} s "
-                    f"with the sphere at {integrator.velocity:.3g} m/s: unstable ({hint}lower numerics.{name}.cfl)")
+                    f"with the sphere at {speed} m/s: unstable ({hint}lower numerics.{name}.cfl)")
         return str(err)
 
     def _where(self) -> str:
@@ -422,7 +473,8 @@ class Controller:
         model, integrator, comm = self.model, self.integrator, self.comm
         flow, arrays = model.checkpoint_state()  # collective; arrays on rank 0
         state = {"step": model.step, "time": integrator.time, "ranks": comm.size,
-                 "velocities": self.predictor.velocities, "flow": flow, "integrator": integrator.state_dict()}
+                 "velocities": [np.asarray(v).tolist() for v in self.predictor.velocities],  # a pair's: arrays
+                 "flow": flow, "integrator": integrator.state_dict()}
 
         def commit() -> None:
             data, = self.entry.checkpoint_files
@@ -453,7 +505,7 @@ class Controller:
         if failures:
             raise output.CheckpointError(f"the checkpoint in {self.out_dir} cannot continue this run: {failures[0]}")
         self.model.step = state["step"]
-        self.predictor.velocities = list(state["velocities"])
+        self.predictor.velocities = [np.asarray(v) if isinstance(v, list) else v for v in state["velocities"]]
         self.integrator.load_state_dict(state["integrator"])
         self.last_checkpoint = (state["step"], state["time"])
 
@@ -469,6 +521,9 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     if models.info(model).serial and comm.size > 1:
         return _serial_on_root(scene, model, comm, out_dir, force=force, restart=restart, command=command,
                                progress=progress, plots=plots, interrupts=interrupts)
+    if scene.pair and not models.info(model).pairs:
+        raise models.ModelError(f"the {model} model cannot run a pair of spheres ([second_sphere]): use one of "
+                                f"{', '.join(models.registry.pairing())}")
     model_cls = models.get(model)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active
@@ -485,8 +540,12 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
             f"model meshes the whole path, allowed up to {RESOLVED_MAX_GAP:g} D (a sphere reaches its terminal speed "
             "within ~10-20 D); start it lower, or use the ode model")
     flow = model_cls(scene, comm)
-    integrator = _RunIntegrator(scene, ContactModel(scene), resolved=model_cls.resolved)
-    guards = _Safeguards(scene, integrator, model, flow.resolved_top())
+    if scene.pair:
+        integrator = _RunPairIntegrator(scene, resolved=model_cls.resolved)
+        guards = _PairSafeguards(scene, model)
+    else:
+        integrator = _RunIntegrator(scene, ContactModel(scene), resolved=model_cls.resolved)
+        guards = _Safeguards(scene, integrator, model, flow.resolved_top())
     if root:
         for message in _warnings(scene, model, comm, guards):
             warnings.warn(message, stacklevel=2)
@@ -502,8 +561,10 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     interval = models.info(model).setting(scene, interval_key) if interval_key else 0.0
     writer = None
     if out_dir is not None:
+        columns = output.PAIR_TRAJECTORY_COLUMNS if scene.pair else output.TRAJECTORY_COLUMNS
         writer = on_root(comm, lambda: output.TrajectoryWriter(out_dir / "trajectory.csv", interval,
-                                                                 continue_from=resumed["trajectory_rows"]))
+                                                                 continue_from=resumed["trajectory_rows"],
+                                                                 columns=columns))
     record = _RunRecord(scene, model, writer, resumed["wall_time_s"])
     integrator.record = record
     if writer is not None:

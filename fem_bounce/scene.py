@@ -343,6 +343,12 @@ class Scene:
             raise SceneError(f"second_sphere.gap = {second.gap:g} m must exceed contact.delta_ss times the pair's "
                              f"reduced diameter ({pair_diameter(self.sphere, second):.4g} m): start outside contact")
         c = self.contact
+        if second is not None and c.history != "off":
+            raise SceneError(f"contact.history = {c.history!r} is not modelled for a pair of spheres: set "
+                             'contact.history = "off" (docs/physics.md section 6)')
+        if second is not None and c.near_wall != "correction":
+            raise SceneError(f"contact.near_wall = {c.near_wall!r} is not implemented for a pair of spheres: use "
+                             '"correction"')
         if c.delta_ss >= c.delta_sl:
             raise SceneError(
                 f"contact.delta_ss = {c.delta_ss:g} must be smaller than contact.delta_sl = {c.delta_sl:g}"

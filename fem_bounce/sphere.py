@@ -87,38 +87,16 @@ class SphereIntegrator:
         self.y.setArray(np.r_[self.scene.initial_gap, v0, np.zeros(n - 2)])
         self._jac = PETSc.Mat().createDense([n, n], comm=PETSc.COMM_SELF)
         self._jac.setUp()
-        ts = PETSc.TS().create(comm=PETSc.COMM_SELF)
-        ts.setOptionsPrefix("sphere_")
-        ts.setType(PETSc.TS.Type.ROSW)
-        ts.setIFunction(self._ifunction, None)
-        ts.setIJacobian(self._ijacobian, self._jac)
         opts = self.scene.numerics.ode
         # Without f_ss lubrication stops the sphere ~1e-11 m from the wall: the gap's absolute
         # tolerance is 1e-6 of the others so the relative one governs down there.
         atol = self._atol = self.y.duplicate()
         atol.set(opts.atol)
         atol.setValue(0, 1e-6 * opts.atol)
-        ts.setTolerances(rtol=opts.rtol, atol=atol)
-        ts.setTime(0.0)
-        ts.setTimeStep(1e-3 * self.scene.time_unit)
-        ts.setMaxSteps(2**31 - 1)
-        ts.setMaxSNESFailures(-1)
-        ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
-        scene_defaults = {
-            "sphere_ts_adapt_dt_max": 0.02 * self.scene.time_unit,
-            # After an event PETSc 3.18 resumes with the rest of the interrupted step, unchecked by the
-            # error control; inside the stiff contact that lost 0.5 % of the energy.  Restart tiny instead.
-            "sphere_ts_event_post_event_step": 1e-7 * self.scene.time_unit,
-        }
-        ts.getSNES().getKSP().setType("preonly")
-        ts.getSNES().getKSP().getPC().setType("lu")
-        ts.setPostStep(self._post_step)
-        with _options_for_one_solver(scene_defaults):  # the event handler reads its options when set
-            if self.mode == "free":
-                ts.setEventHandler([0, 0, 0, -1], [False, False, False, True], self._indicators, self._post_event)
-                ts.setEventTolerances(1e-9)  # dimensionless; 1e-12 made PETSc 3.18 take dt = 0 steps
-            ts.setFromOptions()
-        self.ts = ts
+        events = None
+        if self.mode == "free":
+            events = ([0, 0, 0, -1], [False, False, False, True], self._indicators, self._post_event)
+        self.ts = rosw_solver("sphere_", self, atol, self.scene.time_unit, opts.rtol, events)
 
     def _terms(self, h: float, v: float, z: np.ndarray) -> dict:
         """Every force term that does not need dV/dt [N], and C_M m_l [kg]."""
@@ -332,6 +310,39 @@ class SphereIntegrator:
         machine = dict(state["machine"])
         self.done, self.steps = machine.pop("done"), machine.pop("steps")
         self.bounces.load(state)
+
+
+def rosw_solver(prefix: str, integrator, atol, time_unit: float, rtol: float, events=None) -> PETSc.TS:
+    """The adaptive Rosenbrock-W solver (PETSc TSROSW) of an integrator with `_ifunction`, `_ijacobian`,
+    its dense Jacobian `_jac` and `_post_step`: steps from 1e-3 time units, at most 0.02 (options
+    PREFIXts_adapt_dt_max ... override), LU on the small system, and `events` = (directions, terminate,
+    indicator, post_event) located to 1e-9 (dimensionless indicators)."""
+    ts = PETSc.TS().create(comm=PETSc.COMM_SELF)
+    ts.setOptionsPrefix(prefix)
+    ts.setType(PETSc.TS.Type.ROSW)
+    ts.setIFunction(integrator._ifunction, None)
+    ts.setIJacobian(integrator._ijacobian, integrator._jac)
+    ts.setTolerances(rtol=rtol, atol=atol)
+    ts.setTime(0.0)
+    ts.setTimeStep(1e-3 * time_unit)
+    ts.setMaxSteps(2**31 - 1)
+    ts.setMaxSNESFailures(-1)
+    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+    scene_defaults = {
+        f"{prefix}ts_adapt_dt_max": 0.02 * time_unit,
+        # After an event PETSc 3.18 resumes with the rest of the interrupted step, unchecked by the
+        # error control; inside the stiff contact that lost 0.5 % of the energy.  Restart tiny instead.
+        f"{prefix}ts_event_post_event_step": 1e-7 * time_unit,
+    }
+    ts.getSNES().getKSP().setType("preonly")
+    ts.getSNES().getKSP().getPC().setType("lu")
+    ts.setPostStep(integrator._post_step)
+    with _options_for_one_solver(scene_defaults):  # the event handler reads its options when set
+        if events is not None:
+            ts.setEventHandler(*events)
+            ts.setEventTolerances(1e-9)  # dimensionless; 1e-12 made PETSc 3.18 take dt = 0 steps
+        ts.setFromOptions()
+    return ts
 
 
 @contextlib.contextmanager

@@ -183,6 +183,7 @@ class TheoryForces:
                          "none": lambda re: 1.0}[c.inertial_factor]
         self._additive = c.inertial_factor == "additive"
         self._w = {"first-image": first_image_w, "exact": exact_w}[c.added_mass]
+        self.wall_present = scene.wall.present  # without the wall: lambda = 1 and W = 0 at every gap
         self.history_on = c.history == "mei-adrian"
         self._drag_scaled_history = c.history_wall_factor == "drag-scaled"
         theta, self._weights = history_modes(scene.numerics.ode.history_modes_per_decade, c.history_c1, c.history_c2)
@@ -198,7 +199,7 @@ class TheoryForces:
 
     def wall_factor(self, gap: float) -> float:
         """lambda(delta): the quasi-steady Stokes drag near the wall over 6 pi mu a V (wall_drag)."""
-        return self._lambda(gap / self.diameter)
+        return self._lambda(gap / self.diameter) if self.wall_present else 1.0
 
     def drag(self, gap: float, velocity: float) -> float:
         """f_D = -6 pi mu a V (lambda(delta) + phi(Re) - 1) when additive, lambda(delta) phi(Re) when
@@ -212,7 +213,7 @@ class TheoryForces:
 
         f_AM = -C_M m_l dV/dt - (1/2) m_l V^2 dC_M/dh: the second term is the paper's
         -(3/4) m_l V dW/dt with dW/dt = W'(delta) V / D."""
-        w, dw = self._w(gap / self.diameter)
+        w, dw = self._w(gap / self.diameter) if self.wall_present else (0.0, 0.0)
         return 0.5 * (1.0 + 3.0 * w) * self.displaced_mass, 1.5 * dw / self.diameter * self.displaced_mass
 
     def added_mass_velocity_term(self, gap: float, velocity: float) -> float:

@@ -34,6 +34,7 @@ class ModelInfo:
     trajectory_interval_key: str | None = None  # thins the trajectory rows to one per interval [s]
     colour: str = "k"  # the same in every chart
     sources: tuple = ()  # package paths whose code decides its numbers (the study cache's key)
+    pairs: bool = False  # runs a pair of spheres on the axis (scene.second_sphere; fem_bounce.pair)
 
     @property
     def restarts(self) -> bool:
@@ -65,7 +66,7 @@ class ModelInfo:
 
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
 CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "sphere.py", "bounces.py", "motion.py", "flow_model.py",
-                "run.py", "errors.py", "output.py", "models/__init__.py")
+                "run.py", "errors.py", "output.py", "models/__init__.py", "pair.py", "pair_contact.py", "pair_theory.py")
 
 MODELS: dict[str, ModelInfo] = {
     "ode": ModelInfo(
@@ -73,7 +74,7 @@ MODELS: dict[str, ModelInfo] = {
         liquid="nothing: the near-wall theory force f_thr everywhere", resolved=False,
         resolution_key="numerics.ode.rtol", resolution_unit="", ladder=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
         serial=True, trajectory_interval_key="numerics.ode.output_interval", colour="C0",
-        sources=("models/ode.py",)),
+        sources=("models/ode.py",), pairs=True),
     "fd": ModelInfo(
         name="fd", module="fem_bounce.models.fd", class_name="FictitiousDomainModel",
         liquid="axisymmetric Taylor-Hood Navier-Stokes (FEniCSx), diffuse-interface sphere", resolved=True,
@@ -102,6 +103,11 @@ MODELS: dict[str, ModelInfo] = {
 
 BEST_FIRST = ("fd", "ib", "ode")  # the default model: the first of these that imports
 FIDELITY = ("ale", "fd", "ib", "ode")  # which model's finest run serves as a study's reference, first found
+
+
+def pairing() -> list[str]:
+    """The models that run a pair of spheres on the axis."""
+    return [name for name, info in MODELS.items() if info.pairs]
 
 
 def restarting() -> list[str]:

@@ -1,0 +1,412 @@
+"""Two spheres on the axis (a head-on pair, issue 14), advanced with PETSc TS like one sphere (sphere.py).
+
+Sphere 1 is the lower one (its lowest point h1 above z = 0, where the wall is when wall.present), sphere 2
+the second sphere above it; the pair gap s = h2 - h1 - D1 is the distance between the two surfaces.
+Velocities are positive upward.  Each free sphere obeys
+
+    m_i dV_i/dt = f_liquid,i + f_elastic,i - (m_i - m_l,i) g,
+
+and the liquid couples them: f_liquid,i = f_sim,i + f_c,i for a resolved flow, whose force comes
+linearised in both accelerations, f_sim,i = explicit_i - sum_j added_mass_ij dV_j/dt (FluidForce of
+arrays), so the 2 x 2 mass matrix is implicit; without one (the ODE model) f_liquid,i is the theory force
+of pair_contact.py and theory.py:
+
+    f_i = -6 pi mu a_i [lambda_i(delta_i) + phi(Re_i) - 1] V_i          its own drag, the wall's excess included
+          - 6 pi mu a_i sum_j (X_ij(s) - delta_ij) V_j                   the pair's Stokes interaction
+          - C_M,i m_l,i dV_i/dt - (1/2) m_l,i V_i^2 dC_M,i/dh_i          added mass: 1/2 and the wall's image
+
+(the wall and the pair added, not a three-body solution; no history force and no pair added mass:
+docs/physics.md section 6).  A held ("fixed") or prescribed sphere follows its motion (sphere 1:
+scene [motion]; sphere 2: second_sphere.mode and .velocity).
+
+The state is y = [h1, V1, s, V2]: the pair gap, not h2, is integrated, so that the relative tolerance
+governs it near contact as it governs the wall gap of one sphere (an error of rtol h2 would exceed the
+film).  TS events: the pair gap crossing delta_ss 2a* (W_o fixed from the relative speed there) and
+delta_sl 2a*, the relative velocity changing sign (the collision's minimum gap, or the gap's maximum),
+the pair gap reaching 0 (penetration: sphere 2 can never pass sphere 1); and the same for sphere 1 and
+the wall when the wall is present.  Two BounceRecords (bounces.py) keep the collisions of the pair
+and of the wall.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Callable
+
+import numpy as np
+from petsc4py import PETSc
+
+from .bounces import BounceRecord
+from .contact import ContactModel
+from .motion import prescribed_velocity, start_velocities
+from .pair_contact import PairContactModel
+from .scene import Scene, SceneError
+from .sphere import FluidForce, PenetrationError, rosw_solver
+from .theory import TheoryForces
+
+
+def sphere_scene(scene: Scene, k: int) -> Scene:
+    """The scene as seen by sphere k alone (0: sphere 1, 1: the second sphere): its material as `sphere`,
+    its initial gap, no second sphere.  For the per-sphere theory forces; never run or validated."""
+    if k == 0:
+        return dataclasses.replace(scene, second_sphere=None)
+    return dataclasses.replace(scene, sphere=scene.second_sphere, initial_gap=scene.initial_gaps[1],
+                               second_sphere=None)
+
+
+class PairIntegrator:
+    """Advances a pair of spheres; the same object serves the ODE and the resolved models.  `gap` and
+    `velocity` are arrays (sphere 1 first): each sphere's lowest point above z = 0 and its velocity."""
+
+    def __init__(self, scene: Scene, resolved: bool = False, stop_after_impacts: int = 0):
+        if not scene.pair:
+            raise SceneError("a PairIntegrator needs a pair scene: give [second_sphere]")
+        self.scene = scene
+        self.resolved = resolved
+        self.pair = PairContactModel(scene, resolved)
+        self.wall = ContactModel(scene) if scene.wall.present else None
+        self.theories = (self.wall.theory if self.wall else TheoryForces(sphere_scene(scene, 0)),
+                         TheoryForces(sphere_scene(scene, 1)))
+        second = scene.second_sphere
+        self.modes = (scene.motion.mode, second.mode)
+        self.free = np.array([m == "free" for m in self.modes])
+        self.held = np.array([m == "fixed" for m in self.modes])  # its gap does not change
+        first_motion = prescribed_velocity(scene)
+        self._prescribed = (first_motion, lambda t: (second.velocity if second.mode == "prescribed" else 0.0, 0.0))
+        self.diameters = np.array([s.diameter for s in scene.spheres])
+        self.masses = np.array([s.mass for s in scene.spheres])
+        displaced = np.array([scene.liquid.density * s.volume for s in scene.spheres])
+        self.weights = (self.masses - displaced) * scene.gravity  # net, toward z = 0 [N]
+        self.fluid = FluidForce(np.zeros(2), np.zeros((2, 2)))
+        self.observers: list[Callable[[dict], None]] = []
+        self.pair_record = BounceRecord(scene, self.pair, stop_after_impacts, numbers=self.pair.numbers,
+                                        separating=True)
+        self.wall_record = BounceRecord(scene, self.wall, stop_after_impacts) if self.wall else None
+        self.done = False
+        self.steps = 0
+        self._build_ts()
+
+    @property
+    def n(self) -> int:
+        return 4
+
+    @property
+    def hold_gaps(self) -> tuple[float, float]:
+        """(sphere 1's hold above the wall, the pair gap's hold) [m]: delta_sl D1 and delta_sl 2a* under
+        contact.near_wall = "correction" with a free sphere, else 0 (flow_model.flow_gaps)."""
+        return (self.wall.hold_gap if self.wall else 0.0), self.pair.hold_gap
+
+    # -- the implicit system ------------------------------------------------------------
+    def _build_ts(self) -> None:
+        scene, opts = self.scene, self.scene.numerics.ode
+        v1, v2 = start_velocities(scene)
+        v1 = v1 if self.free[0] else self._prescribed[0](0.0)[0]  # a prescribed series' own V(0)
+        self.y = PETSc.Vec().createSeq(4, comm=PETSc.COMM_SELF)
+        self.y.setArray([scene.initial_gap, v1, scene.second_sphere.gap, v2])
+        self._jac = PETSc.Mat().createDense([4, 4], comm=PETSc.COMM_SELF)
+        self._jac.setUp()
+        atol = self._atol = self.y.duplicate()
+        atol.set(opts.atol)
+        atol.setValue(2, 1e-6 * opts.atol)  # the pair gap: the relative tolerance governs near contact
+        if self.wall:
+            atol.setValue(0, 1e-6 * opts.atol)
+        self._events = self._event_list()
+        events = None
+        if self._events:
+            directions = [direction for _, _, direction, _ in self._events]
+            terminal = [terminate for _, _, _, terminate in self._events]
+            events = (directions, terminal, self._indicators, self._post_event)
+        self.ts = rosw_solver("pair_", self, atol, scene.time_unit, opts.rtol, events)
+
+    def _rates(self, v: np.ndarray) -> np.ndarray:
+        """dh_i/dt: a held sphere's gap stays (its surface may still move: motion.mode = "fixed")."""
+        return np.where(self.held, 0.0, v)
+
+    def _terms(self, t: float, y) -> dict:
+        """Every force term that does not need the accelerations [N], the added masses C_M,i m_l,i [kg]."""
+        h1, v1, s, v2 = y
+        gaps = np.array([h1, h1 + self.diameters[0] + s])
+        v = np.array([v1, v2])
+        th = self.theories
+        terms = dict(
+            gaps=gaps, velocities=v, pair_gap=s,
+            c_m=np.array([th[k].added_mass(gaps[k])[0] for k in range(2)]),
+            drag=np.array([th[k].drag(gaps[k], v[k]) for k in range(2)]),
+            am_velocity=np.array([th[k].added_mass_velocity_term(gaps[k], v[k]) for k in range(2)]),
+            pair=self.pair.interaction(s, v),
+            elastic=np.zeros(2), correction=np.zeros(2), correction_mass=np.zeros(2),
+        )
+        if self.pair_record.in_contact:
+            push = self.pair.elastic(s, self.pair_record.hertz_force)
+            terms["elastic"] += (-push, push)
+        if self.wall and self.wall_record.in_contact:
+            terms["elastic"][0] += self.wall.elastic(h1, self.wall_record.hertz_force)
+        if self.resolved:
+            terms["correction"] += self.pair.correction(s, v)
+            if self.wall:
+                force, mass = self.wall.correction(h1, v1)
+                terms["correction"][0] += force
+                terms["correction_mass"][0] += mass
+        return terms
+
+    def _balance(self, t: float, y, terms: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(M, R): the equations of motion read M dV/dt = R (a held or prescribed sphere's row: its
+        acceleration)."""
+        f = terms or self._terms(t, y)
+        if self.resolved:
+            mass = np.diag(self.masses + f["correction_mass"]) + np.asarray(self.fluid.added_mass, dtype=float)
+            rhs = np.asarray(self.fluid.explicit, dtype=float) + f["correction"]
+        else:
+            mass = np.diag(self.masses + f["c_m"])
+            rhs = f["drag"] + f["am_velocity"] + f["pair"]
+        rhs = rhs + f["elastic"] - self.weights
+        for k in np.flatnonzero(~self.free):
+            mass[k] = np.eye(2)[k]
+            rhs[k] = self._prescribed[k](t)[1]
+        return mass, rhs
+
+    def _residual(self, t: float, y, ydot) -> np.ndarray:
+        mass, rhs = self._balance(t, y)
+        rates = self._rates(np.array([y[1], y[3]]))
+        force = mass @ np.array([ydot[1], ydot[3]]) - rhs
+        return np.array([ydot[0] - rates[0], force[0], ydot[2] - (rates[1] - rates[0]), force[1]])
+
+    def _ifunction(self, ts, t, y, ydot, f) -> None:
+        f.setArray(self._residual(t, y.array_r, ydot.array_r))
+
+    def _ijacobian(self, ts, t, y, ydot, a, A, P) -> bool:
+        y, ydot = np.array(y.array_r), np.array(ydot.array_r)
+        base = self._residual(t, y, ydot)
+        scales = (self.diameters[0] * 1e-3, 1e-3, self.pair.diameter * 1e-3, 1e-3)
+        jac = np.empty((4, 4))
+        for k in range(4):  # d/dy by differences (the rate rows exactly so: they are linear)
+            step = 1e-7 * max(abs(y[k]), scales[k])
+            shifted = y.copy()
+            shifted[k] += step
+            jac[:, k] = (self._residual(t, shifted, ydot) - base) / step
+        mass, _ = self._balance(t, y)
+        jac[0, 0] += a
+        jac[2, 2] += a
+        jac[np.ix_([1, 3], [1, 3])] += a * mass
+        P.setValues(range(4), range(4), jac.ravel())
+        P.assemble()
+        if A != P:
+            A.assemble()
+        return True
+
+    # -- events and records ---------------------------------------------------------------
+    def _event_list(self) -> list:
+        """(name, indicator(y) dimensionless, direction, terminate) of each event located."""
+        if not self.free.any():
+            return []
+        d1, d_pair, vu = self.diameters[0], self.pair.diameter, self.scene.velocity_unit
+        pair_rate = lambda y: float(np.diff(self._rates(np.array([y[1], y[3]])))[0])  # noqa: E731
+        events = [
+            ("pair_contact", lambda y: (y[2] - self.pair.contact_gap) / d_pair, 0, False),
+            ("pair_turn", lambda y: pair_rate(y) / vu, 0, False),
+            ("pair_blend", lambda y: (y[2] - self.pair.blend_gap) / d_pair, 0, False),
+            ("pair_penetration", lambda y: y[2] / d_pair, -1, True),
+        ]
+        if self.wall and self.free[0]:
+            events += [
+                ("wall_contact", lambda y: (y[0] - self.wall.contact_gap) / d1, 0, False),
+                ("wall_turn", lambda y: self._rates(np.array([y[1], y[3]]))[0] / vu, 0, False),
+                ("wall_blend", lambda y: (y[0] - self.wall.blend_gap) / d1, 0, False),
+                ("wall_penetration", lambda y: y[0] / d1, -1, True),
+            ]
+        return events
+
+    def _indicators(self, ts, t, y, values) -> None:
+        y = y.array_r
+        for k, (_, indicator, _, _) in enumerate(self._events):
+            values[k] = indicator(y)
+
+    def _post_event(self, ts, events, t, y, forward) -> None:
+        h1, v1, s, v2 = y.array_r
+        rates = self._rates(np.array([v1, v2]))
+        pair_rate = rates[1] - rates[0]
+        for event in events:
+            name = self._events[event][0]
+            if name == "pair_contact":
+                self.pair_record.contact_crossing(s, pair_rate)
+            elif name == "pair_turn":
+                self.pair_record.turning_point(t, s)
+            elif name == "pair_blend":
+                self.pair_record.blend_crossing(t, pair_rate, s)
+            elif name == "wall_contact":
+                self.wall_record.contact_crossing(h1, rates[0])
+            elif name == "wall_turn":
+                self.wall_record.turning_point(t, h1)
+            elif name == "wall_blend":
+                self.wall_record.blend_crossing(t, rates[0])
+            elif name == "pair_penetration":
+                raise PenetrationError(f"sphere 2 reached sphere 1 at t = {t:.6g} s (pair gap {s:.3g} m)")
+            else:
+                raise PenetrationError(f"sphere 1 reached the wall at t = {t:.6g} s (gap {h1:.3g} m)")
+
+    def _records(self) -> list[BounceRecord]:
+        return [r for r in (self.pair_record, self.wall_record) if r is not None]
+
+    def _log(self, t: float, y, initial: bool = False) -> None:
+        h1, v1, s, v2 = y
+        rates = self._rates(np.array([v1, v2]))
+        self.pair_record.log(t, s, rates[1] - rates[0], initial=initial)
+        if self.wall_record is not None:
+            self.wall_record.log(t, h1, rates[0], initial=initial)
+
+    def _post_step(self, ts) -> None:
+        t = ts.getTime()
+        y = ts.getSolution().array_r
+        self.steps += 1
+        self._log(t, y)
+        if self.observers:
+            row = self.row(t, y)
+            for observer in self.observers:
+                observer(row)
+        if t >= min(r.stop_at for r in self._records()):
+            self.done = True
+        if self.done:
+            ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
+
+    def row(self, t: float, y) -> dict:
+        """Both spheres' gaps, velocities, accelerations and force terms at one instant [SI]: the
+        columns of output.PAIR_TRAJECTORY_COLUMNS (suffix _1: sphere 1, _2: sphere 2)."""
+        f = self._terms(t, y)
+        mass, rhs = self._balance(t, y, f)
+        accel = np.linalg.solve(mass, rhs)
+        added_mass = -f["c_m"] * accel + f["am_velocity"]
+        theory = f["drag"] + f["pair"] + added_mass
+        fluid = self.fluid
+        sim = (np.asarray(fluid.explicit) - np.asarray(fluid.added_mass) @ accel) if self.resolved else theory
+        correction = f["correction"] - f["correction_mass"] * accel
+        per_sphere = dict(gap=f["gaps"], velocity=f["velocities"], acceleration=accel, f_drag=f["drag"],
+                          f_pair=f["pair"], f_added_mass=added_mass, f_theory=theory, f_sim=sim,
+                          f_liquid=sim + correction, f_elastic=f["elastic"], f_correction=correction)
+        row = {"t": t, "pair_gap": f["pair_gap"]}
+        for name, values in per_sphere.items():
+            row[f"{name}_1"], row[f"{name}_2"] = float(values[0]), float(values[1])
+        return row
+
+    # -- driving it -----------------------------------------------------------------------------
+    def _state(self) -> np.ndarray:
+        return np.array(self.y.array_r) if self.ts is not None else self._final
+
+    @property
+    def time(self) -> float:
+        return self.ts.getTime() if self.ts is not None else self._final_time
+
+    @property
+    def gap(self) -> np.ndarray:
+        h1, _, s, _ = self._state()
+        return np.array([h1, h1 + self.diameters[0] + s])
+
+    @property
+    def velocity(self) -> np.ndarray:
+        _, v1, _, v2 = self._state()
+        return np.array([v1, v2])
+
+    @property
+    def pair_gap(self) -> float:
+        return float(self._state()[2])
+
+    def current_row(self) -> dict:
+        return self.row(self.time, self._state())
+
+    def advance(self, t_end: float, fluid: FluidForce | None = None) -> None:
+        """Integrate to t_end (or until the collision limit), with f_sim linearised as `fluid` (arrays)."""
+        if fluid is not None:
+            self.fluid = fluid
+        if self.done or t_end <= self.time:
+            return
+        if self.steps == 0:
+            self._log(0.0, self.y.array_r, initial=True)
+            for observer in self.observers:
+                observer(self.row(0.0, self.y.array_r))
+        self.ts.setMaxTime(t_end)
+        self.ts.solve(self.y)
+        if not np.all(np.isfinite(self.y.array_r)):
+            raise FloatingPointError(f"the pair's state became {self.y.array_r.tolist()} at t = {self.time:.6g} s")
+
+    def finish(self) -> None:
+        """Close the records (the rebound means; e = 0 for a collision that never left contact)."""
+        for record in self._records():
+            record.finish()
+
+    # -- the records ------------------------------------------------------------------------------
+    @property
+    def impacts(self) -> list:
+        """Sphere 1's impacts on the wall (the pair's collisions: `collisions`)."""
+        return self.wall_record.impacts if self.wall_record else []
+
+    @property
+    def rebounds(self) -> list:
+        return self.wall_record.rebounds if self.wall_record else []
+
+    @property
+    def blend_crossings(self) -> list[dict]:
+        return self.wall_record.blend_crossings if self.wall_record else []
+
+    def collisions(self) -> list[dict]:
+        """Every collision, in time order: kind ("pair" or "wall"), time of the minimum gap, min_gap,
+        the relative impact speed, Re and St of it, and the restitution e.
+
+        A pair's e and impact speed are taken where the pair gap passes delta_sl 2a* (on the way in, and
+        out after the collision): e = separation speed / approach speed there, 0 when the gap does not
+        open beyond delta_sl 2a* before the next collision or the end (docs/physics.md section 6: the 2 ms
+        means of the wall, also given as *_2ms, lie inside the contact layer at a pendulum's speeds).
+        A wall collision's are the wall's 2 ms means (bounces.Rebound)."""
+        found = []
+        for kind, record in (("pair", self.pair_record), ("wall", self.wall_record)):
+            if record is None:
+                continue
+            for k, impact in enumerate(record.impacts):
+                entry = {"kind": kind, **dataclasses.asdict(impact)}
+                if k < len(record.rebounds):
+                    entry.update(dataclasses.asdict(record.rebounds[k]))
+                if kind == "pair":
+                    following = record.impacts[k + 1].time if k + 1 < len(record.impacts) else math.inf
+                    self._at_blend_gap(entry, record.blend_crossings, following)
+                found.append(entry)
+        return sorted(found, key=lambda c: c["time"])
+
+    def _at_blend_gap(self, entry: dict, crossings: list[dict], following: float) -> None:
+        """Speeds, St, Re and e of a pair collision where its gap passes delta_sl 2a* (collisions)."""
+        before = [c for c in crossings if c["direction"] == "in" and c["time"] <= entry["time"]]
+        after = [c for c in crossings if c["direction"] == "out" and entry["time"] < c["time"] < following]
+        for key in ("impact_speed", "Re", "St", "restitution"):
+            entry[f"{key}_2ms"] = entry.get(key)
+        if not before:  # it started inside delta_sl 2a*: the 2 ms means stand
+            return
+        approach = before[-1]["speed"]
+        entry["impact_speed"] = approach
+        entry["Re"], entry["St"] = self.pair.numbers(approach)
+        entry["separation_speed"] = after[0]["speed"] if after else 0.0
+        entry["restitution"] = entry["separation_speed"] / approach
+
+    def destroy(self) -> None:
+        """Free the PETSc objects (the records, and the last state as plain numbers, stay)."""
+        if self.ts is None:
+            return
+        self._final, self._final_time = np.array(self.y.array_r), self.ts.getTime()
+        for obj in (self.ts, self._jac, self._atol, self.y):
+            obj.destroy()
+        self.ts = None
+
+    # -- checkpoints ----------------------------------------------------------------------------
+    def state_dict(self) -> dict:
+        state = dict(time=self.time, y=self.y.array_r.tolist(), step_size=self.ts.getTimeStep(),
+                     machine={"done": self.done, "steps": self.steps}, records={})
+        for name, record in (("pair", self.pair_record), ("wall", self.wall_record)):
+            if record is not None:
+                state["records"][name] = {}
+                record.save(state["records"][name])
+        return state
+
+    def load_state_dict(self, state: dict) -> None:
+        self.ts.setTime(state["time"])
+        self.ts.setTimeStep(state["step_size"])
+        self.y.setArray(state["y"])
+        self.done, self.steps = state["machine"]["done"], state["machine"]["steps"]
+        for name, record in (("pair", self.pair_record), ("wall", self.wall_record)):
+            if record is not None:
+                record.load(state["records"][name])
