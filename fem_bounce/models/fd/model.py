@@ -33,7 +33,7 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
 from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
-from ...motion import is_stream, start_velocity
+from ...motion import is_stream, start_velocities, start_velocity
 from ...output import CheckpointError, segment_path
 from ...scene import SceneError
 from ...sphere import FluidForce
@@ -148,7 +148,7 @@ class FictitiousDomainModel(FlowModel):
                                  fd.interface_width * fine, [gap + a for gap, a in zip(scene.initial_gaps, radii)])
         if not self.held.all():
             self.pair.check_hold(self.hold_gaps[1], "the pair's hold gap of the contact model")
-        velocity = np.array([start_velocity(scene), scene.second_sphere.velocity])
+        velocity = np.array(start_velocities(scene))
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.pair.volumes] * order)
 
@@ -279,7 +279,9 @@ class FictitiousDomainModel(FlowModel):
         self.step = n_steps
 
     def steady_velocities(self):
-        """The held spheres' surface velocities [m/s]: motion.velocity, and second_sphere.velocity for a pair."""
+        """The held spheres' surface velocities [m/s]: motion.velocity, and for a held pair also
+        second_sphere.velocity (its surface moving while held, as motion.mode = "fixed" holds sphere 1:
+        the quasi-steady drag of a pair moving together or approaching, benchmarks/pair_stokes.py)."""
         if self.pair is None:
             return self.scene.motion.velocity
         return np.array([self.scene.motion.velocity, self.scene.second_sphere.velocity])
