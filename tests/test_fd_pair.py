@@ -33,7 +33,8 @@ def pair_scene(preset: str, changes: dict, gap: float, velocity: float, mode: st
     base = scene.load(preset)
     sphere = base.sphere
     second = {"second_sphere.diameter": sphere.diameter, "second_sphere.density": sphere.density,
-              "second_sphere.youngs_modulus": sphere.youngs_modulus, "second_sphere.poisson_ratio": sphere.poisson_ratio,
+              "second_sphere.youngs_modulus": sphere.youngs_modulus,
+              "second_sphere.poisson_ratio": sphere.poisson_ratio,
               "second_sphere.gap": gap, "second_sphere.velocity": velocity, "second_sphere.mode": mode,
               "contact.history": "off"}  # the pair's integrator has no history force
     with warnings.catch_warnings():

@@ -206,7 +206,8 @@ class FictitiousDomainModel(FlowModel):
         linear = coupling.linearise_pair(integrals, self.scene.liquid.density, flow.c, h.momentum_history,
                                          h.reference_velocity)
         if not (np.all(np.isfinite(linear.explicit)) and np.all(np.isfinite(linear.added_mass))):
-            raise FloatingPointError(f"the fluid forces became {linear.explicit} N at t = {(self.step + 1) * self.dt:.6g} s")
+            raise FloatingPointError(f"the fluid forces became {linear.explicit} N at "
+                                     f"t = {(self.step + 1) * self.dt:.6g} s")
         self.last_force = linear
         self._integrator_start = time.perf_counter()
         added_mass = linear.added_mass if self.settings.coupling == "implicit" else np.zeros((2, 2))
