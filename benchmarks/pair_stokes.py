@@ -24,7 +24,7 @@ numerics.fd.radius_offset, and the far slip walls) divided out.  Both are tabula
 Measured (benchmarks/history/pair_stokes.json, serial, the model's defaults otherwise):
   single    lambda_raw 1.004 / 1.008 / 1.011 at 12 / 16 / 24 cells/D (far field 50 D), 0.996 at
             12 cells/D with far field 100 D: the slip sides at 50 D add ~0.8 %, the diffuse sphere's
-            effective radius is within ~0.5 % of a (its drag scales with it).
+            effective radius is within ~1 % of a (its drag scales with it).
   together  lambda within +0.7 .. +1.4 % of Stimson & Jeffery at every separation and resolution
             (24 cells/D: +0.71 % at gap 0.25 D up to +1.26 % at 3 D); the error grows with separation
             because the slip sides weaken the far interaction: +0.50 .. +0.76 % with far field 100 D.
