@@ -11,6 +11,10 @@ controller (fem_bounce.run.Controller), which owns the loop, the observers and t
    f_sim with f_thr below delta_sl exactly as every model does;
 5. read back U and set the step's field u = u~ + y0 + s(U) y1.
 
+A pair of spheres on the axis (scene.pair, issue 14) goes through the same step with one indicator,
+one amplitude and one unit response per sphere (pair.ImmersedPair): the velocities and forces are
+arrays, the added mass the 2 x 2 matrix of coupling.linearise_pair; the penalty scheme only.
+
 A checkpoint holds the flow's BDF history by dof coordinates (fem.functions), so a run checkpointed
 on two ranks can restart on one.
 """
@@ -22,12 +26,14 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ...fem.domain import speed_scale
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel, Prediction, steps_to
-from ...motion import is_stream, start_velocity
+from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
+from ...motion import is_stream, start_velocities, start_velocity
 from ...output import CheckpointError, segment_path
 from ...scene import SceneError
 from ...sphere import FluidForce
@@ -37,13 +43,15 @@ from .fields import FieldWriter
 from .fluid import FlowSolver
 from .immersed import ImmersedSphere
 from .multiplier import RigidConstraint
+from .pair import ImmersedPair
 from .steady import SteadyMultiplierStokes, SteadyStokes
 
 
 @dataclass
 class History:
     """The sphere's velocities [m/s] and interior integrals I = U V_phi [m^4/s] of the last steps,
-    newest first; `bdf` are the flow's BDF coefficients."""
+    newest first (for a pair each entry an array, one value per sphere); `bdf` are the flow's BDF
+    coefficients."""
 
     bdf: tuple
     velocities: list
@@ -90,17 +98,37 @@ class FictitiousDomainModel(FlowModel):
         self.steady = self.settings.steady_stokes
         if self.settings.steady_stokes and (scene.motion.mode != "fixed" or is_stream(scene)):
             raise SceneError("numerics.fd.steady_stokes = true needs motion.mode = \"fixed\" without a stream")
+        self.pair: ImmersedPair | None = None
+        if scene.pair:
+            self._check_pair(scene)
+
+    def _check_pair(self, scene) -> None:
+        if self.settings.constraint != "penalty":
+            raise SceneError("numerics.fd.constraint = \"multiplier\" holds one sphere only: a pair needs \"penalty\"")
+        if is_stream(scene):
+            raise SceneError("a pair in a stream (motion.stream_velocity) is not modelled: give stream_velocity = 0")
+        if self.steady and scene.second_sphere.mode != "fixed":
+            raise SceneError("numerics.fd.steady_stokes = true with a pair needs second_sphere.mode = \"fixed\"")
+        # which spheres the flow holds at their initial positions (their surfaces may still move)
+        self.held = np.array([scene.motion.mode == "fixed", scene.second_sphere.mode == "fixed"])
 
     # -- set-up ---------------------------------------------------------------------------
     def build(self, integrator) -> None:
         start = time.perf_counter()
         scene, domain, fd = self.scene, self.domain, self.settings
-        self.hold_gap = integrator.contact.hold_gap
+        if scene.pair:
+            self.hold_gaps = tuple(integrator.hold_gaps)  # (wall, pair) [m]
+        else:
+            self.hold_gap = integrator.contact.hold_gap
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
         self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
                                inflow_speed=domain.inflow_speed, order=fd.time_order, solver=fd.solver)
         self.flow.set_uniform((0.0, domain.inflow_speed))
+        if scene.pair:
+            self._build_pair()
+            self.timings["setup"] = time.perf_counter() - start
+            return
         radius = scene.sphere.radius + fd.radius_offset * domain.fine_size
         self.sphere = ImmersedSphere(self.flow, radius, fd.interface_width * domain.fine_size, domain.center)
         velocity = start_velocity(scene)
@@ -110,6 +138,19 @@ class FictitiousDomainModel(FlowModel):
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.sphere.volume] * order)
         self.timings["setup"] = time.perf_counter() - start
+
+    def _build_pair(self) -> None:
+        """Both spheres' indicators at their initial centres; the flow at rest, the history at the
+        spheres' initial velocities."""
+        scene, fd, fine = self.scene, self.settings, self.domain.fine_size
+        radii = [sphere.radius for sphere in scene.spheres]
+        self.pair = ImmersedPair(self.flow, [a + fd.radius_offset * fine for a in radii], radii,
+                                 fd.interface_width * fine, [gap + a for gap, a in zip(scene.initial_gaps, radii)])
+        if not self.held.all():
+            self.pair.check_hold(self.hold_gaps[1], "the pair's hold gap of the contact model")
+        velocity = np.array(start_velocities(scene))
+        order = self.flow.order
+        self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.pair.volumes] * order)
 
     def initial_velocities(self) -> list[float]:
         return list(self.history.velocities)
@@ -123,7 +164,23 @@ class FictitiousDomainModel(FlowModel):
         radius = self.scene.sphere.radius
         return radius + max(prediction.center(radius) - radius, self.hold_gap, 0.0)
 
+    def predicted_centers(self, prediction: Prediction) -> np.ndarray:
+        """Where the flow's pair will be at t_{n+1} [m]: held spheres stay put, the others as predicted
+        but no closer than the contact model's hold gaps (flow_model.flow_gaps); a sphere approaching a
+        held one stops at the pair's hold gap below it."""
+        scene, held = self.scene, self.held
+        diameters = [sphere.diameter for sphere in scene.spheres]
+        wall_hold, pair_hold = self.hold_gaps
+        gaps = np.array(prediction.gap, dtype=float)
+        gaps[held] = np.array(scene.initial_gaps)[held]
+        if held[1] and not held[0]:
+            gaps[0] = min(gaps[0], gaps[1] - diameters[0] - pair_hold)
+        gaps = flow_gaps(gaps, diameters, wall_hold, pair_hold)
+        return gaps + np.array([sphere.radius for sphere in scene.spheres])
+
     def linearised_force(self, prediction: Prediction) -> FluidForce:
+        if self.pair is not None:
+            return self._linearised_pair_force(prediction)
         sphere = self.sphere
         t_next = (self.step + 1) * self.dt
         center = self.predicted_center(prediction)
@@ -135,6 +192,25 @@ class FictitiousDomainModel(FlowModel):
         self.last_force = linear
         self._integrator_start = time.perf_counter()
         added_mass = linear.added_mass if self.settings.coupling == "implicit" else 0.0
+        return FluidForce(explicit=linear.explicit, added_mass=added_mass)
+
+    def _linearised_pair_force(self, prediction: Prediction) -> FluidForce:
+        """Both spheres: their forces and the 2 x 2 added mass (pair.ImmersedPair, coupling.linearise_pair)."""
+        flow, pair, h = self.flow, self.pair, self.history
+        pair.place(self.predicted_centers(prediction))
+        predicted = flow.predicted
+        vectors, functions = pair.stale_units()
+        flow.solve([flow.predictor_rhs(), *vectors], [predicted, *functions])
+        flow.solve([pair.forcing(predicted)], [pair.forced])
+        self.integrals = integrals = pair.integrals(predicted)
+        linear = coupling.linearise_pair(integrals, self.scene.liquid.density, flow.c, h.momentum_history,
+                                         h.reference_velocity)
+        if not (np.all(np.isfinite(linear.explicit)) and np.all(np.isfinite(linear.added_mass))):
+            raise FloatingPointError(f"the fluid forces became {linear.explicit} N at "
+                                     f"t = {(self.step + 1) * self.dt:.6g} s")
+        self.last_force = linear
+        self._integrator_start = time.perf_counter()
+        added_mass = linear.added_mass if self.settings.coupling == "implicit" else np.zeros((2, 2))
         return FluidForce(explicit=linear.explicit, added_mass=added_mass)
 
     def _linearise_penalty(self) -> coupling.Linearised:
@@ -175,7 +251,11 @@ class FictitiousDomainModel(FlowModel):
         self.timings["integrator"] += time.perf_counter() - self._integrator_start
         flow, sphere = self.flow, self.sphere
         t_next = (self.step + 1) * self.dt
-        if self.constraint is not None:
+        if self.pair is not None:
+            velocity = np.array(velocity, dtype=float)
+            new = self.pair.field(flow.predicted, coupling.rigid_amplitudes(self.integrals, velocity), flow.work)
+            volume = self.integrals.volume
+        elif self.constraint is not None:
             new = self.constraint.field(flow.predicted, velocity - self._extrapolated, flow.work)
             volume = sphere.volume
         else:
@@ -193,6 +273,35 @@ class FictitiousDomainModel(FlowModel):
 
     def solve_steady(self, integrator) -> None:
         """Jump to the steady Stokes state of the step (steady.SteadyStokes) at the end time."""
+        force = self.steady_forces()
+        n_steps = steps_to(self.scene.run.end_time, self.dt)
+        added_mass = np.zeros((2, 2)) if self.pair is not None else 0.0
+        integrator.advance(n_steps * self.dt, FluidForce(explicit=force, added_mass=added_mass))
+        self.step = n_steps
+
+    def steady_velocities(self):
+        """The held spheres' surface velocities [m/s]: motion.velocity, and for a held pair also
+        second_sphere.velocity (its surface moving while held, as motion.mode = "fixed" holds sphere 1:
+        the quasi-steady drag of a pair moving together or approaching, benchmarks/pair_stokes.py)."""
+        if self.pair is None:
+            return self.scene.motion.velocity
+        return np.array([self.scene.motion.velocity, self.scene.second_sphere.velocity])
+
+    def steady_forces(self):
+        """The steady Stokes force on the held sphere [N] (an array, one per sphere, for a held pair); the
+        flow's states are left at that steady state."""
+        velocity = self.steady_velocities()
+        if self.pair is not None:
+            steady = SteadyStokes(self.flow, self.pair.spheres[0], spheres=self.pair.spheres)
+            try:
+                forces, integrals = steady.solve_pair(velocity)
+            finally:
+                steady.destroy()
+            self.steady_iterations = steady.iterations
+            self.integrals = integrals
+            self.last_force = coupling.Linearised(forces, coupling.added_mass_matrix(integrals,
+                                                  self.scene.liquid.density), velocity)
+            return forces
         if self.constraint is not None:
             steady = SteadyMultiplierStokes(self.flow, self.sphere, tolerance=1e-6)
         else:
@@ -204,9 +313,7 @@ class FictitiousDomainModel(FlowModel):
         self.steady_iterations = steady.iterations
         added_mass = coupling.added_mass(integrals, self.scene.liquid.density) if self.constraint is None else 0.0
         self.last_force = coupling.Linearised(force, added_mass, self.scene.motion.velocity)
-        n_steps = steps_to(self.scene.run.end_time, self.dt)
-        integrator.advance(n_steps * self.dt, FluidForce(explicit=force))
-        self.step = n_steps
+        return force
 
     def resolved_top(self) -> float:
         """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
@@ -215,8 +322,11 @@ class FictitiousDomainModel(FlowModel):
     # -- checkpoints and fields -------------------------------------------------------------
     def checkpoint_state(self) -> tuple[dict, dict]:
         """The BDF history of the flow (u, p at t_n, t_{n-1}, ...) by dof coordinates, gathered on rank 0,
-        and of the sphere's velocities and interior integrals."""
+        and of the sphere's velocities and interior integrals (for a pair, a list per sphere each)."""
         h = self.history
+        if self.pair is not None:
+            return ({"dt": self.dt, "velocities": [list(map(float, v)) for v in h.velocities],
+                     "interiors": [list(map(float, i)) for i in h.interiors]}, gather_history(self.flow.states))
         return ({"dt": self.dt, "velocities": h.velocities, "interiors": h.interiors},
                 gather_history(self.flow.states))
 
@@ -228,6 +338,12 @@ class FictitiousDomainModel(FlowModel):
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.domain.fine_size)
         except (ValueError, KeyError, CheckpointMismatch) as err:
             raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
+        if self.pair is not None:
+            if any(len(np.atleast_1d(v)) != 2 for v in state["velocities"]):
+                raise CheckpointError("the checkpoint holds one sphere, this scene a pair: the scene was changed")
+            self.history = History(self.flow.bdf, [np.array(v, dtype=float) for v in state["velocities"]],
+                                   [np.array(i, dtype=float) for i in state["interiors"]])
+            return
         self.history = History(self.flow.bdf, list(state["velocities"]), list(state["interiors"]))
 
     def open_outputs(self, out_dir: Path, restart: bool) -> None:
@@ -269,12 +385,24 @@ class FictitiousDomainModel(FlowModel):
             "krylov_iterations_per_solve": (operator.iterations / max(solves, 1) if hasattr(operator, "iterations")
                                             else None),
             "mesh_key": self.domain.spec.key(),
-            "added_mass_over_displaced": (self.last_force.added_mass / self.scene.displaced_mass
-                                          if self.last_force is not None else None),
-            "indicator_volume_over_sphere": self.sphere.volume / self.scene.sphere.volume,
+            **(self.pair_report() if self.pair is not None else {
+                "added_mass_over_displaced": (self.last_force.added_mass / self.scene.displaced_mass
+                                              if self.last_force is not None else None),
+                "indicator_volume_over_sphere": self.sphere.volume / self.scene.sphere.volume}),
             "steady_gmres_iterations": self.steady_iterations,
             **(self.constraint_report() if self.constraint is not None else {}),
         }
+
+    def pair_report(self) -> dict:
+        """A pair's last 2 x 2 added mass, each row over its sphere's displaced mass, and each indicator's
+        volume over its sphere's."""
+        scene = self.scene
+        displaced = np.array([scene.liquid.density * sphere.volume for sphere in scene.spheres])
+        matrix = self.last_force.added_mass if self.last_force is not None else None
+        return {"added_mass_over_displaced": (matrix / displaced[:, None]).tolist() if matrix is not None else None,
+                "indicator_volume_over_sphere": (self.pair.volumes
+                                                 / np.array([sphere.volume for sphere in scene.spheres])).tolist(),
+                "pair_min_flow_gap_m": self.pair.min_gap}
 
     def constraint_report(self) -> dict:
         """The multiplier's cost and how rigid the interior is at the end (max |u - U e_z| where phi = 1)."""
@@ -291,5 +419,7 @@ class FictitiousDomainModel(FlowModel):
             self.constraint.destroy()
         if self.sphere is not None:
             self.sphere.destroy()
+        if self.pair is not None:
+            self.pair.destroy()
         if self.flow is not None:
             self.flow.destroy()

@@ -21,9 +21,19 @@ identity, and converges in a few dozen iterations.  Then u = S^-1 f and the forc
 is the step's, F = -rho c (s V_phi - I(u~)).  This is the state marching would
 reach at the same dt, so it checks the forcing the bouncing runs use (Brenner's
 wall drag) at the cost of three extra factorisations.  Convection is left out.
+
+A held pair (models/fd/pair.py) has Phi = Phi_1 + Phi_2 and one amplitude per sphere: J f_j =
+rho c Phi_j e_z is solved for each sphere j (two GMRES solves), u_j = S^-1 f_j, and the amplitudes
+s = K^-1 (U_i V_i) with K_ij = I_i(u_j) give every interior its sphere's mean velocity; the state is
+u = sum_j s_j u_j and each sphere's force F_i = -rho c (s_i V_i - I_i(u~)) (Stimson & Jeffery's and
+Cooley & O'Neill's drags, benchmarks/pair_stokes.py).
 """
 from __future__ import annotations
 
+import functools
+import operator
+
+import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_matrix, set_bc
@@ -31,19 +41,22 @@ from petsc4py import PETSc
 
 from ...fem import forms
 from ...fem.solver import FactorizedOperator, SolverError
-from .coupling import InteriorIntegrals
+from .coupling import InteriorIntegrals, PairIntegrals
 from .immersed import indicator
 
 
 class SteadyStokes:
-    """The steady Stokes state of a FictitiousDomainModel's step for its held sphere."""
+    """The steady Stokes state of a FictitiousDomainModel's step for its held sphere, or (`spheres`: the
+    ImmersedSpheres of a held pair) for its held pair."""
 
-    def __init__(self, flow, sphere, prefix: str = "fd_steady_"):
+    def __init__(self, flow, sphere, prefix: str = "fd_steady_", spheres: list | None = None):
         self.flow, self.sphere = flow, sphere
+        self.spheres = spheres if spheres is not None else [sphere]
         (u, p), (v, q) = ufl.TrialFunctions(flow.W), ufl.TestFunctions(flow.W)
         rho_c, r, dx = flow.density * flow.c, flow.r, flow.dx
-        band = sphere.band
-        phi = indicator(ufl.SpatialCoordinate(flow.mesh), sphere.center, band.radius, band.width)
+        x = ufl.SpatialCoordinate(flow.mesh)
+        phi = functools.reduce(operator.add, [indicator(x, held.center, held.band.radius, held.band.width)
+                                              for held in self.spheres])
         dx_phi = ufl.Measure("dx", domain=flow.mesh, metadata={"quadrature_degree": 6})
         stokes = forms.stokes_operator(u, p, v, q, 0.0, flow.viscosity, r, dx)
         penalty = rho_c * phi * ufl.inner(u, v) * r * dx_phi
@@ -78,9 +91,9 @@ class SteadyStokes:
         self.brinkman.solve(y, a)
         self.matrices["stokes"].mult(a, out)
 
-    def solve(self, velocity: float, rtol: float = 1e-10) -> tuple[float, InteriorIntegrals]:
-        """Set the flow's states to the steady state for sphere velocity U [m/s]; return (F [N], integrals)."""
-        flow, sphere = self.flow, self.sphere
+    def _steady_force(self, rhs: PETSc.Vec, rtol: float) -> PETSc.Vec:
+        """f with J f = rhs (a new vector), by right-preconditioned FGMRES."""
+        flow = self.flow
         comm = flow.mesh.comm
         size = (flow.rhs.getLocalSize(), flow.rhs.getSize())
         shell = PETSc.Mat().createPython((size, size), comm=comm)
@@ -97,17 +110,26 @@ class SteadyStokes:
         pc.setPythonContext(_Apply(self.preconditioner, "apply"))
         ksp.setTolerances(rtol=rtol, max_it=1000)
         ksp.setFromOptions()
-        unit_force = sphere.unit_forcing().copy()  # rho c Phi e_z, boundary rows zeroed
-        force = unit_force.duplicate()
+        force = rhs.duplicate()
         try:
-            ksp.solve(unit_force, force)
-            self.iterations = ksp.getIterationNumber()
+            ksp.solve(rhs, force)
+            iterations = ksp.getIterationNumber()
+            self.iterations += iterations
             reason = ksp.getConvergedReason()
         finally:
             ksp.destroy()
             shell.destroy()
         if reason < 0:
-            raise SolverError(f"steady Stokes GMRES did not converge (reason {reason}, {self.iterations} iterations)")
+            force.destroy()
+            raise SolverError(f"steady Stokes GMRES did not converge (reason {reason}, {iterations} iterations)")
+        return force
+
+    def solve(self, velocity: float, rtol: float = 1e-10) -> tuple[float, InteriorIntegrals]:
+        """Set the flow's states to the steady state for sphere velocity U [m/s]; return (F [N], integrals)."""
+        flow, sphere = self.flow, self.sphere
+        self.iterations = 0
+        unit_force = sphere.unit_forcing().copy()  # rho c Phi e_z, boundary rows zeroed
+        force = self._steady_force(unit_force, rtol)
         # the fields for s = 1, then scaled: u = S^-1 f, u~ = A^-1 rho c M u, y1 = A^-1 (rho c Phi e_z)
         u, predicted = flow.now, flow.predicted
         self.stokes.solve(force, u.vector)
@@ -128,6 +150,43 @@ class SteadyStokes:
         unit_force.destroy()
         force.destroy()
         return force_on_sphere, integrals
+
+    def solve_pair(self, velocities, rtol: float = 1e-10) -> tuple[np.ndarray, PairIntegrals]:
+        """Set the flow's states to the steady state of the held pair whose surfaces move at `velocities`
+        [m/s] (sphere 1 first); return (each sphere's force [N], the pair's integrals)."""
+        flow, spheres = self.flow, self.spheres
+        self.iterations = 0
+        velocities = np.asarray(velocities, dtype=float)
+        volumes = np.array([held.volume for held in spheres])
+        states = []  # u_j = S^-1 f_j for a unit amplitude at sphere j
+        for held in spheres:
+            unit_force = held.unit_forcing().copy()
+            force = self._steady_force(unit_force, rtol)
+            state = flow.rhs.duplicate()
+            self.stokes.solve(force, state)
+            flow.operator.solve(unit_force, held.unit.vector)  # y1_j, for the pair's added mass
+            states.append(state)
+            force.destroy()
+            unit_force.destroy()
+        interiors = np.array([[held.interior(state) for state in states] for held in spheres])  # K_ij
+        amplitudes = np.linalg.solve(interiors, velocities * volumes)
+        u, predicted = flow.now, flow.predicted
+        u.vector.set(0.0)
+        for s, state in zip(amplitudes, states):
+            u.vector.axpy(float(s), state)
+            state.destroy()
+        u.x.scatter_forward()
+        self.matrices["mass"].mult(u.vector, self.vectors[1])
+        flow.operator.solve(self._homogeneous(self.vectors[1]), predicted.vector)
+        predicted.x.scatter_forward()
+        for state in flow.states[1:]:
+            state.x.array[:] = u.x.array
+        unit = np.array([[held.interior(other.unit.vector) for other in spheres] for held in spheres])
+        inside = np.array([held.interior(predicted.vector) for held in spheres])
+        integrals = PairIntegrals(volume=volumes, predicted=inside,
+                                  forced=velocities * volumes - inside - unit @ amplitudes, unit=unit)
+        forces = -flow.density * flow.c * (amplitudes * volumes - inside)
+        return forces, integrals
 
     def destroy(self) -> None:
         self.stokes.destroy()
