@@ -354,12 +354,18 @@ class PairIntegrator:
         out after the collision): e = separation speed / approach speed there, 0 when the gap does not
         open beyond delta_sl 2a* before the next collision or the end (docs/physics.md section 6: the 2 ms
         means of the wall, also given as *_2ms, lie inside the contact layer at a pendulum's speeds).
-        A wall collision's are the wall's 2 ms means (bounces.Rebound)."""
+        A wall collision's are the wall's 2 ms means (bounces.Rebound).  A pair that comes to rest in
+        contact still has minima of its gap; one that did not come in through delta_sl 2a* since the
+        previous minimum belongs to the collision before it and is not listed."""
         found = []
         for kind, record in (("pair", self.pair_record), ("wall", self.wall_record)):
             if record is None:
                 continue
             for k, impact in enumerate(record.impacts):
+                if kind == "pair" and k > 0 and not any(
+                        c["direction"] == "in" and record.impacts[k - 1].time < c["time"] <= impact.time
+                        for c in record.blend_crossings):
+                    continue
                 entry = {"kind": kind, **dataclasses.asdict(impact)}
                 if k < len(record.rebounds):
                     entry.update(dataclasses.asdict(record.rebounds[k]))
