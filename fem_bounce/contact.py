@@ -45,7 +45,29 @@ def reduced_modulus(e1: float, nu1: float, e2: float, nu2: float) -> float:
     return 1.0 / ((1.0 - nu1**2) / e1 + (1.0 - nu2**2) / e2)
 
 
-class ContactModel:
+class ContactGaps:
+    """The contact model's gaps for a length `diameter` (D at the wall, 2a* for a pair) [m]; the class
+    using it sets delta_ss, delta_sl, diameter and `correcting` (the near-wall correction is on)."""
+
+    @property
+    def contact_gap(self) -> float:
+        """delta_ss D: where the elastic force starts [m]."""
+        return self.delta_ss * self.diameter
+
+    @property
+    def blend_gap(self) -> float:
+        """delta_sl D: where the resolved flow is held (correction) or f_thr and f_sim carry equal
+        weight (blend) [m]."""
+        return self.delta_sl * self.diameter
+
+    @property
+    def hold_gap(self) -> float:
+        """The smallest gap at which a resolved model places its flow's sphere [m]: delta_sl D under
+        the correction, 0 otherwise (the ALE mesh then keeps its own numerics.ale.hold_delta)."""
+        return self.blend_gap if self.correcting else 0.0
+
+
+class ContactModel(ContactGaps):
     """One scene's contact model: the blend, the elastic force and the theory forces."""
 
     def __init__(self, scene: Scene):
@@ -64,22 +86,6 @@ class ContactModel:
         self.correcting = c.near_wall == "correction" and scene.motion.mode == "free"
         self._lambda_hold = self.theory.wall_factor(self.blend_gap)
         self._added_mass_hold = self.theory.added_mass(self.blend_gap)[0]
-
-    @property
-    def contact_gap(self) -> float:
-        """delta_ss D: where the elastic force starts [m]."""
-        return self.delta_ss * self.diameter
-
-    @property
-    def blend_gap(self) -> float:
-        """delta_sl D: where f_thr and f_sim carry equal weight [m]."""
-        return self.delta_sl * self.diameter
-
-    @property
-    def hold_gap(self) -> float:
-        """The smallest gap at which a resolved model places its flow's sphere [m]: delta_sl D under
-        the correction, 0 otherwise (the ALE mesh then keeps its own numerics.ale.hold_delta)."""
-        return self.blend_gap if self.correcting else 0.0
 
     def blend(self, gap: float) -> float:
         return blend(gap / self.diameter, self.delta_sl)

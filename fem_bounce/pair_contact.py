@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from .contact import elastic_shape, reduced_modulus
+from .contact import ContactGaps, elastic_shape, reduced_modulus
 from .scene import Scene
 
 # Trial states of an implicit step may close the pair gap; real penetration is an event of the integrator.
@@ -58,7 +58,7 @@ def hertz_contact_time(radius: float, mass: float, e_star: float, speed: float) 
     return 2.94 * depth / speed
 
 
-class PairContactModel:
+class PairContactModel(ContactGaps):
     """One pair scene's contact model: the pair's gap scales, its elastic force, its liquid interaction
     in Stokes flow and a resolved flow's correction (module docstring)."""
 
@@ -83,25 +83,11 @@ class PairContactModel:
         self._resistance = PairResistance(first.radius, second.radius)  # tabulated once, ~3 us a call
         self._resistance_hold = self.resistance(self.blend_gap)
 
-    @property
-    def contact_gap(self) -> float:
-        """delta_ss 2a*: where the elastic force starts [m]."""
-        return self.delta_ss * self.diameter
-
-    @property
-    def blend_gap(self) -> float:
-        """delta_sl 2a*: below it a resolved flow holds the pair gap [m]."""
-        return self.delta_sl * self.diameter
-
-    @property
-    def hold_gap(self) -> float:
-        """The smallest pair gap a resolved model gives its flow [m]: delta_sl 2a* under the correction."""
-        return self.blend_gap if self.correcting else 0.0
-
     # -- the collision's numbers ---------------------------------------------------------------------
     def stokes(self, speed: float) -> float:
-        """The binary Stokes number St = m* V / (6 pi mu a*^2) of the relative speed V [m/s] (Yang & Hunt
-        2006; a2 -> infinity gives the wall's (1/9) (rho_p / rho_l) Re)."""
+        """The binary Stokes number St = m* V / (6 pi mu a*^2) of the relative speed V [m/s]: Yang & Hunt's
+        (2006) name; their exact definition could not be read (docs/physics.md section 6 gives the
+        conversions); a2 -> infinity gives the wall's (1/9) (rho_p / rho_l) Re."""
         return self.reduced_mass * abs(speed) / (6.0 * math.pi * self._liquid.viscosity * self.reduced_radius**2)
 
     def reynolds(self, speed: float) -> float:
