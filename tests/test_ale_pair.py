@@ -89,7 +89,7 @@ def steady_pair_drag(gap, velocities, cells=6.0, far_field=2000.0):
 @pytest.mark.mpi
 def test_two_spheres_moving_together_have_stimson_and_jefferys_drag_on_a_toy_mesh():
     """Centre distance 3 D: lambda = 0.8047 (Stimson & Jeffery 1926); 6 cells/D gives -0.54 % (8 cells/D:
-    -0.25 %, benchmarks/pair_stokes_ale.py); a single sphere would have 1."""
+    -0.25 %, benchmarks/pair_stokes.py ale); a single sphere would have 1."""
     from fem_bounce import pair_theory
 
     lam = steady_pair_drag(2 * D, [-1.0, -1.0])
