@@ -15,12 +15,13 @@ domain of each model is printed with its rows and recorded.  Each model has a fu
 main tabulates them and merges one record per model and resolution into benchmarks/history/pair_stokes.json
 (date, machine, ranks, commit, command, cells per diameter, far field and domain, rows).
 
+    python benchmarks/pair_stokes.py [fd] [ale] [--cells N ...] [--far-field D]
     python benchmarks/pair_stokes.py fd --cells 12 16 24      # 12 min on the shared 2-core machine
-    python benchmarks/pair_stokes.py ale --cells 8 16 32      # 2 min (the default: both models, fd at 16
-                                                              # cells/D and ale at 8, 16, 32)
+    python benchmarks/pair_stokes.py ale --cells 8 16 32      # 2 min
+    python benchmarks/pair_stokes.py fd --cells 12 --far-field 100
     mpirun -n 2 python benchmarks/pair_stokes.py fd ale --cells 16
-    python benchmarks/pair_stokes.py fd --cells 12 --far-field 100   # --far-field: the models' default
-                                                                     # 50 D (fd) and 2000 D (ale)
+
+No model named: both; no --cells: fd 16, ale 8 16 32; no --far-field: fd 50 D, ale 2000 D.
 
 fd: the held pair's steady state of the time step (numerics.fd.steady_stokes, models/fd/steady.py),
 the liquid of the brenner-approach preset (Re = 0.01 based on U), no wall (z = 0 a slip floor
