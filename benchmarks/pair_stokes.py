@@ -291,14 +291,17 @@ def table(rows: list[dict]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("models", nargs="*", default=list(MODELS), choices=list(MODELS))
+    parser.add_argument("models", nargs="*", metavar="model", help="fd, ale (default: both)")
     parser.add_argument("--cells", type=float, nargs="+", default=None,
                         help="cells per diameter (default: fd 16; ale 8 16 32)")
     parser.add_argument("--far-field", type=float, default=None,
                         help="the slip boundary this many D away (default: fd 50, ale 2000)")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
-    models = list(dict.fromkeys(args.models))  # in the order given, once each
+    unknown = sorted(set(args.models) - set(MODELS))
+    if unknown:
+        parser.error(f"unknown model(s) {', '.join(unknown)}: choose from {', '.join(MODELS)}")
+    models = list(dict.fromkeys(args.models or MODELS))  # in the order given, once each
     runs = [(model, cells) for model in models for cells in (args.cells or DEFAULT_CELLS[model])]
     records = {}
     for model, cells in runs:
