@@ -140,8 +140,8 @@ class FictitiousDomainModel(FlowModel):
         self.timings["setup"] = time.perf_counter() - start
 
     def _build_pair(self) -> None:
-        """Both spheres' indicators at their initial centres; the flow at rest, the history at the
-        spheres' initial velocities."""
+        """Both spheres' indicators at their initial centres; the flow at rest (a projectile starts
+        impulsively, as in the ale model), the history at the spheres' initial velocities."""
         scene, fd, fine = self.scene, self.settings, self.domain.fine_size
         radii = [sphere.radius for sphere in scene.spheres]
         self.pair = ImmersedPair(self.flow, [a + fd.radius_offset * fine for a in radii], radii,
@@ -150,7 +150,9 @@ class FictitiousDomainModel(FlowModel):
             self.pair.check_hold(self.hold_gaps[1], "the pair's hold gap of the contact model")
         velocity = np.array(start_velocities(scene))
         order = self.flow.order
-        self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.pair.volumes] * order)
+        # the interiors' integrals are the flow's, at rest: a projectile's penalty force then sets its
+        # interior liquid moving without taking that momentum from the sphere (a rigid sphere has none)
+        self.history = History(self.flow.bdf, [velocity] * order, [np.zeros_like(velocity)] * order)
 
     def initial_velocities(self) -> list[float]:
         return list(self.history.velocities)
