@@ -211,3 +211,24 @@ def test_cli_runs_the_pair_preset_and_writes_its_outputs(tmp_path, capsys, monke
     assert collision["kind"] == "pair" and 50.0 < collision["St"] < 200.0 and 0.0 < collision["restitution"] < 1.0
     assert summary["impacts"] == [] and len(summary["final"]["gap"]) == 2
     assert (out / "trajectory.png").stat().st_size > 10_000
+
+
+def test_a_pair_moving_together_does_not_stall():
+    """In 0.8 Pa s the projectile never reaches the target: the pair creeps on with a relative speed of
+    round-off size, whose flicker about zero once made the turning-point event fire every step until the
+    steps collapsed (stalled at t = 0.51 s; pair.TURNING_OFFSET).  A stall fails on the alarm."""
+    import signal
+
+    def stalled(signum, frame):
+        raise TimeoutError("the pair integrator stalled")
+
+    scene = scenes.load(PRESET, {"liquid.viscosity": 0.8, "run.end_time": 1.0})
+    previous = signal.signal(signal.SIGALRM, stalled)
+    signal.alarm(60)  # measured: 1-2 s
+    try:
+        integrator = run_to_end(scene)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert integrator.time == pytest.approx(1.0)
+    assert integrator.collisions() == [] and integrator.steps < 5000  # measured 1201
