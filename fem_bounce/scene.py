@@ -334,14 +334,22 @@ class Scene:
                              "unbounded liquid (or give a container)")
         wall = self.wall
         if wall.present and (wall.youngs_modulus is None or wall.poisson_ratio is None):
-            raise SceneError("wall.youngs_modulus and wall.poisson_ratio are required when wall.present = true")
+            missing = [f"wall.{key} ({allowed})" for key, allowed in
+                       (("youngs_modulus", "> 0 Pa"), ("poisson_ratio", "in (-1, 0.5)"))
+                       if getattr(wall, key) is None]
+            raise SceneError(f"{' and '.join(missing)} {'are' if len(missing) > 1 else 'is'} required when "
+                             "wall.present = true "
+                             "(or set wall.present = false)")
         second = self.second_sphere
         if self.gravity == 0.0 and (second is None or second.velocity == 0.0):
             raise SceneError("gravity = 0 moves nothing: allowed only for a pair set in motion by "
-                             "second_sphere.velocity (or give gravity > 0, e.g. 9.81)")
+                             "second_sphere.velocity != 0 (in [-100, 100] m/s; or give gravity in (0, 1000] "
+                             "m/s2, e.g. 9.81)")
         if second is not None and second.gap <= self.contact.delta_ss * pair_diameter(self.sphere, second):
-            raise SceneError(f"second_sphere.gap = {second.gap:g} m must exceed contact.delta_ss times the pair's "
-                             f"reduced diameter ({pair_diameter(self.sphere, second):.4g} m): start outside contact")
+            pair_d = pair_diameter(self.sphere, second)
+            raise SceneError(f"second_sphere.gap = {second.gap:g} m is out of range: allowed > contact.delta_ss 2a* = "
+                             f"{self.contact.delta_ss * pair_d:.4g} m (delta_ss = {self.contact.delta_ss:g}, the pair's "
+                             f"reduced diameter 2a* = {pair_d:.4g} m): start outside contact")
         c = self.contact
         if second is not None and c.history != "off":
             raise SceneError(f"contact.history = {c.history!r} is not modelled for a pair of spheres: set "
@@ -364,7 +372,8 @@ class Scene:
                 raise SceneError(f"container.height = {box.height:g} m must exceed the top of the highest sphere "
                                  f"at the start, {top:g} m")
             if second is not None and box.radius <= second.radius:
-                raise SceneError(f"container.radius = {box.radius:g} m must exceed second_sphere's radius")
+                raise SceneError(f"container.radius = {box.radius:g} m must exceed second_sphere's radius "
+                                 f"{second.radius:g} m")
         if self.motion.mode == "prescribed" and self.motion.series:
             if not Path(self.motion.series).is_file():
                 raise SceneError(f"motion.series = {self.motion.series!r}: no such file")

@@ -172,13 +172,14 @@ def test_a_single_sphere_scene_is_unchanged(tmp_path):
 
 @pytest.mark.parametrize("changes,message", [
     ({"second_sphere.gap": 0.0}, "second_sphere.gap = 0.0 m is out of range"),
-    ({"second_sphere.gap": 1e-5}, "second_sphere.gap = 1e-05 m must exceed contact.delta_ss"),
+    ({"second_sphere.gap": 1e-5}, "second_sphere.gap = 1e-05 m is out of range: allowed > contact.delta_ss 2a* = 0.000108 m"),
     ({"second_sphere.velocity": 0.0}, "gravity = 0 moves nothing: allowed only for a pair set in motion"),
     ({"second_sphere.mode": "wobbling"}, "second_sphere.mode = 'wobbling' is not one of"),
     ({"second_sphere.density": -1.0}, "second_sphere.density = -1.0 kg/m3 is out of range"),
     ({"contact.history": "mei-adrian"}, "contact.history = 'mei-adrian' is not modelled for a pair"),
     ({"contact.near_wall": "blend"}, "contact.near_wall = 'blend' is not implemented for a pair"),
-    ({"wall.present": True}, "wall.youngs_modulus and wall.poisson_ratio are required"),
+    ({"wall.present": True}, "wall.youngs_modulus (> 0 Pa) and wall.poisson_ratio (in (-1, 0.5)) are required"),
+    ({"wall.present": True, "wall.youngs_modulus": 91e9}, "wall.poisson_ratio (in (-1, 0.5)) is required"),
     ({"second_sphere.colour": 1}, "unknown key second_sphere.colour"),
 ])
 def test_bad_pair_input_names_the_field(changes, message):
