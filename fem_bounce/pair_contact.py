@@ -30,32 +30,29 @@ import math
 import numpy as np
 
 from .contact import ContactGaps, elastic_shape, reduced_modulus
+from .pair_theory import PairResistance, reduced_radius
 from .scene import Scene
 
 # Trial states of an implicit step may close the pair gap; real penetration is an event of the integrator.
 MIN_PAIR_DELTA = 1e-12
 
-from .pair_theory import PairResistance
 
-
-def reduced_radius(a1: float, a2: float) -> float:
-    """a* = a1 a2 / (a1 + a2) [m]."""
-    return a1 * a2 / (a1 + a2)
+def hertz_depth(radius: float, mass: float, e_star: float, speed: float) -> float:
+    """x_m [m]: the deepest approach of a Hertz contact, (15 m* V^2 / (16 E* a*^(1/2)))^(2/5)."""
+    return (15.0 * mass * speed**2 / (16.0 * e_star * math.sqrt(radius))) ** 0.4
 
 
 def hertz_peak_force(radius: float, mass: float, e_star: float, speed: float) -> float:
     """W_o [N]: the largest force of a Hertz contact of (reduced) radius `radius` [m] and (reduced) mass
     `mass` [kg] met at the relative speed `speed` [m/s], 1/E* = sum (1 - nu^2)/E [Pa]."""
-    depth = (15.0 * mass * speed**2 / (16.0 * e_star * math.sqrt(radius))) ** 0.4
-    return 4.0 / 3.0 * e_star * math.sqrt(radius) * depth**1.5
+    return 4.0 / 3.0 * e_star * math.sqrt(radius) * hertz_depth(radius, mass, e_star, speed)**1.5
 
 
 def hertz_contact_time(radius: float, mass: float, e_star: float, speed: float) -> float:
     """Hertz's duration of a dry elastic impact, 2.868 (m*^2 / (a* E*^2 V))^(1/5) [s] (Johnson 1985,
     eq. 11.24: 2.94 x_m / V); for comparison only: the paper's contact layer of thickness delta_ss is
     not Hertz's deformation and lasts longer (docs/physics.md section 6)."""
-    depth = (15.0 * mass * speed**2 / (16.0 * e_star * math.sqrt(radius))) ** 0.4
-    return 2.94 * depth / speed
+    return 2.94 * hertz_depth(radius, mass, e_star, speed) / speed
 
 
 class PairContactModel(ContactGaps):
