@@ -341,10 +341,10 @@ class Scene:
                              "wall.present = true "
                              "(or set wall.present = false)")
         second = self.second_sphere
-        if self.gravity == 0.0 and (second is None or second.velocity == 0.0):
+        if self.gravity == 0.0 and (second is None or second.velocity == 0.0 or second.mode == "fixed"):
             raise SceneError("gravity = 0 moves nothing: allowed only for a pair set in motion by "
-                             "second_sphere.velocity != 0 (in [-100, 100] m/s; or give gravity in (0, 1000] "
-                             "m/s2, e.g. 9.81)")
+                             "second_sphere.velocity != 0 (in [-100, 100] m/s) with second_sphere.mode free or "
+                             "prescribed; or give gravity in (0, 1000] m/s2, e.g. 9.81")
         if second is not None and second.gap <= self.contact.delta_ss * pair_diameter(self.sphere, second):
             pair_d = pair_diameter(self.sphere, second)
             raise SceneError(f"second_sphere.gap = {second.gap:g} m is out of range: allowed > contact.delta_ss 2a* = "

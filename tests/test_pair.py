@@ -174,6 +174,7 @@ def test_a_single_sphere_scene_is_unchanged(tmp_path):
     ({"second_sphere.gap": 0.0}, "second_sphere.gap = 0.0 m is out of range"),
     ({"second_sphere.gap": 1e-5}, "second_sphere.gap = 1e-05 m is out of range: allowed > contact.delta_ss 2a* = 0.000108 m"),
     ({"second_sphere.velocity": 0.0}, "gravity = 0 moves nothing: allowed only for a pair set in motion"),
+    ({"second_sphere.mode": "fixed"}, "gravity = 0 moves nothing: allowed only for a pair set in motion"),
     ({"second_sphere.mode": "wobbling"}, "second_sphere.mode = 'wobbling' is not one of"),
     ({"second_sphere.density": -1.0}, "second_sphere.density = -1.0 kg/m3 is out of range"),
     ({"contact.history": "mei-adrian"}, "contact.history = 'mei-adrian' is not modelled for a pair"),
@@ -186,6 +187,13 @@ def test_bad_pair_input_names_the_field(changes, message):
     with pytest.raises(scenes.SceneError) as err:
         scenes.load(PRESET, changes)
     assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_compare_refuses_a_pair_before_running(tmp_path, capsys):
+    """`fem-bounce compare` tabulates one sphere's trajectory: a pair is refused before any run."""
+    assert cli.main(["compare", PRESET, "--models", "ode", "--out", str(tmp_path / "cmp")]) == 2
+    assert "has a second sphere" in capsys.readouterr().err
+    assert not (tmp_path / "cmp").exists()
 
 
 def test_a_model_without_pairs_refuses_before_writing(tmp_path):

@@ -23,6 +23,7 @@ import shutil
 from pathlib import Path
 
 from .. import models, output
+from ..scene import SceneError
 
 MAX_IMPACTS = 3  # columns per impact in the table
 
@@ -175,7 +176,11 @@ def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
 
 def compare(scene, names: list[str], comm, out_dir: Path, *, force: bool = False, progress: bool = True,
             command: str = "") -> list[dict]:
-    """Run the models, then write DIR/comparison.csv and DIR/comparison.png (rank 0)."""
+    """Run the models, then write DIR/comparison.csv and DIR/comparison.png (rank 0).  A pair scene is
+    refused before anything runs: the table and the figure read one sphere's trajectory."""
+    if scene.pair:
+        raise SceneError(f"scene {scene.name!r} has a second sphere: `fem-bounce compare` tabulates one sphere; "
+                         "run each model with `fem-bounce run` (each run draws both spheres)")
     runs = run_models(scene, names, comm, out_dir, force=force, progress=progress, command=command)
     rows = []
     if comm.rank == 0:
