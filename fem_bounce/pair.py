@@ -41,7 +41,7 @@ from .contact import ContactModel
 from .motion import prescribed_velocity, start_velocities
 from .pair_contact import PairContactModel
 from .scene import Scene, SceneError
-from .sphere import FluidForce, PenetrationError, rosw_solver
+from .sphere import AdvancingTS, FluidForce, PenetrationError, rosw_solver
 from .theory import TheoryForces
 
 # The turning-point events watch a rate (in velocity units) minus this offset, not the rate itself: two
@@ -60,7 +60,7 @@ def sphere_scene(scene: Scene, k: int) -> Scene:
                                second_sphere=None)
 
 
-class PairIntegrator:
+class PairIntegrator(AdvancingTS):
     """Advances a pair of spheres; the same object serves the ODE and the resolved models.  `gap` and
     `velocity` are arrays (sphere 1 first): each sphere's lowest point above z = 0 and its velocity."""
 
@@ -318,20 +318,11 @@ class PairIntegrator:
     def current_row(self) -> dict:
         return self.row(self.time, self._state())
 
-    def advance(self, t_end: float, fluid: FluidForce | None = None) -> None:
-        """Integrate to t_end (or until the collision limit), with f_sim linearised as `fluid` (arrays)."""
-        if fluid is not None:
-            self.fluid = fluid
-        if self.done or t_end <= self.time:
-            return
-        if self.steps == 0:
-            self._log(0.0, self.y.array_r, initial=True)
-            for observer in self.observers:
-                observer(self.row(0.0, self.y.array_r))
-        self.ts.setMaxTime(t_end)
-        self.ts.solve(self.y)
-        if not np.all(np.isfinite(self.y.array_r)):
-            raise FloatingPointError(f"the pair's state became {self.y.array_r.tolist()} at t = {self.time:.6g} s")
+    def _post_step_initial(self) -> None:
+        """Log and report the initial state as the first row (AdvancingTS.advance)."""
+        self._log(0.0, self.y.array_r, initial=True)
+        for observer in self.observers:
+            observer(self.row(0.0, self.y.array_r))
 
     def finish(self) -> None:
         """Close the records (the rebound means; e = 0 for a collision that never left contact)."""

@@ -23,7 +23,6 @@ Rebound records.  The integrator owns its PETSc objects: destroy() frees them.
 from __future__ import annotations
 
 import contextlib
-import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -51,7 +50,26 @@ class PenetrationError(RuntimeError):
     """The sphere reached the wall (gap <= 0): the contact model was overwhelmed."""
 
 
-class SphereIntegrator:
+class AdvancingTS:
+    """advance() of an integrator that owns a PETSc TS `ts` on its state `y` (the sphere's, the pair's):
+    it sets `fluid`, honours `done`, reports the initial row once (`_post_step_initial`) and refuses a
+    state that is no longer finite."""
+
+    def advance(self, t_end: float, fluid: FluidForce | None = None) -> None:
+        """Integrate to t_end (or until the bounce limit), with f_sim linearised as `fluid`."""
+        if fluid is not None:
+            self.fluid = fluid
+        if self.done or t_end <= self.time:
+            return
+        if self.steps == 0:
+            self._post_step_initial()
+        self.ts.setMaxTime(t_end)
+        self.ts.solve(self.y)
+        if not np.all(np.isfinite(self.y.array_r)):
+            raise FloatingPointError(f"the state became {self.y.array_r.tolist()} at t = {self.time:.6g} s")
+
+
+class SphereIntegrator(AdvancingTS):
     """Advances one sphere; the same object serves the ODE, fd, ib and ale models."""
 
     def __init__(self, scene: Scene, contact: ContactModel | None = None, resolved: bool = False,
@@ -240,20 +258,6 @@ class SphereIntegrator:
     def current_row(self) -> dict:
         h, v, *z = self.y.array_r
         return self.row(self.time, h, v, np.asarray(z))
-
-    def advance(self, t_end: float, fluid: FluidForce | None = None) -> None:
-        """Integrate to t_end (or until the bounce limit), with f_sim linearised as `fluid`."""
-        if fluid is not None:
-            self.fluid = fluid
-        if self.done or t_end <= self.time:
-            return
-        if self.steps == 0:
-            self._post_step_initial()
-        self.ts.setMaxTime(t_end)
-        self.ts.solve(self.y)
-        h = self.gap
-        if not math.isfinite(h) or not math.isfinite(self.velocity):
-            raise FloatingPointError(f"the sphere state became {h}, {self.velocity} at t = {self.time:.6g} s")
 
     def _post_step_initial(self) -> None:
         """Log and report the initial state as the first row."""

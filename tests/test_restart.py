@@ -50,11 +50,17 @@ def assert_same_run(reference, continued) -> None:
         assert times == pytest.approx([snapshot.time for snapshot in fields.read_snapshots(reference)])
 
 
+def started_past_a_checkpoint(model: str, out, cwd):
+    """A `fem-bounce run` of the model's toy scene into `out`, returned once it has written a checkpoint."""
+    process = spawn(["run", *arguments(model), "--out", str(out)], cwd=cwd)
+    wait_for(lambda: (out / "checkpoint" / "model.txt").is_file(), process)
+    return process
+
+
 def test_sigkill_after_a_checkpoint_then_restart_gives_the_uninterrupted_run(straight, tmp_path, capsys):
     model, reference = straight
     killed = tmp_path / "killed"
-    process = spawn(["run", *arguments(model), "--out", str(killed)], cwd=tmp_path)
-    wait_for(lambda: (killed / "checkpoint" / "model.txt").is_file(), process)
+    process = started_past_a_checkpoint(model, killed, tmp_path)
     process.send_signal(signal.SIGKILL)
     process.communicate()
     assert not (killed / "summary.json").exists(), "the run finished before it was killed"
@@ -69,8 +75,7 @@ def test_sigkill_after_a_checkpoint_then_restart_gives_the_uninterrupted_run(str
 def test_ctrl_c_leaves_a_run_directory_that_restarts(straight, tmp_path, capsys):
     model, reference = straight
     out = tmp_path / "run"
-    process = spawn(["run", *arguments(model), "--out", str(out)], cwd=tmp_path)
-    wait_for(lambda: (out / "checkpoint" / "model.txt").is_file(), process)
+    process = started_past_a_checkpoint(model, out, tmp_path)
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130
