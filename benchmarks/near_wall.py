@@ -30,6 +30,7 @@ from fem_bounce import scene as scenes
 ROOT = Path("results") / "near_wall"
 HISTORY = Path(__file__).parent / "history" / "near_wall.json"
 CFL = "numerics.ale.cfl"
+SURFACE = "numerics.ale.surface_refinement"
 CELLS = {"ale": "numerics.ale.cells_per_diameter", "fd": "numerics.fd.cells_per_diameter",
          "ib": "numerics.ib.cells_per_diameter"}
 
@@ -125,21 +126,26 @@ CFL_LADDER = (0.5, 0.25, 0.125)
 MESH_LADDER = (8, 16, 24, 32)
 
 
-def ladders(case: int, finest: int = 16) -> tuple[tuple, int]:
+def ladders(case: int, finest: int = 16, surface: float = 1) -> tuple[tuple, int]:
     """Cells per diameter of the mesh ladder (at cfl 0.125) up to `finest`, and the mesh of the time-step
-    ladder.  Case 3 climbs to at least 24 cells/D with the steps at 16; the other cases, whose case-3 ladder
-    moved V_i by 0.03 % from 8 to 16 cells/D, stop at 16 unless asked, with the steps at 8 (a 24-cell run
-    costs half an hour, a 32-cell one over an hour)."""
-    top = max(finest, 24) if case == 3 else finest
-    return tuple(n for n in MESH_LADDER if n <= top), 16 if case == 3 else 8
+    ladder.  With the sphere's surface refined (`surface` > 1) every case climbs to `finest` with the steps
+    at 8.  Without it, case 3 climbs to at least 24 cells/D with the steps at 16; the other cases, whose
+    case-3 ladder moved V_i by 0.03 % from 8 to 16 cells/D, stop at 16 unless asked, with the steps at 8
+    (a 24-cell run costs half an hour, a 32-cell one over an hour)."""
+    top = max(finest, 24) if case == 3 and surface == 1 else finest
+    return tuple(n for n in MESH_LADDER if n <= top), 16 if case == 3 and surface == 1 else 8
 
 
-def reference_runs(case: int, cfls=CFL_LADDER, finest: int = 16) -> list[tuple]:
-    base = {"contact.delta_sl": REFERENCE_DELTA_SL, "run.bounces": 2}
-    meshes, step_mesh = ladders(case, finest)
-    jobs = [(f"case{case}-ale{n}-cfl0.125", f"li2011-case{case}", "ale", {**base, CELLS["ale"]: n, CFL: 0.125})
+def run_name(case: int, cells: int, cfl: float, surface: float = 1) -> str:
+    return f"case{case}-ale{cells}" + (f"s{surface:g}" if surface != 1 else "") + f"-cfl{cfl:g}"
+
+
+def reference_runs(case: int, cfls=CFL_LADDER, finest: int = 16, surface: float = 1) -> list[tuple]:
+    base = {"contact.delta_sl": REFERENCE_DELTA_SL, "run.bounces": 2, **({SURFACE: surface} if surface != 1 else {})}
+    meshes, step_mesh = ladders(case, finest, surface)
+    jobs = [(run_name(case, n, 0.125, surface), f"li2011-case{case}", "ale", {**base, CELLS["ale"]: n, CFL: 0.125})
             for n in meshes]
-    jobs += [(f"case{case}-ale{step_mesh}-cfl{c}", f"li2011-case{case}", "ale",
+    jobs += [(run_name(case, step_mesh, c, surface), f"li2011-case{case}", "ale",
               {**base, CELLS["ale"]: step_mesh, CFL: c}) for c in cfls if c != 0.125]
     return jobs
 
@@ -148,9 +154,11 @@ def reference_study(args) -> None:
     """ALE with delta_sl = 0.05: a mesh ladder at cfl 0.125 and a time-step ladder (`ladders`); the finest
     of each is the reference, converged when its two finest levels agree within 0.5 %."""
     cases = [int(c) for c in args.cases.split(",")]
-    jobs = [job for case in cases for job in reference_runs(case, finest=args.finer_mesh)]
+    surface = args.surface_refinement
+    cfls = CFL_LADDER if surface == 1 else (0.125,)  # with a refined surface: cfl 0.125 and --finer-step only
+    jobs = [job for case in cases for job in reference_runs(case, cfls, args.finer_mesh, surface)]
     if args.finer_step:  # the step ladder one level further, where cfl 0.25 -> 0.125 moved more than 0.5 %
-        jobs += [job for case in cases for job in reference_runs(case, (0.0625,))[-1:]]
+        jobs += [job for case in cases for job in reference_runs(case, (0.0625,), args.finer_mesh, surface)[-1:]]
     if args.case3_extra:  # a finer step, and delta_sl halved again: is the reference itself converged?
         jobs += reference_runs(3, (0.0625,))[-1:]
         jobs.append(("case3-ale16-cfl0.125-dsl0.025", "li2011-case3", "ale",
@@ -172,10 +180,10 @@ def reference_study(args) -> None:
               "e_1 | V_i vs Table 2 | Re_II vs Table 2 |", "|---|---|---|---|---|---|---|---|---|"]
     by_name = {r["name"]: r for r in rows}
     for case in cases:
-        meshes, step_mesh = ladders(case, args.finer_mesh)
-        fine, mid = (by_name.get(f"case{case}-ale{n}-cfl0.125", {}) for n in meshes[-1:-3:-1])
+        meshes, step_mesh = ladders(case, args.finer_mesh, surface)
+        fine, mid = (by_name.get(run_name(case, n, 0.125, surface), {}) for n in meshes[-1:-3:-1])
         steps = [by_name[name] for c in (0.0625, 0.125, 0.25, 0.5)
-                 if (name := f"case{case}-ale{step_mesh}-cfl{c}") in by_name and "V_i" in by_name[name]]
+                 if (name := run_name(case, step_mesh, c, surface)) in by_name and "V_i" in by_name[name]]
         step_fine, coarse_step = (steps + [{}, {}])[:2]
         ref = measured[case]
         lines.append(
@@ -388,6 +396,9 @@ def main() -> None:
     parser.add_argument("--finer-mesh", type=int, nargs="?", const=24, default=16, choices=MESH_LADDER,
                         metavar="CELLS", help="reference: the mesh ladder up to CELLS cells/D (24 if no value; "
                         f"one of {MESH_LADDER}) for every case (case 3 climbs to 24 anyway)")
+    parser.add_argument("--surface-refinement", type=float, default=1.0, metavar="S",
+                        help="reference: the sphere's surface triangles S times finer than the mesh's "
+                             "(numerics.ale.surface_refinement); the runs' names end in sS")
     parser.add_argument("--finer-step", action="store_true",
                         help="reference: also cfl 0.0625 on each case's step-ladder mesh")
     parser.add_argument("--models", default="ale,fd,ib", help="insensitivity: resolved models")

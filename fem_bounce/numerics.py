@@ -85,6 +85,7 @@ class AleNumerics:
     """The boundary-fitted ALE model (fem_bounce.models.ale).  Sizes are per sphere diameter D."""
 
     cells_per_diameter: float = _setting(16.0, 2.0, 400.0)  # triangle size D / this on the sphere and along its path
+    surface_refinement: float = _setting(1.0, 1.0, 16.0)  # the sphere's surface triangles this many times finer
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
     grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path

@@ -33,6 +33,7 @@ class AleDomain:
     height: float  # Z
     refined: Box
     fine_size: float
+    surface_size: float  # of the triangles on the sphere's surface
     coarse_size: float
     grading: float
     gap_cells: float
@@ -59,7 +60,7 @@ class AleDomain:
 
     def spec(self, center) -> HalfPlane:
         """The half-plane with the sphere cut out at z = center (a pair: both, at the centres given) [m]."""
-        holes = tuple(SphereHole(center=float(z), radius=a, surface_size=self.fine_size, gap_cells=self.gap_cells)
+        holes = tuple(SphereHole(center=float(z), radius=a, surface_size=self.surface_size, gap_cells=self.gap_cells)
                       for z, a in zip(np.atleast_1d(center), self.radii))
         shape = dict(radius=self.radius, height=self.height, fine_size=self.fine_size, coarse_size=self.coarse_size,
                      grading=self.grading, refined=(self.refined,))
@@ -99,6 +100,7 @@ def domain_for(scene: Scene) -> AleDomain:
         if scene.second_sphere.mode == "fixed" and scene.motion.mode == "fixed" and scene.second_sphere.gap < pair_hold:
             raise SceneError(f"numerics.ale.hold_delta = {ale.hold_delta:g} is above the held pair's gap: lower it")
     return AleDomain(radius=half_plane.radius, height=half_plane.height, refined=half_plane.refined, fine_size=fine,
+                     surface_size=fine / ale.surface_refinement,
                      coarse_size=coarse, grading=ale.grading, gap_cells=ale.min_gap_cells, radii=radii,
                      sides=half_plane.sides, inflow_speed=half_plane.inflow_speed, initial_centers=centers,
                      hold_gap=hold_gap, pair_hold=pair_hold)
