@@ -181,7 +181,7 @@ def reference_study(args) -> None:
     by_name = {r["name"]: r for r in rows}
     for case in cases:
         meshes, step_mesh = ladders(case, args.finer_mesh, surface)
-        fine, mid = (by_name.get(run_name(case, n, 0.125, surface), {}) for n in meshes[-1:-3:-1])
+        fine, mid = ([by_name.get(run_name(case, n, 0.125, surface), {}) for n in meshes[::-1]] + [{}])[:2]
         steps = [by_name[name] for c in (0.0625, 0.125, 0.25, 0.5)
                  if (name := run_name(case, step_mesh, c, surface)) in by_name and "V_i" in by_name[name]]
         step_fine, coarse_step = (steps + [{}, {}])[:2]
@@ -194,7 +194,34 @@ def reference_study(args) -> None:
             f"{fmt(fine.get('Re_I'), '.1f')} | {fmt(fine.get('Re_II'), '.1f')} | {fmt(fine.get('e_1'), '.3f')} | "
             f"{fmt(change(fine.get('V_i'), ref['V_i_m_per_s']), '+.1f')} % | "
             f"{fmt(change(fine.get('Re_II'), ref['Re_II']), '+.1f')} % |")
+    lines += models_against(by_name, cases, args.finer_mesh, surface)
     record("reference", rows, "\n".join(lines) + "\n")
+
+
+TABLE2_RUNS = ("ode", "fd", "ib", "ale8")  # benchmarks/table2.py's records, benchmarks/history/table2-NAME.json
+
+
+def models_against(by_name: dict, cases: list[int], finest: int, surface: float) -> list[str]:
+    """Each model's Table 2 run (`python benchmarks/table2.py --model M`, the scene defaults) against the
+    reference: the error in V_i, Re_II and e_1, in percent."""
+    lines = ["", "Each model's Table 2 run (benchmarks/history/table2-M.json) against the reference: V_i, Re_II, "
+             "e_1 (%):", "", "| case | " + " | ".join(TABLE2_RUNS) + " |", "|---" * (len(TABLE2_RUNS) + 1) + "|"]
+    records = {}
+    for name in TABLE2_RUNS:
+        path = HISTORY.parent / f"table2-{name}.json"
+        if path.exists():
+            records[name] = {r["case"]: r for r in json.loads(path.read_text())["rows"]}
+    for case in cases:
+        meshes, _ = ladders(case, finest, surface)
+        ref = by_name.get(run_name(case, meshes[-1], 0.125, surface), {})
+        cells = []
+        for name in TABLE2_RUNS:
+            got = records.get(name, {}).get(case, {})
+            cells.append(", ".join(fmt(change(got.get(key), ref.get(mine)), "+.1f")
+                                   for key, mine in (("V_i_model", "V_i"), ("Re_II_model", "Re_II"),
+                                                     ("restitution_1", "e_1"))))
+        lines.append(f"| {case} | " + " | ".join(cells) + " |")
+    return lines
 
 
 # -- insensitivity to delta_sl ---------------------------------------------------------------------------

@@ -13,6 +13,7 @@ from mpi4py import MPI
 from fem_bounce import cli, fields, theory
 from fem_bounce import scene as scenes
 from fem_bounce.fem.mesh import OUTER, SPHERE, TOP, WALL, HalfPlane, SphereHole, create_mesh
+from fem_bounce.models.ale.domain import domain_for
 from fem_bounce.models.ale.flow import SphereFlow
 from fem_bounce.models.ale.motion import MeshMotion
 from fem_bounce.models.ale.transfer import DivergenceFreeProjection, SerialField, interpolate_from
@@ -43,6 +44,20 @@ def test_a_thin_gap_keeps_its_triangles_across():
     points = mesh.geometry.x
     in_gap = (np.abs(points[:, 0]) < 1e-12) & (points[:, 1] <= gap + 1e-12)
     assert MPI.COMM_WORLD.allreduce(int(in_gap.sum()), op=MPI.MAX) >= 3  # wall, wall + gap/2, sphere
+
+
+def test_a_refined_surface_puts_that_many_times_more_edges_on_the_sphere():
+    """numerics.ale.surface_refinement = 3: the sphere's surface triangles 3 times finer than the mesh."""
+    edges = {}
+    for refinement in (1, 3):
+        sc = scenes.load("li2011-case3", {"numerics.ale.cells_per_diameter": 4,
+                                          "numerics.ale.surface_refinement": refinement})
+        domain = domain_for(sc)
+        assert domain.surface_size == pytest.approx(domain.fine_size / refinement)
+        _, _, facet_tags = create_mesh(MPI.COMM_SELF, domain.spec(domain.initial_center), cache=False)
+        edges[refinement] = len(facet_tags.find(SPHERE))
+        assert edges[refinement] >= math.pi * sc.sphere.radius / domain.surface_size - 1
+    assert edges[3] >= 2 * edges[1]
 
 
 @pytest.mark.mpi
