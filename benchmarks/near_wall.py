@@ -121,6 +121,7 @@ def change(a: float | None, b: float | None) -> float | None:
 
 REFERENCE_DELTA_SL = 0.05
 CFL_LADDER = (0.5, 0.25, 0.125)
+FINER_STEPS = (0.0625, 0.03125)
 
 
 MESH_LADDER = (8, 16, 24, 32)
@@ -157,8 +158,9 @@ def reference_study(args) -> None:
     surface = args.surface_refinement
     cfls = CFL_LADDER if surface == 1 else (0.125,)  # with a refined surface: cfl 0.125 and --finer-step only
     jobs = [job for case in cases for job in reference_runs(case, cfls, args.finer_mesh, surface)]
-    if args.finer_step:  # the step ladder one level further, where cfl 0.25 -> 0.125 moved more than 0.5 %
-        jobs += [job for case in cases for job in reference_runs(case, (0.0625,), args.finer_mesh, surface)[-1:]]
+    if args.finer_step:  # the step ladder further down, where the coarser steps moved more than 0.5 %
+        jobs += [job for case in cases for cfl in FINER_STEPS if cfl >= args.finer_step
+                 for job in reference_runs(case, (cfl,), args.finer_mesh, surface)[-1:]]
     if args.case3_extra:  # a finer step, and delta_sl halved again: is the reference itself converged?
         jobs += reference_runs(3, (0.0625,))[-1:]
         jobs.append(("case3-ale16-cfl0.125-dsl0.025", "li2011-case3", "ale",
@@ -182,7 +184,7 @@ def reference_study(args) -> None:
     for case in cases:
         meshes, step_mesh = ladders(case, args.finer_mesh, surface)
         fine, mid = ([by_name.get(run_name(case, n, 0.125, surface), {}) for n in meshes[::-1]] + [{}])[:2]
-        steps = [by_name[name] for c in (0.0625, 0.125, 0.25, 0.5)
+        steps = [by_name[name] for c in FINER_STEPS[::-1] + (0.125, 0.25, 0.5)
                  if (name := run_name(case, step_mesh, c, surface)) in by_name and "V_i" in by_name[name]]
         step_fine, coarse_step = (steps + [{}, {}])[:2]
         ref = measured[case]
@@ -426,8 +428,9 @@ def main() -> None:
     parser.add_argument("--surface-refinement", type=float, default=1.0, metavar="S",
                         help="reference: the sphere's surface triangles S times finer than the mesh's "
                              "(numerics.ale.surface_refinement); the runs' names end in sS")
-    parser.add_argument("--finer-step", action="store_true",
-                        help="reference: also cfl 0.0625 on each case's step-ladder mesh")
+    parser.add_argument("--finer-step", type=float, nargs="?", const=0.0625, default=None, choices=FINER_STEPS,
+                        metavar="CFL", help="reference: also the steps down to cfl CFL (0.0625 if no value; one of "
+                        f"{FINER_STEPS}) on each case's step-ladder mesh")
     parser.add_argument("--models", default="ale,fd,ib", help="insensitivity: resolved models")
     parser.add_argument("--modes", default="correction,blend", help="insensitivity: contact.near_wall values")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
