@@ -141,13 +141,16 @@ def run_name(case: int, cells: int, cfl: float, surface: float = 1) -> str:
     return f"case{case}-ale{cells}" + (f"s{surface:g}" if surface != 1 else "") + f"-cfl{cfl:g}"
 
 
-def reference_runs(case: int, cfls=CFL_LADDER, finest: int = 16, surface: float = 1) -> list[tuple]:
+def reference_runs(case: int, cfls=CFL_LADDER, finest: int = 16, surface: float = 1,
+                   mesh_cfl: float = 0.125) -> list[tuple]:
+    """The mesh ladder at `mesh_cfl` and the step ladder (`cfls`) on its mesh, as (name, scene, model,
+    changes)."""
     base = {"contact.delta_sl": REFERENCE_DELTA_SL, "run.bounces": 2, **({SURFACE: surface} if surface != 1 else {})}
     meshes, step_mesh = ladders(case, finest, surface)
-    jobs = [(run_name(case, n, 0.125, surface), f"li2011-case{case}", "ale", {**base, CELLS["ale"]: n, CFL: 0.125})
-            for n in meshes]
+    jobs = [(run_name(case, n, mesh_cfl, surface), f"li2011-case{case}", "ale",
+             {**base, CELLS["ale"]: n, CFL: mesh_cfl}) for n in meshes]
     jobs += [(run_name(case, step_mesh, c, surface), f"li2011-case{case}", "ale",
-              {**base, CELLS["ale"]: step_mesh, CFL: c}) for c in cfls if c != 0.125]
+              {**base, CELLS["ale"]: step_mesh, CFL: c}) for c in cfls if c != mesh_cfl]
     return jobs
 
 
@@ -157,10 +160,10 @@ def reference_study(args) -> None:
     cases = [int(c) for c in args.cases.split(",")]
     surface = args.surface_refinement
     cfls = CFL_LADDER if surface == 1 else (0.125,)  # with a refined surface: cfl 0.125 and --finer-step only
-    jobs = [job for case in cases for job in reference_runs(case, cfls, args.finer_mesh, surface)]
+    jobs = [job for case in cases for job in reference_runs(case, cfls, args.finer_mesh, surface, args.mesh_cfl)]
     if args.finer_step:  # the step ladder further down, where the coarser steps moved more than 0.5 %
         jobs += [job for case in cases for cfl in FINER_STEPS if cfl >= args.finer_step
-                 for job in reference_runs(case, (cfl,), args.finer_mesh, surface)[-1:]]
+                 for job in reference_runs(case, (cfl,), args.finer_mesh, surface, args.mesh_cfl)[-1:]]
     if args.case3_extra:  # a finer step, and delta_sl halved again: is the reference itself converged?
         jobs += reference_runs(3, (0.0625,))[-1:]
         jobs.append(("case3-ale16-cfl0.125-dsl0.025", "li2011-case3", "ale",
@@ -183,7 +186,7 @@ def reference_study(args) -> None:
     by_name = {r["name"]: r for r in rows}
     for case in cases:
         meshes, step_mesh = ladders(case, args.finer_mesh, surface)
-        fine, mid = ([by_name.get(run_name(case, n, 0.125, surface), {}) for n in meshes[::-1]] + [{}])[:2]
+        fine, mid = ([by_name.get(run_name(case, n, args.mesh_cfl, surface), {}) for n in meshes[::-1]] + [{}])[:2]
         steps = [by_name[name] for c in FINER_STEPS[::-1] + (0.125, 0.25, 0.5)
                  if (name := run_name(case, step_mesh, c, surface)) in by_name and "V_i" in by_name[name]]
         step_fine, coarse_step = (steps + [{}, {}])[:2]
@@ -196,14 +199,14 @@ def reference_study(args) -> None:
             f"{fmt(fine.get('Re_I'), '.1f')} | {fmt(fine.get('Re_II'), '.1f')} | {fmt(fine.get('e_1'), '.3f')} | "
             f"{fmt(change(fine.get('V_i'), ref['V_i_m_per_s']), '+.1f')} % | "
             f"{fmt(change(fine.get('Re_II'), ref['Re_II']), '+.1f')} % |")
-    lines += models_against(by_name, cases, args.finer_mesh, surface)
+    lines += models_against(by_name, cases, args.finer_mesh, surface, args.mesh_cfl)
     record("reference", rows, "\n".join(lines) + "\n")
 
 
 TABLE2_RUNS = ("ode", "fd", "ib", "ale8")  # benchmarks/table2.py's records, benchmarks/history/table2-NAME.json
 
 
-def models_against(by_name: dict, cases: list[int], finest: int, surface: float) -> list[str]:
+def models_against(by_name: dict, cases: list[int], finest: int, surface: float, mesh_cfl: float) -> list[str]:
     """Each model's Table 2 run (`python benchmarks/table2.py --model M`, the scene defaults) against the
     reference: the error in V_i, Re_II and e_1, in percent."""
     lines = ["", "Each model's Table 2 run (benchmarks/history/table2-M.json) against the reference: V_i, Re_II, "
@@ -215,7 +218,7 @@ def models_against(by_name: dict, cases: list[int], finest: int, surface: float)
             records[name] = {r["case"]: r for r in json.loads(path.read_text())["rows"]}
     for case in cases:
         meshes, _ = ladders(case, finest, surface)
-        ref = by_name.get(run_name(case, meshes[-1], 0.125, surface), {})
+        ref = by_name.get(run_name(case, meshes[-1], mesh_cfl, surface), {})
         cells = []
         for name in TABLE2_RUNS:
             got = records.get(name, {}).get(case, {})
@@ -425,6 +428,8 @@ def main() -> None:
     parser.add_argument("--finer-mesh", type=int, nargs="?", const=24, default=16, choices=MESH_LADDER,
                         metavar="CELLS", help="reference: the mesh ladder up to CELLS cells/D (24 if no value; "
                         f"one of {MESH_LADDER}) for every case (case 3 climbs to 24 anyway)")
+    parser.add_argument("--mesh-cfl", type=float, default=0.125, choices=(0.125,) + FINER_STEPS,
+                        help="reference: the mesh ladder's step (default 0.125)")
     parser.add_argument("--surface-refinement", type=float, default=1.0, metavar="S",
                         help="reference: the sphere's surface triangles S times finer than the mesh's "
                              "(numerics.ale.surface_refinement); the runs' names end in sS")
