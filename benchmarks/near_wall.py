@@ -1,6 +1,7 @@
 """The near-wall force (issue 11): a converged resolved reference, insensitivity to delta_sl, Fig. 7, delta_ss.
 
-    python benchmarks/near_wall.py reference [--cases 1,3,4,7]   # ALE, delta_sl = 0.05, mesh and dt ladders  ~2 h
+    python benchmarks/near_wall.py reference --surface-refinement 3 --finer-step   # ALE, delta_sl = 0.05,
+        mesh and dt ladders for cases 1, 3, 4, 7 (--cases), the sphere's surface 3 times finer  ~1.5 h
     python benchmarks/near_wall.py insensitivity [--models ale,fd,ib]   # case 3, delta_sl = 0.1 / 0.2 / 0.3  ~30 min
     python benchmarks/near_wall.py fig7                         # f_thr against the converged ALE force (Fig. 7) ~20 min
     python benchmarks/near_wall.py dss [--model ale]            # cases 1-2 (St 20-40) against delta_ss (Fig. 12b)
@@ -128,8 +129,7 @@ MESH_LADDER = (8, 16, 24, 32)
 
 
 def ladders(case: int, finest: int = 16, surface: float = 1) -> tuple[tuple, int]:
-    """Cells per diameter of the mesh ladder (at cfl 0.125) up to `finest`, and the mesh of the time-step
-    ladder.  With the sphere's surface refined (`surface` > 1) every case climbs to `finest` with the steps
+    """Cells per diameter of the mesh ladder up to `finest`, and the mesh of the time-step ladder.  With the sphere's surface refined (`surface` > 1) every case climbs to `finest` with the steps
     at 8.  Without it, case 3 climbs to at least 24 cells/D with the steps at 16; the other cases, whose
     case-3 ladder moved V_i by 0.03 % from 8 to 16 cells/D, stop at 16 unless asked, with the steps at 8
     (a 24-cell run costs half an hour, a 32-cell one over an hour)."""
@@ -155,8 +155,9 @@ def reference_runs(case: int, cfls=CFL_LADDER, finest: int = 16, surface: float 
 
 
 def reference_study(args) -> None:
-    """ALE with delta_sl = 0.05: a mesh ladder at cfl 0.125 and a time-step ladder (`ladders`); the finest
-    of each is the reference, converged when its two finest levels agree within 0.5 %."""
+    """ALE with delta_sl = 0.05: a mesh ladder at cfl --mesh-cfl (0.125) and a time-step ladder (`ladders`),
+    with the sphere's surface --surface-refinement times finer than the mesh; the finest mesh is the
+    reference, converged when the two finest levels of each ladder agree within 0.5 %."""
     cases = [int(c) for c in args.cases.split(",")]
     surface = args.surface_refinement
     cfls = CFL_LADDER if surface == 1 else (0.125,)  # with a refined surface: cfl 0.125 and --finer-step only

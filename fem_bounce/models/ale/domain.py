@@ -4,7 +4,8 @@ kinds, the time step and the gap at which the mesh stops following the sphere.
 The domain follows the rules every finite-element model shares (fem.domain), with the sphere cut
 out; the fine region covers the sphere's whole path, so the mesh moving with it stays fine.
 
-Around the sphere the triangles have the fine size on its surface, and in the gap
+Around the sphere the triangles have the fine size on its surface (numerics.ale.surface_refinement
+times finer if asked: the collision's Stokes layer is thinner than a cell), and in the gap
 below it at most (local gap) / min_gap_cells (fem.mesh.SphereHole), so a remeshed gap
 is always resolved.  The mesh holds the sphere at hold_delta D above the wall at the
 closest (see model.py for why that is harmless below delta_sl).
