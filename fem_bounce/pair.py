@@ -413,4 +413,3 @@ class PairIntegrator(AdvancingTS):
         for name, record in (("pair", self.pair_record), ("wall", self.wall_record)):
             if record is not None:
                 record.load(state["records"][name])
-
