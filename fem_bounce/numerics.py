@@ -38,11 +38,12 @@ class FdNumerics:
     cfl: float = _setting(0.2, 0.01, 50.0)  # dt <= cfl * fine size / (1.5 speed scale): explicit convection
     forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
     # "penalty": the one-shot forcing rho c phi (U - u~), rigid only under forcing_number (the default);
-    # "multiplier" (experimental, see models/fd/multiplier.py): a Lagrange multiplier solved by CG on its Schur
-    # complement, no viscous step bound, but its drag depends on the band (Brenner +5 % at delta 1, 16 cells/D)
-    constraint: str = field(default="penalty", metadata={"choices": ("penalty", "multiplier")})
-    constraint_tolerance: float = _setting(1e-2, 1e-12, 0.5)  # multiplier: rms interior slip / speed scale
-    unit_steps: int = _setting(2, 1, 100)  # multiplier: CG iterations a step that keep dlambda/dU up to date
+    # "brinkman" (experimental): the implicit penalty rho c_B phi (U - u), c_B = penalty_strength * max(nu / h^2,
+    # U / h) set by the mesh, not dt, solved by CG (models/fd/constraint.py): no viscous step bound
+    constraint: str = field(default="penalty", metadata={"choices": ("penalty", "brinkman")})
+    penalty_strength: float = _setting(100.0, 1.0, 1e6)  # brinkman: c_B over the viscous and convective rates
+    constraint_tolerance: float = _setting(1e-2, 1e-12, 0.5)  # brinkman: relative accuracy of its force density
+    unit_steps: int = _setting(2, 1, 100)  # brinkman: CG iterations a step that keep dlambda/dU current
     time_order: int = _setting(2, 1, 3)  # BDF/extrapolation order of the flow
     # "direct": MUMPS LU, factorised once; "fieldsplit": GMRES with a Schur field split and BoomerAMG
     # (options prefix fd_flow_fieldsplit_), for large meshes on many ranks (docs/performance.md)

@@ -137,8 +137,8 @@ def test_a_hold_that_lets_the_indicators_overlap_is_refused():
         fd.destroy()
 
 
-def test_a_pair_with_the_multiplier_constraint_is_refused():
-    sc = pair_scene("li2011-case3", {**TOY, "numerics.fd.constraint": "multiplier"}, gap=0.0095, velocity=-0.1)
+def test_a_pair_with_the_brinkman_constraint_is_refused():
+    sc = pair_scene("li2011-case3", {**TOY, "numerics.fd.constraint": "brinkman"}, gap=0.0095, velocity=-0.1)
     with pytest.raises(scene.SceneError, match="a pair needs \"penalty\""):
         FictitiousDomainModel(sc, MPI.COMM_WORLD)
 

@@ -28,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ...fem.domain import speed_scale
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
@@ -38,13 +37,13 @@ from ...output import CheckpointError, segment_path
 from ...scene import SceneError
 from ...sphere import FluidForce
 from . import coupling
-from .domain import Domain, domain_for, time_step
+from .domain import Domain, brinkman_rate, domain_for, time_step
 from .fields import FieldWriter
 from .fluid import FlowSolver
 from .immersed import ImmersedSphere
-from .multiplier import RigidConstraint
+from .constraint import RigidConstraint
 from .pair import ImmersedPair
-from .steady import SteadyMultiplierStokes, SteadyStokes
+from .steady import SteadyBrinkmanStokes, SteadyStokes
 
 
 @dataclass
@@ -104,7 +103,8 @@ class FictitiousDomainModel(FlowModel):
 
     def _check_pair(self, scene) -> None:
         if self.settings.constraint != "penalty":
-            raise SceneError("numerics.fd.constraint = \"multiplier\" holds one sphere only: a pair needs \"penalty\"")
+            raise SceneError(f"numerics.fd.constraint = \"{self.settings.constraint}\" holds one sphere only: "
+                             "a pair needs \"penalty\"")
         if is_stream(scene):
             raise SceneError("a pair in a stream (motion.stream_velocity) is not modelled: give stream_velocity = 0")
         if self.steady and scene.second_sphere.mode != "fixed":
@@ -132,12 +132,16 @@ class FictitiousDomainModel(FlowModel):
         radius = scene.sphere.radius + fd.radius_offset * domain.fine_size
         self.sphere = ImmersedSphere(self.flow, radius, fd.interface_width * domain.fine_size, domain.center)
         velocity = start_velocity(scene)
-        if fd.constraint == "multiplier":
-            self.constraint = RigidConstraint(self.flow, self.sphere, fd.constraint_tolerance, fd.unit_steps,
-                                              speed_scale(scene, "fd"))
+        if fd.constraint != "penalty":
+            self.constraint = RigidConstraint(self.flow, self.sphere, self.regularisation(),
+                                              fd.constraint_tolerance, fd.unit_steps)
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocity] * order, [velocity * self.sphere.volume] * order)
         self.timings["setup"] = time.perf_counter() - start
+
+    def regularisation(self) -> float:
+        """eps = 1 / (rho c_B) of numerics.fd.constraint = "brinkman" [m^3 s/kg] (domain.brinkman_rate)."""
+        return 1.0 / (self.scene.liquid.density * brinkman_rate(self.scene))
 
     def _build_pair(self) -> None:
         """Both spheres' indicators at their initial centres; the flow at rest (a projectile starts
@@ -188,7 +192,7 @@ class FictitiousDomainModel(FlowModel):
         center = self.predicted_center(prediction)
         if center != sphere.center:
             sphere.place(center)
-        linear = self._linearise_multiplier() if self.constraint is not None else self._linearise_penalty()
+        linear = self._linearise_brinkman() if self.constraint is not None else self._linearise_penalty()
         if not all(math.isfinite(v) for v in (linear.explicit, linear.added_mass)):
             raise FloatingPointError(f"the fluid force became {linear.explicit} N at t = {t_next:.6g} s")
         self.last_force = linear
@@ -229,9 +233,9 @@ class FictitiousDomainModel(FlowModel):
         return coupling.linearise(integrals, self.scene.liquid.density, flow.c, h.momentum_history,
                                   h.reference_velocity)
 
-    def _linearise_multiplier(self) -> coupling.Linearised:
-        """The rigid-body constraint (multiplier.RigidConstraint): the predictor and the response to the
-        last multiplier share one pass over the factors, CG corrects the multiplier for the extrapolated
+    def _linearise_brinkman(self) -> coupling.Linearised:
+        """The implicit Brinkman penalty (constraint.RigidConstraint): the predictor and the response to the
+        last force density share one pass over the factors, CG corrects it for the extrapolated
         velocity U_e, and lambda_1 carries the force's dependence on U."""
         flow, sphere, h, constraint = self.flow, self.sphere, self.history, self.constraint
         predicted = flow.predicted
@@ -242,11 +246,13 @@ class FictitiousDomainModel(FlowModel):
         constraint.solve(predicted, extrapolated, responses_ready=True)
         rho, c = self.scene.liquid.density, flow.c
         volume = sphere.volume
-        # F(U) = I(lambda(U)) + rho c (U V_phi - J), lambda(U) = lambda(U_e) + (U - U_e) lambda_1
-        reference = h.reference_velocity
-        explicit = (constraint.hold_force() + (reference - extrapolated) * constraint.unit_force()
+        # F(U) = I(lambda) + rho d/dt int phi u (Uhlmann 2005) with the interior's momentum
+        # int phi u = U V_phi + eps I(lambda) (the penalty law u = U + eps lambda integrated over the band):
+        # F(U) = g I(lambda(U)) + rho c (U V_phi - J), g = 1 + rho c eps, lambda(U) = lambda(U_e) + (U - U_e) lambda_1
+        reference, g = h.reference_velocity, 1.0 + rho * c * constraint.regularisation
+        explicit = (g * (constraint.hold_force() + (reference - extrapolated) * constraint.unit_force())
                     + rho * c * (reference * volume - h.momentum_history))
-        added_mass = -(constraint.unit_force() + rho * c * volume) / c
+        added_mass = -(g * constraint.unit_force() + rho * c * volume) / c
         return coupling.Linearised(explicit, added_mass, reference)
 
     def complete(self, velocity: float, time_now: float) -> None:
@@ -256,21 +262,22 @@ class FictitiousDomainModel(FlowModel):
         if self.pair is not None:
             velocity = np.array(velocity, dtype=float)
             new = self.pair.field(flow.predicted, coupling.rigid_amplitudes(self.integrals, velocity), flow.work)
-            volume = self.integrals.volume
+            interior = velocity * self.integrals.volume
         elif self.constraint is not None:
             new = self.constraint.field(flow.predicted, velocity - self._extrapolated, flow.work)
-            volume = sphere.volume
+            # the interior's momentum / rho, int phi u = U V_phi + eps I(lambda) (_linearise_brinkman)
+            interior = velocity * sphere.volume + self.constraint.regularisation * self.constraint.hold_force()
         else:
             s = coupling.rigid_amplitude(self.integrals, velocity)
             new = flow.work
             flow.predicted.vector.copy(new)
             new.axpy(1.0, sphere.forced.vector)
             new.axpy(s, sphere.unit.vector)
-            volume = self.integrals.volume
+            interior = velocity * self.integrals.volume
         if not math.isfinite(new.norm()):
             raise FloatingPointError(f"the flow field became non-finite at t = {t_next:.6g} s")
         flow.commit(new)
-        self.history.push(velocity, velocity * volume)
+        self.history.push(velocity, interior)
         self.step += 1
 
     def solve_steady(self, integrator) -> None:
@@ -305,7 +312,7 @@ class FictitiousDomainModel(FlowModel):
                                                   self.scene.liquid.density), velocity)
             return forces
         if self.constraint is not None:
-            steady = SteadyMultiplierStokes(self.flow, self.sphere, tolerance=1e-6)
+            steady = SteadyBrinkmanStokes(self.flow, self.sphere, self.regularisation(), tolerance=1e-6)
         else:
             steady = SteadyStokes(self.flow, self.sphere)
         try:
@@ -407,10 +414,11 @@ class FictitiousDomainModel(FlowModel):
                 "pair_min_flow_gap_m": self.pair.min_gap}
 
     def constraint_report(self) -> dict:
-        """The multiplier's cost and how rigid the interior is at the end (max |u - U e_z| where phi = 1)."""
+        """The Brinkman constraint's cost and how rigid the interior is at the end (max |u - U e_z| where
+        phi = 1)."""
         constraint, band = self.constraint, self.sphere.band
         slip = constraint.interior_slip(self.flow.now, self.history.velocity, band.radius - band.width)
-        return {"constraint": "multiplier", "constraint_cg_iterations": constraint.iterations,
+        return {"constraint": self.settings.constraint, "constraint_cg_iterations": constraint.iterations,
                 "constraint_cg_iterations_per_step": constraint.iterations / max(self.steps_this_run, 1),
                 "constraint_unit_cg_iterations": constraint.unit_iterations,
                 "constraint_unconverged": constraint.unconverged, "interior_slip_m_s": slip}

@@ -204,14 +204,15 @@ class _Apply:
         setattr(self, method, fn)
 
 
-class SteadyMultiplierStokes:
-    """The steady Stokes state of a held sphere with the multiplier constraint (multiplier.RigidConstraint):
-    with S the steady Stokes operator, u = -S^-1 Phi lambda and Phi^T (u - U e_z) = 0, so lambda solves
-    Phi^T S^-1 Phi lambda = U Phi^T e_z by the same conjugate gradients, and the force on the sphere is
-    the multiplier's hold force (nothing inside accelerates).  No step, so no dt in the answer."""
+class SteadyBrinkmanStokes:
+    """The steady Stokes state of a held sphere with the Brinkman constraint (constraint.RigidConstraint):
+    with S the steady Stokes operator, u = -S^-1 Phi lambda and Phi^T (u - U e_z - eps lambda) = 0, so
+    (eps + S^-1 Phi) lambda = -U e_z is solved by the same conjugate gradients, and the force on the
+    sphere is the hold force (nothing inside accelerates).  No step, so no dt in the answer."""
 
-    def __init__(self, flow, sphere, tolerance: float = 1e-6, prefix: str = "fd_steady_stokes_"):
-        from .multiplier import RigidConstraint
+    def __init__(self, flow, sphere, regularisation: float, tolerance: float = 1e-6,
+                 prefix: str = "fd_steady_stokes_"):
+        from .constraint import RigidConstraint
 
         self.flow, self.sphere = flow, sphere
         (u, p), (v, q) = ufl.TrialFunctions(flow.W), ufl.TestFunctions(flow.W)
@@ -219,7 +220,8 @@ class SteadyMultiplierStokes:
         self.matrix = assemble_matrix(fem.form(stokes), bcs=flow.bcs)
         self.matrix.assemble()
         self.operator = FactorizedOperator(self.matrix, prefix)
-        self.constraint = RigidConstraint(_SteadyFlow(flow, self.operator), sphere, tolerance, max_iterations=2000)
+        self.constraint = RigidConstraint(_SteadyFlow(flow, self.operator), sphere, regularisation, tolerance,
+                                          max_iterations=2000)
         self.iterations = 0
 
     def solve(self, velocity: float) -> tuple[float, InteriorIntegrals]:
@@ -228,7 +230,7 @@ class SteadyMultiplierStokes:
         zero = fem.Function(flow.W)
         constraint.solve(zero, velocity)
         if constraint.unconverged:
-            raise SolverError(f"steady Stokes multiplier CG did not converge in {constraint.max_iterations} iterations")
+            raise SolverError(f"steady Stokes Brinkman CG did not converge in {constraint.max_iterations} iterations")
         self.iterations = constraint.iterations
         for state in flow.states:
             state.x.array[:] = -constraint.response.x.array
