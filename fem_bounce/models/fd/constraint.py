@@ -23,7 +23,7 @@ the factors the time loop already holds, so nothing is refactorised however the 
 The spectrum of T lies in [eps, eps + 1 / (rho c)] (c = 3 / (2 dt)), so CG converges in a few
 iterations whatever the band.  (The exact multiplier, eps = 0, was tried first, solved by CG in the
 Euclidean inner product: the near-null modes of A^-1 Phi, pressure gradients and the band's weak
-edge, took it hundreds of iterations a step; docs/performance.md section 1.)
+edge, took it hundreds of iterations from rest; docs/performance.md section 1.)
 
 The sphere's force is affine in U, lambda(U) = lambda(U_e) + (U - U_e) lambda_1 with
 T lambda_1 = -e_z, so the implicit coupling (coupling.py) keeps working: the step solves for
@@ -34,7 +34,6 @@ a few CG iterations a step (`unit_steps`) so that it follows the sphere.
 Everything here is SI; `immersed.BandAssembler.forcing` applies Phi (it is symmetric).
 """
 from __future__ import annotations
-
 
 import numpy as np
 from dolfinx import fem
@@ -87,7 +86,7 @@ class RigidConstraint:
         self.solves = 0
         self.unconverged = 0  # solves of lambda that stopped at max_iterations
 
-    # -- Phi and S ---------------------------------------------------------------------------
+    # -- Phi and the CG --------------------------------------------------------------------------
     def apply_phi(self, function: fem.Function, out: PETSc.Vec, scale: float = 1.0) -> PETSc.Vec:
         """out = scale Phi x (x: a W-function with ghosts up to date), ghosts accumulated, Dirichlet rows 0."""
         with out.localForm() as local:
