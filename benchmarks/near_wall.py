@@ -129,10 +129,11 @@ MESH_LADDER = (8, 16, 24, 32)
 
 
 def ladders(case: int, finest: int = 16, surface: float = 1) -> tuple[tuple, int]:
-    """Cells per diameter of the mesh ladder up to `finest`, and the mesh of the time-step ladder.  With the sphere's surface refined (`surface` > 1) every case climbs to `finest` with the steps
-    at 8.  Without it, case 3 climbs to at least 24 cells/D with the steps at 16; the other cases, whose
-    case-3 ladder moved V_i by 0.03 % from 8 to 16 cells/D, stop at 16 unless asked, with the steps at 8
-    (a 24-cell run costs half an hour, a 32-cell one over an hour)."""
+    """Cells per diameter of the mesh ladder up to `finest`, and the mesh of the time-step ladder.  With the
+    sphere's surface refined (`surface` > 1) every case climbs to `finest` with the steps at 8.  Without it,
+    case 3 climbs to at least 24 cells/D with the steps at 16; the other cases, whose case-3 ladder moved
+    V_i by 0.03 % from 8 to 16 cells/D, stop at 16 unless asked, with the steps at 8 (a 24-cell run costs
+    half an hour, a 32-cell one over an hour)."""
     top = max(finest, 24) if case == 3 and surface == 1 else finest
     return tuple(n for n in MESH_LADDER if n <= top), 16 if case == 3 and surface == 1 else 8
 

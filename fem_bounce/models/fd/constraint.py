@@ -83,15 +83,14 @@ class RigidConstraint:
         self._has_unit = False
         self.iterations = 0  # CG iterations (= back-solves) so far
         self.unit_iterations = 0  # of which for lambda_1
-        self.solves = 0
         self.unconverged = 0  # solves of lambda that stopped at max_iterations
 
     # -- Phi and the CG --------------------------------------------------------------------------
-    def apply_phi(self, function: fem.Function, out: PETSc.Vec, scale: float = 1.0) -> PETSc.Vec:
-        """out = scale Phi x (x: a W-function with ghosts up to date), ghosts accumulated, Dirichlet rows 0."""
+    def apply_phi(self, function: fem.Function, out: PETSc.Vec) -> PETSc.Vec:
+        """out = Phi x (x: a W-function with ghosts up to date), ghosts accumulated, Dirichlet rows 0."""
         with out.localForm() as local:
             local.set(0.0)
-            self.sphere.band.forcing(local.array, function.x.array, scale)
+            self.sphere.band.forcing(local.array, function.x.array, 1.0)
         return self.flow.force_rhs(out)
 
     def _conjugate_gradients(self, predicted: fem.Function | None, velocity: float, x: fem.Function,
@@ -111,7 +110,8 @@ class RigidConstraint:
         s.x.array[:] *= self._active
         r = self.apply_phi(s, self._residual)
         rr = s.vector.dot(r)
-        if rr <= self._goal(x):
+        phi_x = self.apply_phi(x, self._phi_x)  # kept up to date below, for the stopping bound
+        if rr <= self._goal(x, phi_x):
             return 0, True
         p, z = self._direction, self._direction_response
         p.x.array[:] = s.x.array
@@ -125,19 +125,20 @@ class RigidConstraint:
                 raise ConstraintError(f"the rigid-body constraint's CG broke down (p.Phi T p = {curvature:g})")
             alpha = rr / curvature
             x.x.array[:] += alpha * p.x.array
+            phi_x.axpy(alpha, phi_p)
             response.x.array[:] += alpha * z.x.array
             s.x.array[:] -= alpha * (eps * p.x.array + z.x.array * self._active)
             r.axpy(-alpha, q)
             rr_new = s.vector.dot(r)
-            if rr_new <= self._goal(x):
+            if rr_new <= self._goal(x, phi_x):
                 return iteration, True
             beta, rr = rr_new / rr, rr_new
             p.x.array[:] = s.x.array + beta * p.x.array
         return limit, False
 
-    def _goal(self, x: fem.Function) -> float:
-        """The CG's stopping bound on |s|_Phi^2, (tolerance |eps x|_Phi)^2."""
-        return (self.tolerance * self.regularisation) ** 2 * x.vector.dot(self.apply_phi(x, self._phi_x))
+    def _goal(self, x: fem.Function, phi_x: PETSc.Vec) -> float:
+        """The CG's stopping bound on |s|_Phi^2, (tolerance |eps x|_Phi)^2 (phi_x = Phi x)."""
+        return (self.tolerance * self.regularisation) ** 2 * x.vector.dot(phi_x)
 
     # -- a step ------------------------------------------------------------------------------
     def first_pass(self) -> tuple[list, list]:
@@ -161,7 +162,6 @@ class RigidConstraint:
                                                           self.max_iterations)
         self.iterations += iterations
         self.unconverged += not converged
-        self.solves += 1
         limit = self.unit_steps if self._has_unit else self.max_iterations
         iterations, _ = self._conjugate_gradients(None, 1.0, self.unit, self.unit_response, limit)  # T x = -e_z
         self._has_unit = True
