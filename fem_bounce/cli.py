@@ -13,11 +13,14 @@ the workers of an mpi4py.futures pool).  Errors a user can cause print one line
 (on rank 0 only under mpirun) naming the field or path and exit with status 2; a run that ends
 early prints one line and exits with 1 (diverged, or an output could not be written) or 128 + the
 signal (130 for SIGINT, 143 for SIGTERM) when interrupted.
+What the libraries print (ffcx's compiler lines and ResourceWarnings on a form's first compile) goes to
+the run directory's run.log, not the terminal.
 """
 from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import shlex
 import signal
 import sys
@@ -142,6 +145,7 @@ def _out_path(text: str | None) -> Path | None:
 def _cmd_run(args) -> int:
     from mpi4py import MPI
 
+    from .errors import RunFailed
     from .run import simulate
 
     comm = MPI.COMM_WORLD
@@ -173,8 +177,13 @@ def _cmd_run(args) -> int:
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     if comm.rank == 0:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
-    summary = simulate(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                       command=command, progress=not args.quiet)
+    try:
+        summary = simulate(scene, model, comm, out, force=args.force, restart=args.restart is not None,
+                           command=command, progress=not args.quiet)
+    except RunFailed:  # diverged, interrupted or failed: begun, so its directory is a run's
+        _LIBRARY_LOG.keep(out, comm)
+        raise
+    _LIBRARY_LOG.keep(out, comm)
     if comm.rank == 0:
         _print_records(summary)
     return 0
@@ -391,9 +400,73 @@ def _say(text: str) -> None:
         print(f"fem-bounce: {text}", file=sys.stderr, flush=True)
 
 
+# Where a warning from these packages starts, it is theirs, not the user's business (parts of its file's path).
+_LIBRARIES = {"ffcx", "cffi", "dolfinx", "ufl", "setuptools", "distutils"}
+
+
+class _LibraryLog(logging.Handler):
+    """What the libraries say, kept for the run directory's run.log instead of the terminal.  On a form's
+    first compile ffcx leaves its C file open (a ResourceWarning) and cffi's distutils logs the compiler's
+    command lines at INFO on the root logger (ffcx's import put a stderr handler there), between the run's
+    own lines; whether that happens depends on the machine's form cache, not on the run."""
+
+    def __init__(self):
+        super().__init__(logging.DEBUG)
+        self.setFormatter(logging.Formatter("%(levelname)s:%(name)s:%(message)s"))
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.lines.append(self.format(record))
+        if record.levelno >= logging.WARNING:  # a library's own warning still shows, on one line
+            _say(f"{record.levelname.lower()}: {record.name}: {record.getMessage().splitlines()[0]}")
+
+    def add_warning(self, message, category, filename: str, lineno: int) -> None:
+        self.lines.append(warnings.formatwarning(message, category, filename, lineno, "").rstrip())
+
+    def keep(self, run_dir: Path | None, comm) -> None:
+        """Append what was said to run_dir/run.log (rank 0; nothing to say, no file); dropped without a run
+        directory.  Called only once the run has begun: a refused run leaves its --out as it was."""
+        lines, self.lines = self.lines, []
+        if comm.rank != 0 or not lines or run_dir is None or not output.is_run_directory(run_dir):
+            return
+        with contextlib.suppress(OSError):  # a courtesy: an unwritable directory has said so already
+            with open(Path(run_dir) / "run.log", "a") as stream:
+                stream.write("\n".join(lines) + "\n")
+
+
+_LIBRARY_LOG = _LibraryLog()
+
+
+@contextlib.contextmanager
+def _library_output():
+    """The libraries' logging into _LIBRARY_LOG alone while a command runs; as it was afterwards."""
+    root = logging.getLogger()
+    before = root.handlers[:]
+    for handler in before:
+        root.removeHandler(handler)
+    root.addHandler(_LIBRARY_LOG)  # and ffcx's logging.basicConfig() on import does nothing
+    for name in ("ffcx", "FFCX", "UFL"):  # no --verbose: their INFO lines would go to run.log only anyway
+        logging.getLogger(name).setLevel(logging.WARNING)
+    _LIBRARY_LOG.lines.clear()
+    try:
+        yield
+    finally:
+        root.removeHandler(_LIBRARY_LOG)
+        for handler in before:
+            root.addHandler(handler)
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """The package's warnings as one line each; a library's (ffcx's unclosed files...) into run.log."""
+    if issubclass(category, ResourceWarning) or not _LIBRARIES.isdisjoint(Path(filename).parts):
+        _LIBRARY_LOG.add_warning(message, category, filename, lineno)
+    else:
+        _say(f"warning: {message}")
+
+
 def _route_warnings() -> None:
-    """Warnings as one line each.  Again after importing a model: ffcx sends warnings to logging."""
-    warnings.showwarning = lambda message, *args, **kwargs: _say(f"warning: {message}")
+    """Warnings through _show_warning.  Again after importing a model: ffcx sends warnings to logging."""
+    warnings.showwarning = _show_warning
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -413,7 +486,8 @@ def main(argv: list[str] | None = None) -> int:
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
                "study": _cmd_study, "compare": _cmd_compare}[args.command]
     graceful = args.command != "scenes"  # runs stop between two steps; listing scenes stops at once
-    with warnings.catch_warnings(), (Interrupts(announce=_RANK == 0) if graceful else contextlib.nullcontext()):
+    with warnings.catch_warnings(), _library_output(), \
+            (Interrupts(announce=_RANK == 0) if graceful else contextlib.nullcontext()):
         warnings.simplefilter("always")
         _route_warnings()
         try:

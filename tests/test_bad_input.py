@@ -48,8 +48,8 @@ def tree(root: Path) -> dict:
 
 
 def messages(err: str) -> list[str]:
-    """fem-bounce's lines, without the start line ('... on 1 rank(s) -> DIR').  (On its first compile of
-    a form ffcx logs the compiler's command lines to stderr: not ours, and not kept here.)"""
+    """fem-bounce's lines, without the start line ('... on 1 rank(s) -> DIR').  (What ffcx says on its first
+    compile of a form goes to run.log, so these lines do not depend on the machine's form cache.)"""
     assert "Traceback" not in err, err
     return [line for line in err.splitlines() if line.startswith("fem-bounce: ") and " rank(s) -> " not in line]
 

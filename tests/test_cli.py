@@ -1,5 +1,7 @@
 """The command line: outputs, the file contract, and one clear line for each user error."""
 import json
+import logging
+import warnings
 
 import pytest
 from mpi4py import MPI
@@ -30,6 +32,30 @@ def test_run_writes_the_contracted_files(shared_tmp):
     assert cli.main(["run", str(out / "scene.toml"), "--model", "ode", "--out", str(again), "--quiet"]) == 0
     MPI.COMM_WORLD.barrier()
     assert json.loads((again / "summary.json").read_text())["impacts"] == summary["impacts"]
+
+
+def test_library_output_goes_to_run_log_not_the_terminal(tmp_path, capsys):
+    """On a cold form cache ffcx's unclosed C files (ResourceWarning) and the compiler's INFO lines came out
+    as fem-bounce warnings between the run's own lines, so a test's one expected line became three."""
+    run_dir = output.prepare_directory(tmp_path / "run")
+    root = logging.getLogger()
+    with warnings.catch_warnings(), cli._library_output():
+        warnings.simplefilter("always")
+        cli._route_warnings()
+        warnings.warn_explicit("unclosed file <libffcx_forms_0.c>", ResourceWarning, "/anywhere/gc.py", 1)
+        warnings.warn_explicit("old API", DeprecationWarning, "/usr/lib/python3/dist-packages/ffcx/jit.py", 2)
+        warnings.warn("the package's own warning")
+        level = root.level
+        root.setLevel(logging.INFO)  # what distutils does while cffi compiles a form
+        logging.info("x86_64-linux-gnu-gcc -c libffcx_forms_0.c")
+        root.setLevel(level)
+        cli._LIBRARY_LOG.keep(run_dir, MPI.COMM_SELF)
+    assert capsys.readouterr().err.splitlines() == ["fem-bounce: warning: the package's own warning"]
+    log = (run_dir / "run.log").read_text()
+    for line in ("ResourceWarning: unclosed file <libffcx_forms_0.c>", "ffcx/jit.py:2: DeprecationWarning: old API",
+                 "INFO:root:x86_64-linux-gnu-gcc -c libffcx_forms_0.c"):
+        assert line in log
+    assert cli._LIBRARY_LOG not in root.handlers  # logging as it was, once the command is over
 
 
 def test_existing_directory_is_never_silently_replaced(tmp_path, capsys):
