@@ -159,12 +159,14 @@ def test_predictor_and_checkpoint_state_carry_arrays():
 
 
 def test_a_single_sphere_scene_is_unchanged(tmp_path):
-    """Pinned before the pair work (benchmarks/refactor_check.py ode-case3, bit for bit)."""
+    """Pinned before the pair work (benchmarks/refactor_check.py ode-case3).  To 1e-10 relative, not bit for
+    bit: another CPU of the same kind gives the adaptive integrator's numbers 2e-15 apart (up to 1e-12 for
+    an ale trajectory through MUMPS); 1e-10 leaves margin above that and still catches any real change."""
     summary = simulate(scenes.load("li2011-case3", {"run.bounces": 2}), "ode", MPI.COMM_SELF, tmp_path / "run",
                        progress=False, plots=False)
     assert "collisions" not in summary
-    assert summary["impacts"][0]["impact_speed"] == 0.3803523910929865
-    assert summary["rebounds"][0]["restitution"] == 0.9172262308879877
+    assert summary["impacts"][0]["impact_speed"] == pytest.approx(0.3803523910929865, rel=1e-10)
+    assert summary["rebounds"][0]["restitution"] == pytest.approx(0.9172262308879877, rel=1e-10)
     assert summary["steps"] == 1200
     header = (tmp_path / "run" / "trajectory.csv").read_text().splitlines()[0]
     assert tuple(header.split(",")) == output.TRAJECTORY_COLUMNS
