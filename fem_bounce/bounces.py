@@ -1,7 +1,7 @@
-"""The run's account of the bounces: the sphere integrator's events (the gap crossing delta_ss and
-delta_sl, the velocity changing sign) turned into Impact and Rebound records, with the step log the
+"""The run's account of the bounces: the sphere integrator's events (the gap crossing the contact gap
+and delta_sl, the velocity changing sign) turned into Impact and Rebound records, with the step log the
 paper's 2 ms means are taken from.  The equation of motion (sphere.py) reads only the contact state
-(in contact? W_o of this contact) from here.
+(in contact? what the contact fixed when it began: contact.ContactLaw.engage) from here.
 """
 from __future__ import annotations
 
@@ -12,9 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 
 IMPACT_WINDOW = 2e-3  # s: the paper's impact speed is the mean over the 2 ms before the minimum gap
-# A rebound whose apex stays within this many elastic-layer thicknesses delta_ss D of the wall never left
-# the lubrication film: reported as no rebound (e = 0), as the experiments report it (docs/physics.md).
-REBOUND_MIN_APEX_IN_CONTACT_LAYERS = 3.0
 
 
 @dataclass
@@ -22,10 +19,11 @@ class Impact:
     time: float  # of the minimum gap [s]
     impact_speed: float  # mean speed over the 2 ms before the minimum gap [m/s]
     peak_speed: float  # largest approach speed since the previous apex [m/s]
-    contact_speed: float  # speed when the gap fell to delta_ss (sets W_o) [m/s]
+    contact_speed: float  # speed when the gap fell to the contact gap [m/s]
     Re: float  # from impact_speed
     St: float  # from impact_speed
-    min_gap: float  # [m]
+    min_gap: float  # [m]; below 0 inside a Hertz contact (the overlap beyond the contact gap)
+    contact_gap: float = 0.0  # where the contact began: h_c (lubricated-hertz) or delta_ss D (li2011) [m]
 
 
 @dataclass
@@ -33,7 +31,7 @@ class Rebound:
     """What follows an impact.  `restitution` compares like with like as a camera sees it:
     rebound_speed (mean over the 2 ms after the minimum gap) / impact_speed (mean over the
     2 ms before it, as the paper's Table 2), and 0 when the sphere did not rebound: its apex
-    stayed below REBOUND_MIN_APEX_IN_CONTACT_LAYERS delta_ss D (or it never left contact).
+    stayed below contact.REBOUND_MIN_APEX of the gap scale (or it never left contact).
     `peak_restitution` is the ratio of the peak speeds, after leaving contact and on approach."""
 
     restitution: float  # 0: no rebound
@@ -56,7 +54,7 @@ class BounceRecord:
     the contact model's blend gap (delta_sl) outward, and a rebound still opening at the end counts with
     its last gap."""
 
-    STATE = ("in_contact", "hertz_force", "_contact_speed", "_phase", "_entered_contact", "_left_contact",
+    STATE = ("in_contact", "engaged", "_contact_speed", "_phase", "_entered_contact", "_left_contact",
              "_peak_speed", "_rebound_speed", "stop_at")
 
     def __init__(self, scene, contact, stop_after_impacts: int = 0, numbers=None, separating: bool = False):
@@ -69,7 +67,8 @@ class BounceRecord:
         self.rebounds: list[Rebound] = []
         self.blend_crossings: list[dict] = []  # the gap passing delta_sl: time, "in"/"out", speed
         self.in_contact = False
-        self.hertz_force = 0.0  # W_o of the current contact [N]
+        self.engaged = 0.0  # what the current contact fixed when it began: W_o [N] or h_c [m]
+        self.resting = False  # came to rest in a contact (contact.ContactLaw.resting)
         self._contact_speed = 0.0
         self._phase = "approach"  # or "rebound"
         self._entered_contact = False  # during this approach
@@ -98,7 +97,7 @@ class BounceRecord:
             self.in_contact = True
             self._entered_contact = True
             self._contact_speed = -v
-            self.hertz_force = self.contact.hertz_force(-v)
+            self.engaged = self.contact.law.engage(-v)
         elif self.in_contact and v > 0.0:
             self.in_contact = False
             self._left_contact = True
@@ -119,13 +118,21 @@ class BounceRecord:
             reynolds, stokes = self.numbers(impact_speed)
             self.impacts.append(Impact(
                 time=t, impact_speed=impact_speed, peak_speed=self._peak_speed, contact_speed=self._contact_speed,
-                Re=reynolds, St=stokes, min_gap=h,
+                Re=reynolds, St=stokes, min_gap=h, contact_gap=self.contact.law.boundary(self._contact_speed),
             ))
             self._phase, self._left_contact, self._rebound_speed = "rebound", False, 0.0
             if self.stop_after_impacts and len(self.impacts) >= self.stop_after_impacts:
                 self.stop_at = t
         elif self._phase == "rebound" and self._left_contact:
             self._end_rebound(t, h)
+
+    def rest(self, t: float, h: float) -> None:
+        """The sphere came to rest in the contact: the impact it made (at rest now if it never turned) has
+        no rebound, and the run may stop."""
+        if self._phase == "approach" and self._entered_contact:
+            self.turning_point(t, h)
+        self.resting = True
+        self.stop_at = t
 
     def _end_rebound(self, t: float, h: float) -> None:
         """The rebound's apex (or a pair's separation) at (t, h): the next approach begins."""
@@ -155,7 +162,7 @@ class BounceRecord:
             self.rebounds.append(self._rebound(None, None))
         elif len(self.rebounds) < len(self.impacts) and self.separating:  # still opening: its last gap
             self.rebounds.append(self._rebound(self._log_h[-1], None))
-        min_apex = REBOUND_MIN_APEX_IN_CONTACT_LAYERS * self.contact.contact_gap
+        min_apex = self.contact.law.rebound_apex
         for impact, rebound in zip(self.impacts, self.rebounds):
             if rebound.apex_gap is None:
                 continue

@@ -1,32 +1,55 @@
-"""The contact model shared by every solver (Li, Hunt & Colonius 2011, section 4; docs/physics.md).
+"""The contact model shared by every solver (docs/physics.md sections 2-4).
 
-- Near-wall liquid force of a free sphere in a resolved flow, `contact.near_wall`:
-  "correction" (default): the flow's sphere is held at the gap delta_sl D while the real sphere goes
-  closer, and what the held flow cannot see is added (`ContactModel.correction`),
-      f_sl = f_sim(held at delta_sl) - 6 pi mu a V [lambda(delta) - lambda(delta_sl)]
-             - m_l [C_M(delta) - C_M(delta_sl)] dV/dt - (1/2) m_l V^2 dC_M/dh,   delta < delta_sl,
-  and f_sl = f_sim above (the correction of Costa et al. 2015, with the resolved geometry held so that
-  the resolved part stops growing where the correction starts);
-  "blend": the paper's eq. 4.5-4.6, f_sl = H f_thr + (1 - H) f_sim,
-  H(delta) = 1 / (1 + exp(10 (delta / delta_sl - 1))).
-  The ODE model has no resolved flow and uses f_thr everywhere.  Fixed and prescribed spheres report
-  the resolved force at their true gap (the validation checks of the flow solvers).
-- Elastic force (eq. 4.7-4.9): f_ss = e_d W_o F(delta / delta_ss), with the Hertz
-  peak force W_o = (4/3) a^2 E* (5 pi rho_p V_I^2 / (4 E*))^(3/5) fixed at the
-  impact speed V_I recorded when the gap first falls to delta_ss, and
-  F(x) = (exp(-x) - exp(-1)) / (1 - exp(-1)) on [0, 1], zero beyond.
+Two surfaces on the axis meet: a sphere and the wall (a partner of infinite radius) or two spheres.  Both
+are described by the reduced radius a*, the reduced mass m*, the reduced modulus E* and their gap h
+between the undeformed surfaces; `ContactLaw` is written once for both.
 
-With W_o fixed during one contact, f_ss depends on position only: it stores and
-returns energy, and all dissipation comes from the liquid (docs/physics.md section 2).
+- `contact.model = "lubricated-hertz"` (the default): the liquid's lubrication, Brenner's additive
+  increment, is carried down to a contact gap h_c computed from the scene, not fitted: the larger of
+  the surfaces' combined roughness and the elastohydrodynamic gap of Davis, Serayssol & Hinch (1986),
+      x_d = (4 theta mu V a*^(3/2))^(2/5),   theta = 1 / (pi E*),
+  the gap at which the film's pressure deforms the surfaces by as much as the gap (their elasticity
+  parameter 4 theta mu V a*^(3/2) / h^(5/2) reaches one), V the approach speed there.  Below h_c a
+  Hertz contact, its overlap x = h_c - h measured from h_c (Johnson 1985, section 4.2),
+      f = (4/3) E* a*^(1/2) x^(3/2) + c sqrt(m* (4/3) E* a*^(1/2)) x^(1/4) dx/dt,   f >= 0,
+  with the damping of Tsuji, Tanaka & Ishida (1992): its restitution does not depend on the impact
+  speed, and c is set once so that a dry impact rebounds with contact.dry_restitution (`tsuji_damping`).
+  The film cannot resist the approach once it carries the load: between h_c and h = 0 the lubrication
+  (the wall's or the pair's excess over the free drag) is held at its value at h_c and faded out
+  linearly in h (as Nijssen, Ottens & Padding 2022 blend lubrication into contact).  h_c is fixed for
+  one contact when the gap first falls to it.
+- `contact.model = "li2011"`: the paper's model as written (Li, Hunt & Colonius 2011, eq. 4.5-4.9): the
+  elastic force f_ss = e_d W_o F(delta / delta_ss), W_o = (4/3) a^2 E* (5 pi rho_p V_I^2 / (4 E*))^(3/5)
+  fixed at the speed V_I where the gap first falls to delta_ss D, F(x) = (exp(-x) - exp(-1)) /
+  (1 - exp(-1)) on [0, 1]; the paper's blend of f_thr and f_sim, and its f_thr with the drag multiplied
+  by the Schiller-Naumann factor (contact.near_wall and contact.inertial_factor "auto").  With W_o fixed
+  the force depends on position only: it stores and returns energy; all dissipation is the liquid's.
+
+Near-wall liquid force of a free sphere in a resolved flow, `contact.near_wall` (`ContactModel`):
+"correction" (lubricated-hertz's default): the flow's sphere is held at the gap delta_sl D while the real
+sphere goes closer, and what the held flow cannot see is added (Costa et al. 2015, with the resolved
+geometry held),
+    f_sl = f_sim(held at delta_sl) - 6 pi mu a V [lambda(delta) - lambda(delta_sl)]
+           - m_l [C_M(delta) - C_M(delta_sl)] dV/dt - (1/2) m_l V^2 dC_M/dh,   delta < delta_sl;
+"blend" (li2011's): the paper's eq. 4.5-4.6, f_sl = H f_thr + (1 - H) f_sim,
+H(delta) = 1 / (1 + exp(10 (delta / delta_sl - 1))).  The ODE model uses f_thr everywhere.  Fixed and
+prescribed spheres report the resolved force at their true gap (the flow solvers' validation checks).
 """
 from __future__ import annotations
 
+import functools
 import math
 
 from .scene import Scene
 from .theory import TheoryForces
 
 _E_INV = math.exp(-1.0)
+# Beyond an overlap of a tenth of the reduced radius Hertz's small-strain contact no longer holds: a
+# sphere pushed deeper has gone through the wall (or the other sphere) as far as the model can tell.
+MAX_OVERLAP = 0.1
+# A rebound whose apex stays below this fraction of the gap scale (D, or 2a* for a pair) never left the
+# lubrication film, as a camera sees it (the paper's three contact layers, 3 delta_ss = 0.051): e = 0.
+REBOUND_MIN_APEX = 0.05
 
 
 def blend(delta: float, delta_sl: float) -> float:
@@ -45,14 +68,147 @@ def reduced_modulus(e1: float, nu1: float, e2: float, nu2: float) -> float:
     return 1.0 / ((1.0 - nu1**2) / e1 + (1.0 - nu2**2) / e2)
 
 
-class ContactGaps:
-    """The contact model's gaps for a length `diameter` (D at the wall, 2a* for a pair) [m]; the class
-    using it sets delta_ss, delta_sl, diameter and `correcting` (the near-wall correction is on)."""
+# -- Hertz's contact (Johnson 1985, sections 4.2 and 11.1) ----------------------------------------------
 
-    @property
-    def contact_gap(self) -> float:
-        """delta_ss D: where the elastic force starts [m]."""
-        return self.delta_ss * self.diameter
+
+def hertz_stiffness(radius: float, e_star: float) -> float:
+    """k = (4/3) E* a*^(1/2) [N/m^1.5]: f = k x^(3/2) at the overlap x."""
+    return 4.0 / 3.0 * e_star * math.sqrt(radius)
+
+
+def hertz_depth(radius: float, mass: float, e_star: float, speed: float) -> float:
+    """x_m [m]: the deepest overlap of an elastic impact at `speed`, (15 m* V^2 / (16 E* a*^(1/2)))^(2/5)
+    (the kinetic energy m* V^2 / 2 stored as (2/5) k x_m^(5/2))."""
+    return (15.0 * mass * speed**2 / (16.0 * e_star * math.sqrt(radius))) ** 0.4
+
+
+def hertz_peak_force(radius: float, mass: float, e_star: float, speed: float) -> float:
+    """W_o [N]: the largest force of a Hertz contact of (reduced) radius `radius` [m] and (reduced) mass
+    `mass` [kg] met at the relative speed `speed` [m/s].  With a* = a and m* = (4/3) pi a^3 rho_p this is
+    the paper's eq. 4.7, W_o = (4/3) a^2 E* (5 pi rho_p V^2 / (4 E*))^(3/5)."""
+    return hertz_stiffness(radius, e_star) * hertz_depth(radius, mass, e_star, speed)**1.5
+
+
+def hertz_contact_time(radius: float, mass: float, e_star: float, speed: float) -> float:
+    """Hertz's duration of a dry elastic impact, 2.94 x_m / V [s] (Johnson 1985, eq. 11.24)."""
+    return 2.94 * hertz_depth(radius, mass, e_star, speed) / speed
+
+
+def _damped_restitution(damping: float) -> float:
+    """The restitution of x'' = -max(x^(3/2) + c x^(1/4) x', 0), x(0) = 0, x'(0) = 1: Tsuji's law in units
+    where k = m = 1 and the impact speed is 1 (any other speed and stiffness scale out of it)."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, y):
+        x = max(y[0], 0.0)
+        return [y[1], -max(x**1.5 + damping * x**0.25 * y[1], 0.0)]
+
+    def separates(t, y):
+        return y[0] if t > 1e-9 else 1.0
+    separates.terminal, separates.direction = True, -1
+    solution = solve_ivp(rhs, (0.0, 100.0), [0.0, 1.0], events=separates, rtol=1e-10, atol=1e-12, method="DOP853")
+    return float(-solution.y_events[0][0][1]) if solution.t_events[0].size else 0.0
+
+
+@functools.cache
+def tsuji_damping(dry_restitution: float) -> float:
+    """c of `_damped_restitution` that gives the dry restitution e_d (0.0218 for 0.97); e_d = 0 takes the
+    smallest damping that stops every impact (the contact then holds the sphere)."""
+    from scipy.optimize import brentq
+
+    if dry_restitution >= 1.0:
+        return 0.0
+    if dry_restitution <= 0.0:
+        return 100.0
+    return float(brentq(lambda c: _damped_restitution(c) - dry_restitution, 0.0, 100.0, xtol=1e-10))
+
+
+def elastohydrodynamic_gap(radius: float, e_star: float, viscosity: float, speed: float) -> float:
+    """x_d = (4 theta mu V a*^(3/2))^(2/5), theta = 1 / (pi E*) [m]: the gap at which the elasticity
+    parameter of Davis, Serayssol & Hinch (1986) reaches one, so that the film's pressure flattens the
+    surfaces by as much as the gap (0.43 um for Li et al.'s case 3 at 0.39 m/s)."""
+    return (4.0 * viscosity * abs(speed) * radius**1.5 / (math.pi * e_star)) ** 0.4
+
+
+class ContactLaw:
+    """The solid contact of two surfaces on the axis (module docstring), for a reduced radius `radius`
+    [m] (a for the wall), reduced mass `mass` [kg], E* `e_star` [Pa], the liquid's `viscosity` [Pa s],
+    the surfaces' combined `roughness` [m] and the gap scale `length` (D, or 2a* for a pair) [m].
+
+    One contact: `boundary(speed)` is the gap where it begins at the approach speed, `engage(speed)`
+    the number it fixes there (W_o for li2011, h_c for lubricated-hertz), `force(gap, rate, engaged)` its
+    force pushing the surfaces apart, `film(gap, engaged)` where the lubrication is evaluated and how
+    much of it is left, `boundary(speed, engaged)` where it ends."""
+
+    def __init__(self, contact, radius: float, mass: float, e_star: float, viscosity: float, roughness: float,
+                 length: float):
+        self.model = contact.model
+        self.radius, self.mass, self.e_star, self.length = radius, mass, e_star, length
+        self.viscosity, self.roughness = viscosity, roughness
+        self.gap_factor = contact.contact_gap_factor
+        self.dry_restitution = contact.dry_restitution
+        self.delta_ss = contact.delta_ss
+        self.hertz = self.model == "lubricated-hertz"
+        self.stiffness = hertz_stiffness(radius, e_star)
+        self.damping = tsuji_damping(self.dry_restitution) * math.sqrt(mass * self.stiffness) if self.hertz else 0.0
+        # the smallest admissible gap: the spring's own position for li2011, Hertz's small strain here
+        self.floor = -MAX_OVERLAP * radius if self.hertz else 0.0
+        self.rebound_apex = REBOUND_MIN_APEX * length
+
+    def gap_at(self, speed: float) -> float:
+        """h_c [m] at the approach speed `speed` [m/s]: max(roughness, x_d) or delta_ss D (li2011)."""
+        if not self.hertz:
+            return self.delta_ss * self.length
+        return self.gap_factor * max(self.roughness,
+                                     elastohydrodynamic_gap(self.radius, self.e_star, self.viscosity, speed))
+
+    def boundary(self, speed: float, engaged: float | None = None) -> float:
+        """The gap [m] where a contact begins (approaching at `speed` >= 0), or ends (`engaged` given)."""
+        if engaged is not None and self.hertz:
+            return engaged
+        return self.gap_at(speed)
+
+    def engage(self, speed: float) -> float:
+        """What one contact keeps from the speed where it began: W_o [N] (li2011) or h_c [m]."""
+        if self.hertz:
+            return self.gap_at(speed)
+        return hertz_peak_force(self.radius, self.mass, self.e_star, speed)
+
+    def force(self, gap: float, rate: float, engaged: float) -> float:
+        """The contact force pushing the surfaces apart [N] at the gap `gap` [m] closing at -`rate` [m/s]."""
+        if not self.hertz:
+            return self.dry_restitution * engaged * elastic_shape(gap / (self.delta_ss * self.length))
+        overlap = engaged - gap
+        if overlap <= 0.0:
+            return 0.0
+        return max(self.stiffness * overlap**1.5 - self.damping * overlap**0.25 * rate, 0.0)
+
+    def film(self, gap: float, engaged: float | None) -> tuple[float, float]:
+        """(gap [m] at which the lubrication is evaluated, the share of it left): (gap, 1) outside a
+        Hertz contact; inside, (h_c, h / h_c) down to 0 at h = 0 (module docstring)."""
+        if engaged is None or not self.hertz or gap >= engaged:
+            return gap, 1.0
+        return engaged, min(max(gap / engaged, 0.0), 1.0)
+
+    def resting(self, gap: float, rate: float, engaged: float, mass: float, weight: float) -> bool:
+        """Whether a sphere of `mass` [kg] pressed by the net `weight` [N] into this contact can no longer
+        leave it: its energy measured from the static overlap x_s = (W / k)^(2/3), kinetic plus Hertz
+        (2/5) k x^(5/2) less the weight's work W x, is below the 0.6 W x_s that lifting it to x = 0 costs
+        (no liquid force lifts it: near the wall the liquid only resists)."""
+        if not self.hertz or weight <= 0.0:
+            return False
+        overlap = engaged - gap
+        static = (weight / self.stiffness) ** (2.0 / 3.0)
+
+        def potential(x: float) -> float:
+            return 0.4 * self.stiffness * max(x, 0.0) ** 2.5 - weight * x
+        energy = 0.5 * mass * rate**2 + potential(overlap) - potential(static)
+        return energy < 0.6 * weight * static
+
+
+class ContactGaps:
+    """The resolved flow's gaps for a length `diameter` (D at the wall, 2a* for a pair) [m]; the class
+    using it sets delta_sl, diameter and `correcting` (the near-wall correction is on)."""
 
     @property
     def blend_gap(self) -> float:
@@ -68,31 +224,30 @@ class ContactGaps:
 
 
 class ContactModel(ContactGaps):
-    """One scene's contact model: the blend, the elastic force and the theory forces."""
+    """One scene's contact with the wall: its law, the blend, the correction and the theory forces."""
 
     def __init__(self, scene: Scene):
         c = scene.contact
         self.delta_sl = c.delta_sl
-        self.delta_ss = c.delta_ss
-        self.dry_restitution = c.dry_restitution
         self.diameter = scene.sphere.diameter
-        self.sphere_density = scene.sphere.density
-        self.radius = scene.sphere.radius
         self.e_star = reduced_modulus(
             scene.sphere.youngs_modulus, scene.sphere.poisson_ratio, scene.wall.youngs_modulus, scene.wall.poisson_ratio
         )
+        self.law = ContactLaw(c, scene.sphere.radius, scene.sphere.mass, self.e_star, scene.liquid.viscosity,
+                              scene.sphere.roughness + scene.wall.roughness, self.diameter)
         self.theory = TheoryForces(scene)
         # the hold and the correction belong to a free sphere's dynamics (see the module docstring)
-        self.correcting = c.near_wall == "correction" and scene.motion.mode == "free"
+        self.correcting = scene.near_wall_law == "correction" and scene.motion.mode == "free"
         self._lambda_hold = self.theory.wall_factor(self.blend_gap)
         self._added_mass_hold = self.theory.added_mass(self.blend_gap)[0]
 
     def blend(self, gap: float) -> float:
         return blend(gap / self.diameter, self.delta_sl)
 
-    def correction(self, gap: float, velocity: float) -> tuple[float, float]:
-        """(force [N], added mass [kg]) that a flow held at delta_sl misses when the sphere is at `gap`:
-        the correction is force - added_mass * dV/dt, zero at and above delta_sl.
+    def correction(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, float]:
+        """(force [N], added mass [kg]) that a flow held at delta_sl misses when the sphere is at `gap`
+        (the lubrication's gap, ContactLaw.film, with the share `film` of it left): the correction is
+        force - added_mass * dV/dt, zero at and above delta_sl.
 
         - lubrication: -6 pi mu a V [lambda(delta) - lambda(delta_sl)] (lambda by contact.wall_drag);
         - the wall's added mass grows: -[C_M(delta) - C_M(delta_sl)] m_l dV/dt;
@@ -101,15 +256,6 @@ class ContactModel(ContactGaps):
         if not self.correcting or gap >= self.blend_gap:
             return 0.0, 0.0
         theory = self.theory
-        lubrication = -theory.stokes_drag * velocity * (theory.wall_factor(gap) - self._lambda_hold)
+        lubrication = -theory.stokes_drag * velocity * film * (theory.wall_factor(gap) - self._lambda_hold)
         added_mass = theory.added_mass(gap)[0] - self._added_mass_hold
-        return lubrication + theory.added_mass_velocity_term(gap, velocity), added_mass
-
-    def hertz_force(self, impact_speed: float) -> float:
-        """W_o (eq. 4.7) [N]."""
-        strain = 5.0 * math.pi * self.sphere_density * impact_speed**2 / (4.0 * self.e_star)
-        return 4.0 / 3.0 * self.radius**2 * self.e_star * strain**0.6
-
-    def elastic(self, gap: float, hertz_force: float) -> float:
-        """f_ss = e_d W_o F(delta / delta_ss), pushing away from the wall [N]."""
-        return self.dry_restitution * hertz_force * elastic_shape(gap / self.contact_gap)
+        return lubrication + film * theory.added_mass_velocity_term(gap, velocity), added_mass

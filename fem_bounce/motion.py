@@ -30,8 +30,9 @@ def is_stream(scene: Scene) -> bool:
 
 
 def start_velocity(scene: Scene) -> float:
-    """The sphere's velocity the flow starts with [m/s]: at rest when free, the imposed one otherwise."""
-    return scene.motion.velocity if not is_free(scene) else 0.0
+    """The sphere's velocity the flow starts with [m/s]: its launch speed initial_velocity when free (0:
+    released from rest), the imposed one otherwise."""
+    return scene.motion.velocity if not is_free(scene) else scene.initial_velocity
 
 
 def start_velocities(scene: Scene) -> tuple[float, ...]:

@@ -21,9 +21,9 @@ scene [motion]; sphere 2: second_sphere.mode and .velocity).
 
 The state is y = [h1, V1, s, V2]: the pair gap, not h2, is integrated, so that the relative tolerance
 governs it near contact as it governs the wall gap of one sphere (an error of rtol h2 would exceed the
-film).  TS events: the pair gap crossing delta_ss 2a* (W_o fixed from the relative speed there) and
-delta_sl 2a*, the relative velocity changing sign (the collision's minimum gap, or the gap's maximum),
-the pair gap reaching 0 (penetration: sphere 2 can never pass sphere 1); and the same for sphere 1 and
+film).  TS events: the pair gap crossing its contact gap (contact.ContactLaw: h_c or delta_ss 2a*,
+what the contact keeps fixed from the relative speed there) and delta_sl 2a*, the relative velocity changing sign (the collision's minimum gap, or the gap's maximum),
+the pair gap reaching the law's floor (penetration: sphere 2 can never pass sphere 1); and the same for sphere 1 and
 the wall when the wall is present.  Two BounceRecords (bounces.py) keep the collisions of the pair
 and of the wall.
 """
@@ -41,7 +41,7 @@ from .contact import ContactModel
 from .motion import prescribed_velocity, start_velocities
 from .pair_contact import PairContactModel
 from .scene import Scene, SceneError
-from .sphere import AdvancingTS, FluidForce, PenetrationError, rosw_solver
+from .sphere import AdvancingTS, FluidForce, PenetrationError, penetration_message, rosw_solver
 from .theory import TheoryForces
 
 # The turning-point events watch a rate (in velocity units) minus this offset, not the rate itself: two
@@ -133,24 +133,31 @@ class PairIntegrator(AdvancingTS):
         h1, v1, s, v2 = y
         gaps = np.array([h1, h1 + self.diameters[0] + s])
         v = np.array([v1, v2])
+        rates = self._rates(v)
+        pair_engaged = self.pair_record.engaged if self.pair_record.in_contact else None
+        pair_gap, pair_film = self.pair.law.film(s, pair_engaged)  # held and fading inside a Hertz contact
+        wall_engaged = self.wall_record.engaged if self.wall and self.wall_record.in_contact else None
+        wall_gap, wall_film = self.wall.law.film(h1, wall_engaged) if self.wall else (h1, 1.0)
+        lubrication = ((wall_gap, wall_film), (gaps[1], 1.0))  # each sphere's gap to the wall, as its drag sees it
         th = self.theories
         terms = dict(
             gaps=gaps, velocities=v, pair_gap=s,
-            c_m=np.array([th[k].added_mass(gaps[k])[0] for k in range(2)]),
-            drag=np.array([th[k].drag(gaps[k], v[k]) for k in range(2)]),
-            am_velocity=np.array([th[k].added_mass_velocity_term(gaps[k], v[k]) for k in range(2)]),
-            pair=self.pair.interaction(s, v),
+            c_m=np.array([th[k].added_mass(lubrication[k][0])[0] for k in range(2)]),
+            drag=np.array([th[k].drag(lubrication[k][0], v[k], lubrication[k][1]) for k in range(2)]),
+            am_velocity=np.array([th[k].added_mass_velocity_term(lubrication[k][0], v[k]) if lubrication[k][1] == 1.0
+                                  else 0.0 for k in range(2)]),
+            pair=self.pair.interaction(pair_gap, v, pair_film),
             elastic=np.zeros(2), correction=np.zeros(2), correction_mass=np.zeros(2),
         )
-        if self.pair_record.in_contact:
-            push = self.pair.elastic(s, self.pair_record.hertz_force)
+        if pair_engaged is not None:
+            push = self.pair.law.force(s, rates[1] - rates[0], pair_engaged)
             terms["elastic"] += (-push, push)
-        if self.wall and self.wall_record.in_contact:
-            terms["elastic"][0] += self.wall.elastic(h1, self.wall_record.hertz_force)
+        if wall_engaged is not None:
+            terms["elastic"][0] += self.wall.law.force(h1, rates[0], wall_engaged)
         if self.resolved:
-            terms["correction"] += self.pair.correction(s, v)
+            terms["correction"] += self.pair.correction(pair_gap, v, pair_film)
             if self.wall:
-                force, mass = self.wall.correction(h1, v1)
+                force, mass = self.wall.correction(wall_gap, v1, wall_film)
                 terms["correction"][0] += force
                 terms["correction_mass"][0] += mass
         return terms
@@ -207,18 +214,23 @@ class PairIntegrator(AdvancingTS):
             return []
         d1, d_pair, vu = self.diameters[0], self.pair.diameter, self.scene.velocity_unit
         pair_rate = lambda y: float(np.diff(self._rates(np.array([y[1], y[3]])))[0])  # noqa: E731
+        wall_rate = lambda y: float(self._rates(np.array([y[1], y[3]]))[0])  # noqa: E731
+
+        def boundary(model, record, rate: float) -> float:
+            """Where the contact begins at this approach rate, or ends (ContactLaw.boundary)."""
+            return model.law.boundary(max(-rate, 0.0), record.engaged if record.in_contact else None)
         events = [
-            ("pair_contact", lambda y: (y[2] - self.pair.contact_gap) / d_pair, 0, False),
+            ("pair_contact", lambda y: (y[2] - boundary(self.pair, self.pair_record, pair_rate(y))) / d_pair, 0, False),
             ("pair_turn", lambda y: pair_rate(y) / vu - TURNING_OFFSET, 0, False),
             ("pair_blend", lambda y: (y[2] - self.pair.blend_gap) / d_pair, 0, False),
-            ("pair_penetration", lambda y: y[2] / d_pair, -1, True),
+            ("pair_penetration", lambda y: (y[2] - self.pair.law.floor) / d_pair, -1, True),
         ]
         if self.wall and self.free[0]:
             events += [
-                ("wall_contact", lambda y: (y[0] - self.wall.contact_gap) / d1, 0, False),
-                ("wall_turn", lambda y: self._rates(np.array([y[1], y[3]]))[0] / vu - TURNING_OFFSET, 0, False),
+                ("wall_contact", lambda y: (y[0] - boundary(self.wall, self.wall_record, wall_rate(y))) / d1, 0, False),
+                ("wall_turn", lambda y: wall_rate(y) / vu - TURNING_OFFSET, 0, False),
                 ("wall_blend", lambda y: (y[0] - self.wall.blend_gap) / d1, 0, False),
-                ("wall_penetration", lambda y: y[0] / d1, -1, True),
+                ("wall_penetration", lambda y: (y[0] - self.wall.law.floor) / d1, -1, True),
             ]
         return events
 
@@ -246,9 +258,13 @@ class PairIntegrator(AdvancingTS):
             elif name == "wall_blend":
                 self.wall_record.blend_crossing(t, rates[0])
             elif name == "pair_penetration":
-                raise PenetrationError(f"sphere 2 reached sphere 1 at t = {t:.6g} s (pair gap {s:.3g} m)")
+                raise PenetrationError(penetration_message(
+                    self.pair.law, "sphere 2 went through sphere 1", t, s, self.pair_record._contact_speed,
+                    "sphere.youngs_modulus, second_sphere.youngs_modulus"))
             else:
-                raise PenetrationError(f"sphere 1 reached the wall at t = {t:.6g} s (gap {h1:.3g} m)")
+                raise PenetrationError(penetration_message(
+                    self.wall.law, "sphere 1 went through the wall", t, h1, self.wall_record._contact_speed,
+                    "sphere.youngs_modulus, wall.youngs_modulus"))
 
     def _records(self) -> list[BounceRecord]:
         return [r for r in (self.pair_record, self.wall_record) if r is not None]

@@ -16,6 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from . import reference  # noqa: E402
+from .contact import REBOUND_MIN_APEX  # noqa: E402
 from .output import read_summary, read_trajectory  # noqa: E402,F401 -- also read from here by older scripts
 
 
@@ -34,6 +35,11 @@ def draw_run(run_dir: Path) -> list[Path]:
             velocity_gap_figure(traj, summary, run_dir / "velocity_gap.png")]
 
 
+def _paper(contact: dict) -> bool:
+    """The paper's contact model (its elastic layer delta_ss is then drawn)."""
+    return contact.get("model") == "li2011"
+
+
 def trajectory_figure(traj: dict, summary: dict, path: Path) -> Path:
     scene = summary["scene"]
     diameter, t_unit, v_unit = units(scene)
@@ -48,7 +54,8 @@ def trajectory_figure(traj: dict, summary: dict, path: Path) -> Path:
             ax_gap.plot(rebound["apex_time"] / t_unit, rebound["apex_gap"] / diameter, "^", color="C2", ms=5)
     contact = scene["contact"]
     ax_gap.axhline(contact["delta_sl"], color="0.6", ls=":", lw=0.8, label=r"$\delta_{sl}$")
-    ax_gap.axhline(contact["delta_ss"], color="0.3", ls="--", lw=0.8, label=r"$\delta_{ss}$")
+    if _paper(contact):
+        ax_gap.axhline(contact["delta_ss"], color="0.3", ls="--", lw=0.8, label=r"$\delta_{ss}$")
     ax_gap.set_ylabel(r"gap $h/D$")
     ax_gap.set_ylim(bottom=0.0)
     ax_gap.legend(loc="upper right", fontsize=8)
@@ -87,16 +94,17 @@ def velocity_gap_figure(traj: dict, summary: dict, path: Path) -> Path:
     main.set_xlabel(r"$\delta = h/D$")
     main.set_ylabel(r"$V/\sqrt{gD}$")
     main.set_title("(a) whole run", fontsize=9)
-    zoom = 3.0 * contact["delta_ss"]
+    # the paper's three elastic layers, or the 0.05 D below which a rebound counts as none (contact.py)
+    zoom = 3.0 * contact["delta_ss"] if _paper(contact) else REBOUND_MIN_APEX
     for k, (title, sign) in enumerate([("(b) approach", -1.0), ("(c) rebound", 1.0)]):
         ax = fig.add_subplot(2, 2, 2 * (k + 1))
         keep = (delta < zoom) & (sign * v >= 0.0)
         ax.plot(delta[keep], v[keep], ".", ms=2)
-        for name, style in (("delta_ss", "--"), ("delta_sl", ":")):
-            if contact[name] < zoom:
-                ax.axvline(contact[name], color="0.4", ls=style, lw=0.8)
-        ax.set_xlim(0.0, zoom)
-        ax.set_title(title + r" near the wall ($\delta_{ss}$ dashed)", fontsize=9)
+        if _paper(contact):
+            ax.axvline(contact["delta_ss"], color="0.4", ls="--", lw=0.8)
+        ax.set_xlim(min(0.0, delta.min()), zoom)
+        ax.set_title(title + (r" near the wall ($\delta_{ss}$ dashed)" if _paper(contact)
+                              else " near the wall (below 0: the Hertz overlap)"), fontsize=9)
         ax.set_xlabel(r"$\delta$")
     fig.suptitle(f"{scene['name']}: velocity against gap ({summary['model']} model)", fontsize=10)
     fig.tight_layout()
@@ -126,7 +134,8 @@ def pair_figure(traj: dict, summary: dict, path: Path) -> Path:
     if wall:
         ax_gap.semilogy(t, traj["gap_1"] / d1, lw=1.0, color="C0", ls="--", label=r"sphere 1 to wall $h_1/D_1$")
     ax_gap.axhline(contact["delta_sl"], color="0.6", ls=":", lw=0.8, label=r"$\delta_{sl}$")
-    ax_gap.axhline(contact["delta_ss"], color="0.3", ls="--", lw=0.8, label=r"$\delta_{ss}$")
+    if _paper(contact):
+        ax_gap.axhline(contact["delta_ss"], color="0.3", ls="--", lw=0.8, label=r"$\delta_{ss}$")
     ax_gap.set_ylabel("gap (scaled)")
     ax_gap.legend(loc="best", fontsize=8)
     ax_vel.plot(t, traj["velocity_1"], lw=1.2, label="sphere 1")

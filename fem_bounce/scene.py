@@ -101,6 +101,10 @@ class Sphere:
     density: float = _positive(unit="kg/m3")
     youngs_modulus: float = _positive(unit="Pa")
     poisson_ratio: float = _between(-1.0, 0.5, open_ends=True, note="an isotropic solid's range")
+    # keyword-only so that SecondSphere's own required fields may follow it
+    roughness: float = field(default=0.0, kw_only=True, metadata={
+        "range": (0.0, 1e-3, False, False), "unit": "m",
+        "note": "the height of the surface's asperities; Li et al. (2011) section 3.1 give 0.02 um (2e-8 m)"})
 
     @property
     def radius(self) -> float:
@@ -151,6 +155,8 @@ class Wall:
     youngs_modulus: float | None = _positive(None, unit="Pa")
     poisson_ratio: float | None = _between(-1.0, 0.5, None, open_ends=True, note="an isotropic solid's range")
     present: bool = True
+    roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note="the height of the surface's asperities; Li et al. "
+                                "(2011) section 3.1 give 0.02 um (2e-8 m) for their Zerodur block")
 
 
 @dataclass(frozen=True)
@@ -167,27 +173,50 @@ class Container:
 
 @dataclass(frozen=True)
 class Contact:
-    """The contact model: the near-wall liquid force and the paper's elastic force (section 4), with the
-    choices the paper leaves open (docs/physics.md).
+    """The contact model (docs/physics.md sections 2-4; fem_bounce.contact).
 
+    model: "lubricated-hertz" (default): lubrication down to a contact gap computed from the scene (the
+      surfaces' roughness or the elastohydrodynamic gap), then a damped Hertz contact with the real E*;
+      "li2011": the paper's model as written (eq. 4.5-4.9: the blend, f_thr with the multiplied
+      Schiller-Naumann drag and the spring e_d W_o F(delta/delta_ss)).
     near_wall: how a resolved model's force meets the near-wall theory below delta_sl.
-      "correction" (default): the flow's sphere stops approaching at delta_sl and the unresolved part of
-      the lubrication force, -6 pi mu a V [lambda(delta) - lambda(delta_sl)], is added to the resolved
+      "correction": the flow's sphere stops approaching at delta_sl and the unresolved part of the
+      lubrication force, -6 pi mu a V [lambda(delta) - lambda(delta_sl)], is added to the resolved
       force (Costa et al. 2015, with the resolved geometry held);  "blend": the paper's eq. 4.5,
-      f_sl = H f_thr + (1 - H) f_sim.  The ODE model uses f_thr everywhere under either."""
+      f_sl = H f_thr + (1 - H) f_sim;  "auto": the model's own (correction; blend for li2011 with one
+      sphere, Scene.near_wall_law).  The ODE
+      model uses f_thr everywhere under either.
+    inertial_factor: "auto" is "additive" (lubricated-hertz) or "schiller-naumann" (li2011): theory.py.
+    delta_ss: the paper's elastic layer, li2011 only."""
 
-    near_wall: str = _choice("correction", "blend")
+    model: str = _choice("lubricated-hertz", "li2011")
+    near_wall: str = _choice("auto", "correction", "blend")
     delta_sl: float = _between(0.0, 0.5, 0.2, open_low=True,
                                note="the gap, in diameters, below which the contact model supplies the near-wall force")
     delta_ss: float = _positive(0.017)
     dry_restitution: float = _between(0.0, 1.0, 0.97)
+    contact_gap_factor: float = _between(0.0, 1e3, 1.0, open_low=True,
+                                         note="multiplies the computed contact gap h_c (lubricated-hertz): "
+                                              "1 is the physical value; others are for sensitivity studies")
     wall_drag: str = _choice("brenner", "simple")
-    inertial_factor: str = _choice("additive", "schiller-naumann", "none")
+    inertial_factor: str = _choice("auto", "additive", "schiller-naumann", "none")
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")
     history_c1: float = _positive(2.0)
     history_c2: float = _between(0.0, 10.0, 0.105)
+
+    @property
+    def paper(self) -> bool:
+        """The paper's model as written (contact.model = "li2011")."""
+        return self.model == "li2011"
+
+    @property
+    def inertial_law(self) -> str:
+        """inertial_factor with "auto" resolved."""
+        if self.inertial_factor != "auto":
+            return self.inertial_factor
+        return "schiller-naumann" if self.paper else "additive"
 
 
 @dataclass(frozen=True)
@@ -235,6 +264,9 @@ class Scene:
     liquid: Liquid
     wall: Wall
     initial_gap: float = _positive(unit="m")
+    initial_velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s",
+                                       note="a free sphere's velocity at the start, positive away from the wall: "
+                                            "a sphere launched at the wall, as on Joseph et al.'s (2001) pendulum")
     gravity: float = _between(0.0, 1000.0, 9.81, unit="m/s2",
                               note="it pulls the sphere to the wall and sets the time unit sqrt(D/g); 0 only "
                                    "for a pair set in motion by second_sphere.velocity")
@@ -253,6 +285,15 @@ class Scene:
     def pair(self) -> bool:
         """Two spheres on the axis (second_sphere given)."""
         return self.second_sphere is not None
+
+    @property
+    def near_wall_law(self) -> str:
+        """contact.near_wall with "auto" resolved: "blend" for the paper's model (li2011) with one sphere,
+        else "correction" (a pair has only the correction)."""
+        c = self.contact
+        if c.near_wall != "auto":
+            return c.near_wall
+        return "blend" if c.paper and not self.pair else "correction"
 
     @property
     def spheres(self) -> tuple[Sphere, ...]:
@@ -277,14 +318,14 @@ class Scene:
 
     @property
     def time_unit(self) -> float:
-        """sqrt(D/g), the paper's time unit [s]; without gravity D / |second_sphere.velocity|."""
+        """sqrt(D/g), the paper's time unit [s]; without gravity D over the launch speed."""
         if self.gravity == 0.0:
-            return self.sphere.diameter / abs(self.second_sphere.velocity)
+            return self.sphere.diameter / self.launch_speed
         return math.sqrt(self.sphere.diameter / self.gravity)
 
     @property
     def velocity_unit(self) -> float:
-        """sqrt(g D), the paper's velocity unit [m/s]; without gravity |second_sphere.velocity|."""
+        """sqrt(g D), the paper's velocity unit [m/s]; without gravity the launch speed."""
         return self.sphere.diameter / self.time_unit
 
     def reynolds(self, speed: float) -> float:
@@ -308,10 +349,12 @@ class Scene:
         return speed
 
     def estimated_impact_speed(self) -> float:
-        """Upper estimate: inviscid fall over the initial gap, capped by the terminal speed."""
+        """Upper estimate: inviscid fall over the initial gap from the launch speed, capped by the larger of
+        the terminal and the launch speed."""
         m_eff = self.sphere.mass + 0.5 * self.displaced_mass
         accel = abs(self.sphere.mass - self.displaced_mass) * self.gravity / m_eff
-        return min(math.sqrt(2.0 * accel * self.initial_gap), self.terminal_speed())
+        launch = abs(self.initial_velocity)
+        return min(math.sqrt(launch**2 + 2.0 * accel * self.initial_gap), max(self.terminal_speed(), launch))
 
     def validate(self) -> "Scene":
         """Check every range and the relations between fields; return self."""
@@ -341,20 +384,19 @@ class Scene:
                              "wall.present = true "
                              "(or set wall.present = false)")
         second = self.second_sphere
-        if self.gravity == 0.0 and (second is None or second.velocity == 0.0 or second.mode == "fixed"):
-            raise SceneError("gravity = 0 moves nothing: allowed only for a pair set in motion by "
-                             "second_sphere.velocity != 0 (in [-100, 100] m/s) with second_sphere.mode free or "
-                             "prescribed; or give gravity in (0, 1000] m/s2, e.g. 9.81")
-        if second is not None and second.gap <= self.contact.delta_ss * pair_diameter(self.sphere, second):
-            pair_d = pair_diameter(self.sphere, second)
-            raise SceneError(f"second_sphere.gap = {second.gap:g} m is out of range: allowed > contact.delta_ss 2a* = "
-                             f"{self.contact.delta_ss * pair_d:.4g} m (delta_ss = {self.contact.delta_ss:g}, the pair's "
-                             f"reduced diameter 2a* = {pair_d:.4g} m): start outside contact")
+        if self.gravity == 0.0 and self.launch_speed == 0.0:
+            raise SceneError("gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity "
+                             "!= 0 or a pair set in motion by second_sphere.velocity != 0 (in [-100, 100] m/s) with "
+                             "second_sphere.mode free or prescribed; or give gravity in (0, 1000] m/s2, e.g. 9.81")
+        if self.initial_velocity != 0.0 and self.motion.mode != "free":
+            raise SceneError(f"initial_velocity = {self.initial_velocity:g} m/s launches a free sphere: with "
+                             f"motion.mode = {self.motion.mode!r} give motion.velocity instead")
+        self._check_start_outside_contact()
         c = self.contact
         if second is not None and c.history != "off":
             raise SceneError(f"contact.history = {c.history!r} is not modelled for a pair of spheres: set "
                              'contact.history = "off" (docs/physics.md section 6)')
-        if second is not None and c.near_wall != "correction":
+        if second is not None and self.near_wall_law != "correction":
             raise SceneError(f"contact.near_wall = {c.near_wall!r} is not implemented for a pair of spheres: use "
                              '"correction"')
         if c.delta_ss >= c.delta_sl:
@@ -387,6 +429,36 @@ class Scene:
                 stacklevel=2,
             )
         return self
+
+    def _check_start_outside_contact(self) -> None:
+        """Each contact starts open: the gap above the paper's elastic layer delta_ss (li2011) or above the
+        surfaces' combined roughness, which must lie below the resolved flow's hold delta_sl."""
+        pairs = [("initial_gap", self.initial_gap, "sphere.diameter", self.sphere.diameter,
+                  self.sphere.roughness + self.wall.roughness, "sphere.roughness + wall.roughness")]
+        second = self.second_sphere
+        if second is not None:
+            pairs.append(("second_sphere.gap", second.gap, "the pair's reduced diameter 2a*",
+                          pair_diameter(self.sphere, second), self.sphere.roughness + second.roughness,
+                          "sphere.roughness + second_sphere.roughness"))
+        c = self.contact
+        for key, gap, scale_name, scale, roughness, roughness_name in pairs:
+            if c.paper and gap <= c.delta_ss * scale:
+                raise SceneError(f"{key} = {gap:g} m is out of range: allowed > contact.delta_ss * {scale_name} = "
+                                 f"{c.delta_ss:g} * {scale:.4g} m = {c.delta_ss * scale:.4g} m: start outside contact")
+            if roughness >= c.delta_sl * scale:
+                raise SceneError(f"{roughness_name} = {roughness:g} m is out of range: allowed < contact.delta_sl * "
+                                 f"{scale_name} = {c.delta_sl * scale:.4g} m, where the resolved flow hands over")
+            if not c.paper and gap <= roughness:
+                raise SceneError(f"{key} = {gap:g} m is out of range: allowed > {roughness_name} = {roughness:g} m: "
+                                 "start outside contact")
+
+    @property
+    def launch_speed(self) -> float:
+        """The largest speed a sphere starts with [m/s]: initial_velocity, or a pair's projectile."""
+        second = self.second_sphere
+        pair_speed = abs(second.velocity) if second is not None and second.mode != "fixed" else 0.0
+        free_speed = abs(self.initial_velocity) if self.motion.mode == "free" else 0.0
+        return max(free_speed, pair_speed)
 
     def replace(self, **changes: Any) -> "Scene":
         """A copy with dotted keys changed, e.g. replace(**{"sphere.density": 8000.0})."""

@@ -2,10 +2,11 @@
 
     m_p dV/dt = f_sl + f_ss - (m_p - m_l) g,
 
-with V positive away from the wall and f_sl the near-wall liquid force of the
+with V positive away from the wall, f_sl the near-wall liquid force of the
 contact model (contact.py): f_sim plus the unresolved lubrication below delta_sl
 (the default), the paper's blend H f_thr + (1 - H) f_sim, or f_thr alone (the ODE
-model).  f_thr contains the added mass -C_M(delta) m_l dV/dt and the history
+model), and f_ss the contact force (contact.ContactLaw: a damped Hertz contact below
+the contact gap h_c, or the paper's spring).  f_thr contains the added mass -C_M(delta) m_l dV/dt and the history
 force, which depends on dV/dt through exponential modes z_i' = dV/dt - z_i / T_i
 (theory.history_modes); the modes are carried only where f_thr is used.  A
 resolved model hands in its force for the coming fluid step linearised in the
@@ -13,11 +14,11 @@ sphere's acceleration, f_sim = explicit - added_mass dV/dt (FluidForce), so the
 coupling is implicit and stays stable for light spheres.  Everything is written as one
 implicit system G(t, y, y') = 0, y = [h, V, z_1..z_n], for an adaptive
 Rosenbrock-W integrator (TSROSW) whose steps sub-cycle inside a fluid step: the
-elastic contact lasts microseconds, a fluid step a millisecond.
+elastic contact lasts tens of microseconds, a fluid step a millisecond.
 
-TS events locate the gap crossing delta_ss (W_o is fixed there from the
-crossing speed) and delta_sl, the minimum gap (impact) and the apex after a
-rebound; the run's bookkeeping (bounces.BounceRecord) turns them into Impact and
+TS events locate the gap crossing the contact gap (what the contact keeps, h_c or
+W_o, is fixed there from the crossing speed) and delta_sl, the minimum gap (impact)
+and the apex after a rebound; the run's bookkeeping (bounces.BounceRecord) turns them into Impact and
 Rebound records.  The integrator owns its PETSc objects: destroy() frees them.
 """
 from __future__ import annotations
@@ -31,8 +32,8 @@ from petsc4py import PETSc
 
 from .bounces import IMPACT_WINDOW, BounceRecord, Impact, Rebound  # noqa: F401 -- the integrator's records
 from .contact import ContactModel
-from .motion import prescribed_velocity
-from .scene import Scene, SceneError
+from .motion import prescribed_velocity, start_velocity
+from .scene import Scene
 
 
 
@@ -46,8 +47,23 @@ class FluidForce:
     added_mass: float = 0.0
 
 
+STALL_FRACTION = 1e-3  # of the launch speed: a sphere without gravity slower than this in the film has stalled
+
+
 class PenetrationError(RuntimeError):
-    """The sphere reached the wall (gap <= 0): the contact model was overwhelmed."""
+    """The sphere went through the wall as far as the contact law can tell (ContactLaw.floor): the
+    contact model was overwhelmed."""
+
+
+def penetration_message(law, what: str, t: float, gap: float, speed: float, materials: str) -> str:
+    """What went through what, and the setting that would have stopped it."""
+    if law.hertz:
+        return (f"{what} at t = {t:.6g} s: the Hertz overlap passed {-law.floor * 1e6:.4g} um, a tenth of the "
+                f"(reduced) radius, beyond Hertz's small-strain contact (contact speed {speed:.3g} m/s): the "
+                f"solids are too soft for this impact ({materials})")
+    return (f"{what} at t = {t:.6g} s (gap {gap:.3g} m, contact speed {speed:.3g} m/s): the paper's spring "
+            "e_d W_o F(delta/delta_ss) stores too little energy over delta_ss to stop it; raise contact.delta_ss "
+            'or use contact.model = "lubricated-hertz"')
 
 
 class AdvancingTS:
@@ -74,13 +90,12 @@ class SphereIntegrator(AdvancingTS):
 
     def __init__(self, scene: Scene, contact: ContactModel | None = None, resolved: bool = False,
                  stop_after_impacts: int = 0):
-        if scene.initial_gap <= scene.contact.delta_ss * scene.sphere.diameter:
-            raise SceneError("initial_gap must exceed contact.delta_ss * sphere.diameter (start outside contact)")
         self.scene = scene
         self.contact = contact or ContactModel(scene)
+        self.law = self.contact.law
         self.theory = self.contact.theory
         self.resolved = resolved  # f_sim comes from a flow solver (else f_sim = f_thr)
-        self.uses_theory = not resolved or scene.contact.near_wall == "blend"  # f_thr enters the balance
+        self.uses_theory = not resolved or scene.near_wall_law == "blend"  # f_thr enters the balance
         self.mode = scene.motion.mode
         self.sphere_mass = scene.sphere.mass
         self.weight = (scene.sphere.mass - scene.displaced_mass) * scene.gravity  # net, toward the wall
@@ -88,8 +103,12 @@ class SphereIntegrator(AdvancingTS):
         self._prescribed = prescribed_velocity(scene)
         self.fluid = FluidForce(0.0, 0.0)
         self.observers: list[Callable[[dict], None]] = []
-        self.bounces = BounceRecord(scene, self.contact, stop_after_impacts)  # impacts, rebounds, the step log
-        self.done = False  # the scene's bounce limit (or stop_after_impacts) was reached
+        # impacts, rebounds, the step log; without gravity a rebound ends where the gap passes delta_sl outward
+        self.bounces = BounceRecord(scene, self.contact, stop_after_impacts, separating=scene.gravity == 0.0)
+        self.done = False  # the scene's bounce limit (or stop_after_impacts) was reached, or the sphere rests
+        self.stop_reason: str | None = None  # why it is done, when not the bounce limit
+        # without gravity nothing brings back a sphere the film has stopped: below this speed it has stalled
+        self._stall_speed = STALL_FRACTION * scene.launch_speed if scene.gravity == 0.0 else 0.0
         self.steps = 0
         self._build_ts()
 
@@ -101,7 +120,7 @@ class SphereIntegrator(AdvancingTS):
     def _build_ts(self) -> None:
         n = self.n
         self.y = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
-        v0 = self._prescribed(0.0)[0] if self.mode != "free" else 0.0
+        v0 = self._prescribed(0.0)[0] if self.mode != "free" else start_velocity(self.scene)
         self.y.setArray(np.r_[self.scene.initial_gap, v0, np.zeros(n - 2)])
         self._jac = PETSc.Mat().createDense([n, n], comm=PETSc.COMM_SELF)
         self._jac.setUp()
@@ -119,16 +138,18 @@ class SphereIntegrator(AdvancingTS):
     def _terms(self, h: float, v: float, z: np.ndarray) -> dict:
         """Every force term that does not need dV/dt [N], and C_M m_l [kg]."""
         th = self.theory
+        engaged = self.bounces.engaged if self.in_contact else None
+        gap, film = self.law.film(h, engaged)  # inside a Hertz contact the film is held at h_c and fades
         terms = dict(
             blend=self._theory_weight(h),
-            c_m=th.added_mass(h)[0],
-            drag=th.drag(h, v),
-            history=th.history(h, v, z),
-            am_velocity=th.added_mass_velocity_term(h, v),
-            elastic=self.contact.elastic(h, self.hertz_force) if self.in_contact else 0.0,
+            c_m=th.added_mass(gap)[0],
+            drag=th.drag(gap, v, film),
+            history=th.history(gap, v, z),
+            am_velocity=th.added_mass_velocity_term(gap, v) if film == 1.0 else 0.0,  # C_M held inside
+            elastic=self.law.force(h, v, engaged) if self.in_contact else 0.0,
         )
         if self.resolved:
-            terms["correction"], terms["correction_mass"] = self.contact.correction(h, v)
+            terms["correction"], terms["correction_mass"] = self.contact.correction(gap, v, film)
         else:
             terms["correction"], terms["correction_mass"] = 0.0, 0.0
         return terms
@@ -195,10 +216,11 @@ class SphereIntegrator(AdvancingTS):
     # -- events and records ---------------------------------------------------------------
     def _indicators(self, ts, t, y, values) -> None:
         h, v = y.array_r[:2]
-        values[0] = (h - self.contact.contact_gap) / self.diameter
+        engaged = self.bounces.engaged if self.in_contact else None
+        values[0] = (h - self.law.boundary(max(-v, 0.0), engaged)) / self.diameter
         values[1] = v / self.scene.velocity_unit
         values[2] = (h - self.contact.blend_gap) / self.diameter
-        values[3] = h / self.diameter
+        values[3] = (h - self.law.floor) / self.diameter
 
     def _post_event(self, ts, events, t, y, forward) -> None:
         h, v = y.array_r[:2]
@@ -208,15 +230,26 @@ class SphereIntegrator(AdvancingTS):
             elif event == 1:
                 self.bounces.turning_point(t, h)
             elif event == 2:
-                self.bounces.blend_crossing(t, v)
+                self.bounces.blend_crossing(t, v, h)
             else:
-                raise PenetrationError(f"the sphere reached the wall at t = {t:.6g} s (gap {h:.3g} m)")
+                raise PenetrationError(penetration_message(
+                    self.law, "the sphere went through the wall", t, h, self.bounces._contact_speed,
+                    "sphere.youngs_modulus, wall.youngs_modulus"))
 
     def _post_step(self, ts) -> None:
         t = ts.getTime()
         h, v, *z = ts.getSolution().array_r
         self.steps += 1
         self.bounces.log(t, h, v)
+        if self.mode == "free" and self.in_contact and not self.bounces.resting and self.law.resting(
+                h, v, self.bounces.engaged, self.sphere_mass + self.theory.added_mass(h)[0], self.weight):
+            self.bounces.rest(t, h)
+            self.stop_reason = f"the sphere came to rest on the wall at t = {t:.6g} s"
+        elif (abs(v) < self._stall_speed and not self.in_contact and h < self.contact.blend_gap
+              and not self.bounces.resting):
+            self.bounces.rest(t, h)
+            self.stop_reason = (f"the sphere stalled in the lubrication film at t = {t:.6g} s (gap {h / self.diameter:.3g} "
+                                f"D, speed below {STALL_FRACTION:g} of its launch speed, no gravity to bring it back)")
         if self.observers:
             row = self.row(t, h, v, np.asarray(z))
             for observer in self.observers:
@@ -286,10 +319,6 @@ class SphereIntegrator(AdvancingTS):
     @property
     def in_contact(self) -> bool:
         return self.bounces.in_contact
-
-    @property
-    def hertz_force(self) -> float:
-        return self.bounces.hertz_force
 
     def destroy(self) -> None:
         """Free the PETSc objects (the records, and the last state as plain numbers, stay)."""

@@ -180,8 +180,8 @@ class TheoryForces:
         self._re_per_speed = scene.reynolds(1.0)
         self._lambda = {"brenner": brenner_lambda, "simple": simple_lambda}[c.wall_drag]
         self._inertia = {"schiller-naumann": schiller_naumann, "additive": schiller_naumann,
-                         "none": lambda re: 1.0}[c.inertial_factor]
-        self._additive = c.inertial_factor == "additive"
+                         "none": lambda re: 1.0}[c.inertial_law]
+        self._additive = c.inertial_law == "additive"
         self._w = {"first-image": first_image_w, "exact": exact_w}[c.added_mass]
         self.wall_present = scene.wall.present  # without the wall: lambda = 1 and W = 0 at every gap
         self.history_on = c.history == "mei-adrian"
@@ -201,10 +201,12 @@ class TheoryForces:
         """lambda(delta): the quasi-steady Stokes drag near the wall over 6 pi mu a V (wall_drag)."""
         return self._lambda(gap / self.diameter) if self.wall_present else 1.0
 
-    def drag(self, gap: float, velocity: float) -> float:
+    def drag(self, gap: float, velocity: float, film: float = 1.0) -> float:
         """f_D = -6 pi mu a V (lambda(delta) + phi(Re) - 1) when additive, lambda(delta) phi(Re) when
-        multiplicative ("schiller-naumann") [N]."""
-        wall, inertia = self.wall_factor(gap), self._inertia(self.reynolds(velocity))
+        multiplicative ("schiller-naumann") [N]; only the share `film` of the wall's excess lambda - 1 is
+        left inside a Hertz contact (contact.ContactLaw.film)."""
+        wall = 1.0 + film * (self.wall_factor(gap) - 1.0)
+        inertia = self._inertia(self.reynolds(velocity))
         factor = wall + inertia - 1.0 if self._additive else wall * inertia
         return -self.stokes_drag * velocity * factor
 

@@ -1,16 +1,23 @@
 """The coefficient of restitution against impact Stokes number with any model (paper Fig. 13-14).
 
-    fem-bounce restitution --model ode --points 40             # seconds
+    fem-bounce restitution --model ode                       # about a minute
     fem-bounce restitution --model ale --points 12 --set numerics.ale.cells_per_diameter=8
 
-The Table 3 material sets released from 0.5-7 diameters, release gaps planned by the ODE model so that
-the impact Stokes numbers spread over 1-1000 (studies.restitution_planning.plan), delta_ss = 0.017; plus the
-paper's runs 30-35 (85 % glycerol, delta_ss + 5 %) over the part of that set's band.  Writes
-restitution.csv and restitution.png (e against St with the ODE curve, the paper's statements and the
-experiments' range); every run goes through the study cache.
+The Table 3 material sets launched at the wall without gravity, as on Joseph et al.'s (2001) pendulum
+(studies.restitution_planning.plan): a point every factor 1.3 between St 3 and 30 and the others spread
+over 1-1000; with contact.model = "li2011" also the paper's runs 30-35 (85 % glycerol, delta_ss + 5 %).  Writes restitution.csv (a row per run, failed runs marked with their status
+and no e), restitution.json (the comparison with the experiments' fit) and restitution.png (e against St
+with the ODE curve, the fit and the experiments' limits); every run goes through the study cache.
+
+The comparison is like with like: e = V_out / V_in, the speeds where the gap passes delta_sl = 0.2 D
+outward and inward (just outside the wall's film, what the pendulum's camera sees), and
+St = rho_p V_in D / (9 mu); the fit
+of Legendre et al. (2006), e / e_d = exp(-35 / St*), is written in St* = (rho_p + rho_l / 2) V D / (9 mu),
+so each point is compared with the fit at its own St* = St (1 + rho_l / (2 rho_p)).
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -23,42 +30,89 @@ from .runner import Runner
 
 NO_REBOUND_BELOW_ST = 10.0  # Joseph et al. (2001); the paper's runs 25-29
 DRY_ABOVE_ST = 500.0  # Joseph et al. (2001): e close to the dry value above St ~ 500
+LEGENDRE_CONSTANT = 35.0  # Legendre et al. (2006): e / e_d = exp(-35 / St*)
+COMPARED_ST = (10.0, 1000.0)  # where the fit is compared with (issue 23: rms < 0.1, no point off by > 0.2)
+
+
+def legendre_fit(stokes: float, density_ratio: float, dry_restitution: float = 0.97) -> float:
+    """e_d exp(-35 / St*) at the package's St (rho_p based), St* = St (1 + 1 / (2 density_ratio))."""
+    st_star = stokes * (1.0 + 0.5 / density_ratio)
+    return dry_restitution * math.exp(-LEGENDRE_CONSTANT / st_star) if st_star > 0 else 0.0
 
 
 def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), overrides: dict | None = None,
-        ode_points: int = 60, runner: Runner | None = None) -> list[dict]:
+        ode_points: int = 24, runner: Runner | None = None) -> list[dict]:
+    restitution.check_overrides(overrides)
     study = StudyDirectory(out, comm)
     runner = runner or Runner(comm)
-    restitution.tabulate_bands((*restitution.MATERIAL_SETS, restitution.DSS_PLUS_5), runner.map)
+    restitution.tabulate_bands(restitution.MATERIAL_SETS, runner.map)
     planned = restitution.plan(points, st_range)
-    lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5)[1][[0, -1]]
-    planned += [(restitution.DSS_PLUS_5, st, restitution.gap_for_stokes(restitution.DSS_PLUS_5, st))
-                for name, st, _ in planned if name == "li2011-table3-steel-85" and lo <= st <= hi]
-    trials = [restitution.bounce_scene(scenes.load(name, overrides), gap) for name, _, gap in planned]
+    if scenes.load(restitution.DSS_PLUS_5, overrides).contact.paper:  # the paper's runs 30-35
+        restitution.tabulate_bands([restitution.DSS_PLUS_5], runner.map)
+        lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5)[1][[0, -1]]
+        planned += [(restitution.DSS_PLUS_5, st, restitution.launch_for_stokes(restitution.DSS_PLUS_5, st))
+                    for name, st, _ in planned if name == "li2011-table3-steel-85" and lo <= st <= hi]
+    trials = [restitution.bounce_scene(scenes.load(name, overrides), launch) for name, _, launch in planned]
     measured = measure_all([(trial, model, f"{name} St ~ {target:.3g}")
                             for trial, (name, target, _) in zip(trials, planned)], study, runner)
-    rows = []
-    for (name, target, gap), trial, row in zip(planned, trials, measured):
-        summary = read_summary(Path(row["run_dir"]))
-        impact = summary["impacts"][0] if summary["impacts"] else None
-        rebound = summary["rebounds"][0] if summary["rebounds"] else None
-        rows.append({"scene": name, "target_St": target, "gap_over_D": gap / trial.sphere.diameter,
-                     "status": row["status"], "St": impact["St"] if impact else None,
-                     "Re": impact["Re"] if impact else None,
-                     "restitution": rebound["restitution"] if rebound else 0.0,
-                     "apex_over_D": (rebound["apex_gap"] / trial.sphere.diameter
-                                     if rebound and rebound["apex_gap"] is not None else 0.0),
-                     "peak_restitution": rebound["peak_restitution"] if rebound else 0.0,
-                     "wall_time_s": row["wall_time_s"], "run_dir": row["run_dir"]})
+    rows = [_row(name, target, launch, trial, found)
+            for (name, target, launch), trial, found in zip(planned, trials, measured)]
     study.write_csv("restitution.csv", rows)
+    study.write_json("restitution.json", compare(rows))
     if comm.rank == 0:
-        ode = restitution.sweep(ode_points, st_range, runner.map) if model != "ode" else None
+        ode = restitution.sweep(ode_points, st_range, runner.map, overrides) if model != "ode" else None
         figure(rows, ode, model, out / "restitution.png")
     return rows
 
 
+def _row(name: str, target: float, launch: float, trial: scenes.Scene, found: dict) -> dict:
+    """One run of the sweep: its e and St, or only its status when it did not complete."""
+    row = {"scene": name, "target_St": target, "launch_speed": launch, "status": found["status"],
+           "failed": found["status"] != "completed", "St": None, "Re": None, "speed_in": None, "speed_out": None,
+           "restitution": None, "restitution_2ms": None, "fit": None, "stop_reason": None,
+           "wall_time_s": found["wall_time_s"], "run_dir": found["run_dir"]}
+    if row["failed"]:
+        return row
+    summary = read_summary(Path(found["run_dir"]))
+    speed_in, speed_out = restitution.crossing_speeds(summary["blend_crossings"])
+    rebound = summary["rebounds"][0] if summary["rebounds"] else None
+    row.update(St=trial.stokes(speed_in), Re=trial.reynolds(speed_in), speed_in=speed_in, speed_out=speed_out,
+               restitution=speed_out / speed_in if speed_in else 0.0, stop_reason=summary.get("stop_reason"),
+               restitution_2ms=rebound["restitution"] if rebound else 0.0,
+               fit=legendre_fit(trial.stokes(speed_in), trial.density_ratio, trial.contact.dry_restitution))
+    return row
+
+
+def compare(rows: list[dict]) -> dict:
+    """The sweep against the experiments: rms and largest difference to the Legendre et al. fit over
+    COMPARED_ST, the critical St (between the last run without a rebound and the first with one), e at the
+    largest St, and the failed runs."""
+    done = [r for r in rows if not r.get("failed") and r["St"]]
+    compared = [r for r in done if COMPARED_ST[0] <= r["St"] <= COMPARED_ST[1]]
+    differences = np.array([r["restitution"] - (r["fit"] if "fit" in r else _fit_of(r)) for r in compared])
+    bouncing = sorted(r["St"] for r in done if r["restitution"] > 0.0)
+    stuck = sorted(r["St"] for r in done if r["restitution"] == 0.0 and (not bouncing or r["St"] < bouncing[0]))
+    top = max(done, key=lambda r: r["St"]) if done else None
+    return {
+        "runs": len(rows), "failed": [r["scene"] + f" St ~ {r['target_St']:.3g}: {r['status']}"
+                                      for r in rows if r.get("failed")],
+        "compared_St": list(COMPARED_ST), "compared_runs": len(compared),
+        "rms_to_fit": float(np.sqrt(np.mean(differences**2))) if compared else None,
+        "max_abs_to_fit": float(np.max(np.abs(differences))) if compared else None,
+        "critical_St": [stuck[-1] if stuck else None, bouncing[0] if bouncing else None],
+        "largest_St": top["St"] if top else None, "e_at_largest_St": top["restitution"] if top else None,
+    }
+
+
+def _fit_of(row: dict) -> float:
+    """The fit at an ODE sweep row's St (its scene's density ratio and dry restitution)."""
+    scene = scenes.load(row["scene"])
+    return legendre_fit(row["St"], scene.density_ratio, scene.contact.dry_restitution)
+
+
 def figure(rows: list[dict], ode: list[dict] | None, model: str, path: Path, dry_restitution: float = 0.97) -> Path:
-    """e against St: the model's runs by material set, the ODE curve, and what the experiments say."""
+    """e against St: the model's runs by material set (failed runs as red crosses at their target St), the
+    ODE curve, and what the experiments say."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -70,29 +124,32 @@ def figure(rows: list[dict], ode: list[dict] | None, model: str, path: Path, dry
     ax.text(0.9, 0.62, "Joseph et al. (2001),\nLi et al. (2011): no\nrebound below St ~ 10", fontsize=7, color="0.3")
     ax.axvspan(DRY_ABOVE_ST, 2000, color="0.95", zorder=0)
     ax.text(DRY_ABOVE_ST * 1.05, 0.62, "e near the\ndry value\n(Joseph et\nal. 2001)", fontsize=7, color="0.3")
-    ax.semilogx(st, dry_restitution * np.exp(-35.0 / st), "k--", lw=1,
-                label=r"Legendre et al. (2006) fit to the experiments, $e_d\,e^{-35/St}$")
+    steel = 7780.0 / 1200.0  # steel in aqueous glycerol: the fit drawn at the package's St
+    ax.semilogx(st, [legendre_fit(s, steel, dry_restitution) for s in st], "k--", lw=1,
+                label=r"Legendre et al. (2006) fit, $e_d\,e^{-35/St^*}$, $St^* = St\,(1 + \rho_l / 2\rho_p)$")
     ax.axhline(dry_restitution, color="0.5", ls=":", lw=1)
     if ode:
-        for name in restitution.MATERIAL_SETS:
-            mine = [r for r in ode if r["scene"] == name]
-            if mine:
-                ax.semilogx([r["St"] for r in mine], [r.get("restitution", 0.0) for r in mine], "-", color="0.55",
-                            lw=1.2, label="ode model" if name == restitution.MATERIAL_SETS[0] else None)
+        curve = sorted((r["St"], r.get("restitution", 0.0)) for r in ode if r["St"])
+        ax.semilogx([c[0] for c in curve], [c[1] for c in curve], "-", color="0.55", lw=1.2, label="ode model")
     markers = "os^vD<>ph"
     for k, name in enumerate((*restitution.MATERIAL_SETS, restitution.DSS_PLUS_5)):
         mine = [r for r in rows if r["scene"] == name and r["St"]]
         if mine:
-            plus = name == restitution.DSS_PLUS_5
+            label = name.replace("li2011-table3-", "").replace("-dss105", r", $\delta_{ss}$+5 %")
             ax.semilogx([r["St"] for r in mine], [r["restitution"] for r in mine], markers[k % len(markers)],
-                        color=f"C{k}", ms=6, mfc="none" if plus else None,
-                        label=f"{model}: " + name.replace("li2011-table3-", "").replace("-dss105", r", $\delta_{ss}$+5 %"))
-    ax.set_xlabel("impact Stokes number St (2 ms mean impact speed)")
-    ax.set_ylabel("coefficient of restitution e")
+                        color=f"C{k}", ms=6, mfc="none" if name == restitution.DSS_PLUS_5 else None,
+                        label=f"{model}: {label}")
+    failed = [r for r in rows if r["failed"]]
+    if failed:
+        ax.semilogx([r["target_St"] for r in failed], [0.0] * len(failed), "x", color="red", ms=9, mew=2,
+                    label=f"failed run ({len(failed)}): no e")
+    ax.set_xlabel(r"impact Stokes number St = $\rho_p V_{in} D / 9\mu$ ($V_{in}$: speed at 0.2 D from the wall)")
+    ax.set_ylabel(r"coefficient of restitution e = $V_{out} / V_{in}$ (at 0.2 D)")
     ax.set_xlim(0.8, 2000)
     ax.set_ylim(-0.03, 1.05)
-    ax.legend(fontsize=7, loc="lower right", ncol=2)
-    ax.set_title(f"Restitution against Stokes number, Table 3 sets released 0.5-7 D ({model})", fontsize=9)
+    ax.legend(fontsize=7, loc="upper left", ncol=2, bbox_to_anchor=(0.0, 0.93))
+    ax.set_title(f"Restitution against Stokes number: Table 3 sets launched at the wall without gravity ({model})",
+                 fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)

@@ -1,20 +1,24 @@
-"""Coefficient of restitution against impact Stokes number, the paper's way (section 5.4, Fig. 13-14).
+"""Coefficient of restitution against impact Stokes number: where each point of a sweep starts.
 
-Low Stokes numbers come from viscous liquids, not from releasing a sphere inside the lubrication
-layer.  Each Table 3 material set (paper runs 1-29) is released from rest between RELEASE_GAPS = 0.5
-and 7 diameters above the wall: at least half a diameter, so the sphere starts outside the layer
-where the wall dominates, and below the paper's fall distances of 7.5 D, where the flow stays
-axisymmetric (section 2.1), also keeping the impact Re below 250.  So each set covers a band of
-impact Stokes numbers; `plan` spreads a sweep's points over the union of the bands and finds each
-point's release gap with the ODE model.  Stokes numbers between the bands (about 2.5-14 here: above
-the 95 % glycerol set's terminal speed, below the 85 % set's half-diameter release) cannot be reached
-this way and are not swept.
+Joseph et al. (2001) measured e(St) with spheres launched at a wall on a pendulum: the collision is
+horizontal, so gravity plays no part along the line of approach and a rebound of any size is seen.  The
+sweep does the same: each Table 3 material set (paper runs 1-29) has gravity switched off along the
+axis and is launched at the wall from LAUNCH_GAP = 2 diameters (outside the lubrication layer, never
+inside it) at an initial speed; the liquid slows it on the way, as on the pendulum.  The launch speeds
+LAUNCH_SPEEDS = 0.02-10 m/s give each set a band of impact Stokes numbers, cut where the impact Re
+passes the axisymmetric limit (section 2.1).  `plan` puts a point every factor LOW_ST_RATIO = 1.3
+between St 3 and 30, where e rises from 0, spreads the sweep's other points evenly in log St, and
+assigns each to the set whose band holds it most centrally; the ODE model finds its launch speed.
 
-e is the integrator's (bounces.Rebound): the 2 ms mean speed after the minimum gap over the 2 ms mean
-before it, and 0 when the apex stays inside the contact layer (no rebound, as the experiments report it).
+The speeds that define e and St are taken where the gap passes delta_sl = 0.2 D, on the way in and on
+the way out (`crossing_speeds`): just before the wall's film slows the sphere and just after it has let
+it go, what the pendulum's camera sees (the pair's collisions use the same gap, 0.2 x 2a*).  e = V_out /
+V_in, 0 when the sphere does not come back out through 0.2 D (it stalls in the film or rests in the
+contact); St = rho_p V_in D / (9 mu).  The 2 ms means of Table 2 are not used here: a sphere the film
+slows to a crawl before it touches has a 2 ms impact speed near zero, whatever it arrived with.
 
-    fem-bounce restitution --model ode --points 40      # -> results/restitution-ode/
-    fem-bounce restitution --model ode --points 40 --jobs 2     # the same, over 2 processes
+    fem-bounce restitution --model ode      # -> results/restitution-ode/
+    fem-bounce restitution --model ode --jobs 2     # the same, over 2 processes
 """
 from __future__ import annotations
 
@@ -37,43 +41,62 @@ MATERIAL_SETS = (
     "li2011-table3-dense36-78",  # run 16
     "li2011-table3-dense48-78",  # run 17
 )
-DSS_PLUS_5 = "li2011-table3-steel-85-dss105"  # runs 30-35: the 85 % set with delta_ss + 5 %
-RELEASE_GAPS = (0.5, 7.0)  # initial gap / D
-BAND_SAMPLES = 9  # ODE runs per set that tabulate St against the release gap
+DSS_PLUS_5 = "li2011-table3-steel-85-dss105"  # runs 30-35: the 85 % set with delta_ss + 5 % (li2011 only)
+BAND_SAMPLES = 14  # ODE runs per set that tabulate St against the launch speed
+LAUNCH_GAP = 2.0  # D: where the sphere is launched, outside the lubrication layer
+LAUNCH_SPEEDS = (0.02, 10.0)  # m/s, toward the wall
+LOW_ST = (3.0, 30.0)  # where e rises from 0: a point every factor LOW_ST_RATIO
+LOW_ST_RATIO = 1.3
+PLANNED_KEYS = ("initial_gap", "initial_velocity", "gravity", "run.bounces", "run.end_time")
 
 
-def bounce_scene(scene: scenes.Scene, gap: float) -> scenes.Scene:
-    """`scene` released from `gap` [m], run to the apex after the first impact, with time enough to fall
-    at a tenth of the terminal speed."""
-    end = 10.0 * gap / scene.terminal_speed() + 20.0 * scene.time_unit
+def bounce_scene(scene: scenes.Scene, launch: float) -> scenes.Scene:
+    """`scene` launched at `launch` [m/s] toward the wall from LAUNCH_GAP without gravity, run to the end of
+    the first rebound (its gap passing delta_sl outward) or until it stalls in the film, with time enough
+    to arrive at a tenth of the launch speed and leave at a tenth of that."""
+    gap = LAUNCH_GAP * scene.sphere.diameter
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # Re warnings are the caller's business here
-        return scene.replace(**{"initial_gap": gap, "run.bounces": 1, "run.end_time": end})
+        return scene.replace(**{"initial_gap": gap, "initial_velocity": -launch, "gravity": 0.0,
+                                "run.bounces": 1, "run.end_time": 100.0 * gap / launch})
 
 
-def first_bounce(scene: scenes.Scene, gap: float, rebound: bool = True) -> dict:
-    """ODE model from `gap` [m] to the apex after the first impact (or to the impact only)."""
-    trial = bounce_scene(scene, gap)
+def check_overrides(overrides: dict | None) -> None:
+    """A sweep plans where each run starts and when it ends: a --set of those would defeat the plan."""
+    for key in overrides or {}:
+        if key in PLANNED_KEYS:
+            raise scenes.SceneError(f"--set {key}: the restitution sweep sets {key} for each run itself (a release "
+                                    "gap or launch speed per Stokes number); run one scene with `fem-bounce run` instead")
+
+
+def first_bounce(scene: scenes.Scene, launch: float, rebound: bool = True) -> dict:
+    """ODE model launched at `launch` [m/s] to the end of the first rebound (or to the impact only)."""
+    trial = bounce_scene(scene, launch)
     integrator = SphereIntegrator(trial, stop_after_impacts=0 if rebound else 1)
     integrator.advance(trial.run.end_time)
     integrator.finish()
-    if not integrator.impacts:
-        return {"gap": gap, "St": 0.0, "Re": 0.0, "restitution": 0.0}
-    impact = integrator.impacts[0]
-    result = {"gap": gap, "St": impact.St, "Re": impact.Re, "impact_speed": impact.impact_speed}
-    if rebound and integrator.rebounds:
-        r = integrator.rebounds[0]
-        result.update(restitution=r.restitution, rebound_speed=r.rebound_speed, apex_gap=r.apex_gap,
-                      peak_restitution=r.peak_restitution, rebounded=r.rebounded)
-    return result
+    speed_in, speed_out = crossing_speeds(integrator.blend_crossings)
+    return {"launch": launch, "St": trial.stokes(speed_in), "Re": trial.reynolds(speed_in), "speed_in": speed_in,
+            "speed_out": speed_out, "restitution": speed_out / speed_in if speed_in else 0.0,
+            "impacts": len(integrator.impacts), "stop_reason": integrator.stop_reason}
+
+
+def crossing_speeds(crossings: list[dict]) -> tuple[float, float]:
+    """(speed in, speed out) [m/s] where the gap first passes delta_sl inward and then outward (0 when it
+    does not)."""
+    inward = next((c for c in crossings if c["direction"] == "in"), None)
+    if inward is None:
+        return 0.0, 0.0
+    outward = next((c for c in crossings if c["direction"] == "out" and c["time"] > inward["time"]), None)
+    return inward["speed"], outward["speed"] if outward else 0.0
 
 
 _BANDS: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # stokes_band's tables, by preset
 
 
 def stokes_band(name: str) -> tuple[np.ndarray, np.ndarray]:
-    """(release gaps [m], impact St) of a preset over RELEASE_GAPS with the ODE model, cut where the impact
-    Re passes the axisymmetric limit; St grows with the gap.  Tabulated once per process."""
+    """(launch speeds [m/s], impact St) of a preset over LAUNCH_SPEEDS with the ODE model, cut where the
+    impact Re passes the axisymmetric limit; St grows with the speed.  Tabulated once per process."""
     if name not in _BANDS:
         _BANDS[name] = _tabulate_band(name)
     return _BANDS[name]
@@ -92,72 +115,71 @@ def forget_bands() -> None:
 
 def _tabulate_band(name: str) -> tuple[np.ndarray, np.ndarray]:
     scene = scenes.load(name)
-    gaps = scene.sphere.diameter * np.geomspace(*RELEASE_GAPS, BAND_SAMPLES)
-    found = [first_bounce(scene, gap, rebound=False) for gap in gaps]
-    keep = [r["Re"] <= scenes.AXISYMMETRIC_RE_LIMIT for r in found]
+    speeds = np.geomspace(*LAUNCH_SPEEDS, BAND_SAMPLES)
+    found = [first_bounce(scene, speed, rebound=False) for speed in speeds]
+    keep = [0.0 < r["St"] and r["Re"] <= scenes.AXISYMMETRIC_RE_LIMIT for r in found]  # 0: stopped before 0.2 D
     if not any(keep):
-        raise scenes.SceneError(f"{name}: every release gap in {RELEASE_GAPS} D gives Re > "
+        raise scenes.SceneError(f"{name}: no launch speed in {LAUNCH_SPEEDS} m/s reaches the wall below Re "
                                 f"{scenes.AXISYMMETRIC_RE_LIMIT:g}")
-    n = keep.index(False) if False in keep else len(keep)
-    return gaps[:n], np.array([r["St"] for r in found[:n]])
+    first = keep.index(True)  # the slowest launches stop in the liquid before the wall
+    n = keep.index(False, first) if False in keep[first:] else len(keep)
+    return speeds[first:n], np.array([r["St"] for r in found[first:n]])
 
 
-def gap_for_stokes(scene_name: str, stokes: float) -> float:
-    """The release gap [m] at which the ODE model's first impact of the preset has Stokes number `stokes`
-    (monotone cubic interpolation of the tabulated band in log-log)."""
+def launch_for_stokes(name: str, stokes: float) -> float:
+    """The launch speed [m/s] at which the ODE model's first impact of the preset has Stokes number
+    `stokes` (monotone cubic interpolation of the tabulated band in log-log)."""
     from scipy.interpolate import PchipInterpolator
 
-    gaps, band = stokes_band(scene_name)
+    speeds, band = stokes_band(name)
     if not band[0] * (1 - 1e-9) <= stokes <= band[-1] * (1 + 1e-9):
-        raise scenes.SceneError(f"St = {stokes:g} is out of reach for {scene_name}: released from "
-                                f"{RELEASE_GAPS[0]:g}-{RELEASE_GAPS[1]:g} D its first impact has St in "
+        raise scenes.SceneError(f"St = {stokes:g} is out of reach for {name}: launched from {LAUNCH_GAP:g} D at "
+                                f"{LAUNCH_SPEEDS[0]:g}-{LAUNCH_SPEEDS[1]:g} m/s its first impact has St in "
                                 f"[{band[0]:.3g}, {band[-1]:.3g}]")
     if len(band) == 1:
-        return float(gaps[0])
-    log_gap = PchipInterpolator(np.log(band), np.log(gaps))
-    return float(np.exp(log_gap(math.log(stokes))))
+        return float(speeds[0])
+    log_speed = PchipInterpolator(np.log(band), np.log(speeds))
+    return float(np.exp(log_speed(math.log(stokes))))
+
+
+def targets(points: int, st_range=(1.0, 1000.0)) -> list[float]:
+    """The sweep's Stokes numbers: `points` evenly in log St over st_range, and one every factor
+    LOW_ST_RATIO over LOW_ST inside it (where e rises from 0)."""
+    lo, hi = st_range
+    low = LOW_ST[0] * LOW_ST_RATIO ** np.arange(int(math.log(LOW_ST[1] / LOW_ST[0]) / math.log(LOW_ST_RATIO)) + 1)
+    chosen = [*np.geomspace(lo, hi, points), *(s for s in low if lo <= s <= hi)]
+    merged: list[float] = []
+    for st in sorted(chosen):  # two targets closer than a few per cent are one
+        if not merged or st > merged[-1] * 1.05:
+            merged.append(float(st))
+    return merged
 
 
 def plan(points: int, st_range=(1.0, 1000.0), sets=MATERIAL_SETS) -> list[tuple[str, float, float]]:
-    """(preset, target St, release gap [m]) for `points` Stokes numbers spread evenly in log St over the
-    parts of st_range that the sets reach; each goes to the first set (in `sets` order) that reaches it."""
+    """(preset, target St, launch speed [m/s]) for each of `targets` that a set reaches, by the set whose
+    band holds it furthest from its ends."""
     bands = {name: stokes_band(name)[1] for name in sets}
-    pieces = _union([(max(b[0], st_range[0]), min(b[-1], st_range[1])) for b in bands.values()])
-    pieces = [(lo, hi) for lo, hi in pieces if hi >= lo]
-    lengths = [math.log(hi / lo) for lo, hi in pieces]
-    total = sum(lengths)
     chosen = []
-    for k in range(points):
-        s = total * k / max(points - 1, 1)  # position along the concatenated log-intervals
-        for (lo, hi), length in zip(pieces, lengths):
-            if s <= length + 1e-12:
-                stokes = lo * math.exp(min(s, length))
-                break
-            s -= length
-        name = next(n for n in sets if bands[n][0] * (1 - 1e-9) <= stokes <= bands[n][-1] * (1 + 1e-9))
-        chosen.append((name, stokes, gap_for_stokes(name, stokes)))
+    for stokes in targets(points, st_range):
+        reaching = [n for n in sets if bands[n][0] * (1 - 1e-9) <= stokes <= bands[n][-1] * (1 + 1e-9)]
+        if reaching:  # the set that reaches it most centrally: the curve then spans liquids and materials
+            name = max(reaching, key=lambda n: min(stokes / bands[n][0], bands[n][-1] / stokes))
+            chosen.append((name, stokes, launch_for_stokes(name, stokes)))
     return chosen
 
 
-def _union(intervals: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    merged: list[list[float]] = []
-    for lo, hi in sorted(intervals):
-        if merged and lo <= merged[-1][1]:
-            merged[-1][1] = max(merged[-1][1], hi)
-        else:
-            merged.append([lo, hi])
-    return [(lo, hi) for lo, hi in merged]
-
-
-def sweep(points: int, st_range=(1.0, 1000.0), mapper=map) -> list[dict]:
-    """The ODE model at each planned release gap, to its first apex (a fraction of a second each).  The runs
-    are independent: `mapper` (map-like, e.g. fem_bounce.studies.runner.Runner.map) may spread the band
-    tabulation and the sweep's runs over processes; the builtin map runs them one after the other."""
+def sweep(points: int, st_range=(1.0, 1000.0), mapper=map, overrides: dict | None = None) -> list[dict]:
+    """The ODE model at each planned launch, to the end of its first rebound (a fraction of a second each),
+    with `overrides` applied to every scene (the plan itself is made with the presets as shipped).  The
+    runs are independent: `mapper` (map-like, e.g. fem_bounce.studies.runner.Runner.map) may spread the
+    band tabulation and the sweep's runs over processes; the builtin map runs them one after another."""
+    check_overrides(overrides)
     tabulate_bands(MATERIAL_SETS, mapper)
     planned = plan(points, st_range)
-    found = mapper(_first_bounce_of, [name for name, _, _ in planned], [gap for _, _, gap in planned])
+    found = mapper(_first_bounce_of, [name for name, _, _ in planned], [launch for _, _, launch in planned],
+                   [overrides or {}] * len(planned))
     return [{"scene": name, "target_St": st, **result} for (name, st, _), result in zip(planned, found)]
 
 
-def _first_bounce_of(name: str, gap: float) -> dict:
-    return first_bounce(scenes.load(name), gap)
+def _first_bounce_of(name: str, launch: float, overrides: dict) -> dict:
+    return first_bounce(scenes.load(name, overrides), launch)

@@ -83,7 +83,7 @@ def domain_for(scene: Scene) -> AleDomain:
     if center + radius + 2.0 * fine > half_plane.height:
         raise SceneError(f"numerics.ale: the domain height {half_plane.height:g} m leaves no fluid above the sphere")
     # under the contact model's correction the mesh stops at delta_sl (contact.py); otherwise at hold_delta
-    correcting = scene.contact.near_wall == "correction" and scene.motion.mode == "free"
+    correcting = scene.near_wall_law == "correction" and scene.motion.mode == "free"
     hold_gap = (scene.contact.delta_sl if correcting else ale.hold_delta) * diameter
     if scene.motion.mode == "fixed" and scene.initial_gap < hold_gap:
         raise SceneError(f"numerics.ale.hold_delta = {ale.hold_delta:g} is above the held sphere's gap "
