@@ -22,9 +22,10 @@ scene [motion]; sphere 2: second_sphere.mode and .velocity).
 The state is y = [h1, V1, s, V2]: the pair gap, not h2, is integrated, so that the relative tolerance
 governs it near contact as it governs the wall gap of one sphere (an error of rtol h2 would exceed the
 film).  TS events: the pair gap crossing its contact gap (contact.ContactLaw: h_c or delta_ss 2a*,
-what the contact keeps fixed from the relative speed there) and delta_sl 2a*, the relative velocity changing sign (the collision's minimum gap, or the gap's maximum),
-the pair gap reaching the law's floor (penetration: sphere 2 can never pass sphere 1); and the same for sphere 1 and
-the wall when the wall is present.  Two BounceRecords (bounces.py) keep the collisions of the pair
+what the contact keeps fixed from the relative speed there) and delta_sl 2a*, the relative velocity
+changing sign (the collision's minimum gap, or the gap's maximum), the pair gap reaching the law's floor
+(penetration: sphere 2 can never pass sphere 1); and the same for sphere 1 and the wall when the wall
+is present.  Two BounceRecords (bounces.py) keep the collisions of the pair
 and of the wall.
 """
 from __future__ import annotations
@@ -89,6 +90,7 @@ class PairIntegrator(AdvancingTS):
                                         separating=True)
         self.wall_record = BounceRecord(scene, self.wall, stop_after_impacts) if self.wall else None
         self.done = False
+        self.stop_reason: str | None = None  # why it is done, when not the collision limit
         self.steps = 0
         self._build_ts()
 
@@ -138,14 +140,14 @@ class PairIntegrator(AdvancingTS):
         pair_gap, pair_film = self.pair.law.film(s, pair_engaged)  # held and fading inside a Hertz contact
         wall_engaged = self.wall_record.engaged if self.wall and self.wall_record.in_contact else None
         wall_gap, wall_film = self.wall.law.film(h1, wall_engaged) if self.wall else (h1, 1.0)
-        lubrication = ((wall_gap, wall_film), (gaps[1], 1.0))  # each sphere's gap to the wall, as its drag sees it
+        wall_gaps, films = (wall_gap, gaps[1]), (wall_film, 1.0)  # to the wall, as each sphere's drag sees it
         th = self.theories
         terms = dict(
             gaps=gaps, velocities=v, pair_gap=s,
-            c_m=np.array([th[k].added_mass(lubrication[k][0])[0] for k in range(2)]),
-            drag=np.array([th[k].drag(lubrication[k][0], v[k], lubrication[k][1]) for k in range(2)]),
-            am_velocity=np.array([th[k].added_mass_velocity_term(lubrication[k][0], v[k]) if lubrication[k][1] == 1.0
-                                  else 0.0 for k in range(2)]),
+            c_m=np.array([th[k].added_mass(wall_gaps[k])[0] for k in range(2)]),
+            drag=np.array([th[k].drag(wall_gaps[k], v[k], films[k]) for k in range(2)]),
+            am_velocity=np.array([th[k].added_mass_velocity_term(wall_gaps[k], v[k]) if films[k] == 1.0 else 0.0
+                                  for k in range(2)]),  # C_M held inside a Hertz contact
             pair=self.pair.interaction(pair_gap, v, pair_film),
             elastic=np.zeros(2), correction=np.zeros(2), correction_mass=np.zeros(2),
         )
@@ -285,10 +287,23 @@ class PairIntegrator(AdvancingTS):
             row = self.row(t, y)
             for observer in self.observers:
                 observer(row)
+        if self._resting(y):
+            self.stop_reason = f"both spheres came to rest on the wall at t = {t:.6g} s"
+            self.done = True
         if t >= min(r.stop_at for r in self._records()):
             self.done = True
         if self.done:
             ts.setConvergedReason(PETSc.TS.ConvergedReason.CONVERGED_USER)
+
+    def _resting(self, y) -> bool:
+        """A free pair stacked on the wall at rest: each contact, loaded by the net weight above it, passes
+        ContactLaw.resting with the kinetic energy of what moves on it (sphere 2 on sphere 1, both on the
+        wall)."""
+        if not (self.wall and self.free.all() and self.pair_record.in_contact and self.wall_record.in_contact):
+            return False
+        h1, v1, s, v2 = y
+        return (self.pair.law.resting(s, v2 - v1, self.pair_record.engaged, self.masses[1], self.weights[1])
+                and self.wall.law.resting(h1, v1, self.wall_record.engaged, self.masses.sum(), self.weights.sum()))
 
     def row(self, t: float, y) -> dict:
         """Both spheres' gaps, velocities, accelerations and force terms at one instant [SI]: the

@@ -21,9 +21,17 @@ from .output import read_summary, read_trajectory  # noqa: E402,F401 -- also rea
 
 
 def units(scene: dict) -> tuple[float, float, float]:
-    """(D, sqrt(D/g), sqrt(g D)) from a summary's scene."""
+    """(D, sqrt(D/g), sqrt(g D)) from a summary's scene; without gravity (a launched sphere) (D, D/V0, V0)."""
     diameter, gravity = scene["sphere"]["diameter"], scene["gravity"]
+    if gravity == 0.0:
+        speed = abs(scene.get("initial_velocity", 0.0))
+        return diameter, diameter / speed, speed
     return diameter, (diameter / gravity) ** 0.5, (gravity * diameter) ** 0.5
+
+
+def unit_labels(scene: dict) -> tuple[str, str]:
+    """The time and velocity units' names, as units() chose them."""
+    return (r"$t V_0 / D$", r"$V / |V_0|$") if scene["gravity"] == 0.0 else (r"$t / \sqrt{D/g}$", r"$V / \sqrt{gD}$")
 
 
 def draw_run(run_dir: Path) -> list[Path]:
@@ -72,8 +80,8 @@ def trajectory_figure(traj: dict, summary: dict, path: Path) -> Path:
         ax_vel.plot(first["time"] / t_unit, -first["impact_speed"] / v_unit, "x", color="C3", ms=7,
                     label="model impact speed (2 ms mean)")
     ax_vel.axhline(0.0, color="0.7", lw=0.6)
-    ax_vel.set_xlabel(r"$t / \sqrt{D/g}$")
-    ax_vel.set_ylabel(r"$V / \sqrt{gD}$ (up +)")
+    ax_vel.set_xlabel(unit_labels(scene)[0])
+    ax_vel.set_ylabel(unit_labels(scene)[1] + " (up +)")
     ax_vel.legend(loc="lower right", fontsize=8)
     fig.suptitle(f"{scene['name']}: {summary['model']} model", fontsize=10)
     fig.tight_layout()
@@ -92,7 +100,7 @@ def velocity_gap_figure(traj: dict, summary: dict, path: Path) -> Path:
     main = fig.add_subplot(1, 2, 1)
     main.plot(delta, v, lw=1.0)
     main.set_xlabel(r"$\delta = h/D$")
-    main.set_ylabel(r"$V/\sqrt{gD}$")
+    main.set_ylabel(unit_labels(scene)[1])
     main.set_title("(a) whole run", fontsize=9)
     # the paper's three elastic layers, or the 0.05 D below which a rebound counts as none (contact.py)
     zoom = 3.0 * contact["delta_ss"] if _paper(contact) else REBOUND_MIN_APEX

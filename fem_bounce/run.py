@@ -10,7 +10,8 @@ trajectory are checked, so a refused run changes nothing.
 
 How a run ends (summary.json "status" and "stop_reason"):
 
-- completed: end_time, the bounce limit, or a sphere lighter than the liquid stopped where it can no
+- completed: end_time, the bounce limit, a sphere at rest on the wall (or, without gravity, stalled in
+  the film: sphere.py), or a sphere lighter than the liquid stopped where it can no
   longer be followed: risen RISE_LIMIT diameters above its release, at a container's lid, or at the
   top of a resolved model's refined region (it never reaches the wall);
 - diverged (RunDiverged): NaN, a solver failure, the sphere inside the wall, or the sphere's energy

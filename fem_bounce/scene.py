@@ -269,7 +269,8 @@ class Scene:
                                             "a sphere launched at the wall, as on Joseph et al.'s (2001) pendulum")
     gravity: float = _between(0.0, 1000.0, 9.81, unit="m/s2",
                               note="it pulls the sphere to the wall and sets the time unit sqrt(D/g); 0 only "
-                                   "for a pair set in motion by second_sphere.velocity")
+                                   "for a sphere launched by initial_velocity or a pair set in motion by "
+                                   "second_sphere.velocity")
     name: str = "scene"
     description: str = ""
     container: Container = field(default_factory=Container)

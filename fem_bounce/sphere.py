@@ -248,8 +248,9 @@ class SphereIntegrator(AdvancingTS):
         elif (abs(v) < self._stall_speed and not self.in_contact and h < self.contact.blend_gap
               and not self.bounces.resting):
             self.bounces.rest(t, h)
-            self.stop_reason = (f"the sphere stalled in the lubrication film at t = {t:.6g} s (gap {h / self.diameter:.3g} "
-                                f"D, speed below {STALL_FRACTION:g} of its launch speed, no gravity to bring it back)")
+            self.stop_reason = (f"the sphere stalled in the lubrication film at t = {t:.6g} s (gap "
+                                f"{h / self.diameter:.3g} D, speed below {STALL_FRACTION:g} of its launch speed, "
+                                "no gravity to bring it back)")
         if self.observers:
             row = self.row(t, h, v, np.asarray(z))
             for observer in self.observers:
