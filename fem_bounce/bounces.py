@@ -126,6 +126,11 @@ class BounceRecord:
         elif self._phase == "rebound" and self._left_contact:
             self._end_rebound(t, h)
 
+    @property
+    def contact_speed(self) -> float:
+        """The approach speed where the current (or last) contact began [m/s]."""
+        return self._contact_speed
+
     def rest(self, t: float, h: float) -> None:
         """The sphere came to rest in the contact: the impact it made (at rest now if it never turned) has
         no rebound, and the run may stop."""

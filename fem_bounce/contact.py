@@ -258,4 +258,5 @@ class ContactModel(ContactGaps):
         theory = self.theory
         lubrication = -theory.stokes_drag * velocity * film * (theory.wall_factor(gap) - self._lambda_hold)
         added_mass = theory.added_mass(gap)[0] - self._added_mass_hold
-        return lubrication + film * theory.added_mass_velocity_term(gap, velocity), added_mass
+        held = film < 1.0  # inside a Hertz contact C_M is held at h_c: its velocity term vanishes
+        return lubrication + (0.0 if held else theory.added_mass_velocity_term(gap, velocity)), added_mass

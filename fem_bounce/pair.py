@@ -261,11 +261,11 @@ class PairIntegrator(AdvancingTS):
                 self.wall_record.blend_crossing(t, rates[0])
             elif name == "pair_penetration":
                 raise PenetrationError(penetration_message(
-                    self.pair.law, "sphere 2 went through sphere 1", t, s, self.pair_record._contact_speed,
+                    self.pair.law, "sphere 2 went through sphere 1", t, s, self.pair_record.contact_speed,
                     "sphere.youngs_modulus, second_sphere.youngs_modulus"))
             else:
                 raise PenetrationError(penetration_message(
-                    self.wall.law, "sphere 1 went through the wall", t, h1, self.wall_record._contact_speed,
+                    self.wall.law, "sphere 1 went through the wall", t, h1, self.wall_record.contact_speed,
                     "sphere.youngs_modulus, wall.youngs_modulus"))
 
     def _records(self) -> list[BounceRecord]:

@@ -6,8 +6,9 @@ with V positive away from the wall, f_sl the near-wall liquid force of the
 contact model (contact.py): f_sim plus the unresolved lubrication below delta_sl
 (the default), the paper's blend H f_thr + (1 - H) f_sim, or f_thr alone (the ODE
 model), and f_ss the contact force (contact.ContactLaw: a damped Hertz contact below
-the contact gap h_c, or the paper's spring).  f_thr contains the added mass -C_M(delta) m_l dV/dt and the history
-force, which depends on dV/dt through exponential modes z_i' = dV/dt - z_i / T_i
+the contact gap h_c, or the paper's spring).  f_thr contains the added mass
+-C_M(delta) m_l dV/dt and the history force, which depends on dV/dt through
+exponential modes z_i' = dV/dt - z_i / T_i
 (theory.history_modes); the modes are carried only where f_thr is used.  A
 resolved model hands in its force for the coming fluid step linearised in the
 sphere's acceleration, f_sim = explicit - added_mass dV/dt (FluidForce), so the
@@ -18,8 +19,8 @@ elastic contact lasts tens of microseconds, a fluid step a millisecond.
 
 TS events locate the gap crossing the contact gap (what the contact keeps, h_c or
 W_o, is fixed there from the crossing speed) and delta_sl, the minimum gap (impact)
-and the apex after a rebound; the run's bookkeeping (bounces.BounceRecord) turns them into Impact and
-Rebound records.  The integrator owns its PETSc objects: destroy() frees them.
+and the apex after a rebound; the run's bookkeeping (bounces.BounceRecord) turns
+them into Impact and Rebound records.  The integrator owns its PETSc objects: destroy() frees them.
 """
 from __future__ import annotations
 
@@ -233,7 +234,7 @@ class SphereIntegrator(AdvancingTS):
                 self.bounces.blend_crossing(t, v, h)
             else:
                 raise PenetrationError(penetration_message(
-                    self.law, "the sphere went through the wall", t, h, self.bounces._contact_speed,
+                    self.law, "the sphere went through the wall", t, h, self.bounces.contact_speed,
                     "sphere.youngs_modulus, wall.youngs_modulus"))
 
     def _post_step(self, ts) -> None:
