@@ -318,10 +318,13 @@ def _cmd_restitution(args) -> int:
     if comm.rank == 0:
         print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.json, {out}/restitution.png")
         if found["rms_to_fit"] is not None:
+            stuck, first = found["critical_St"]
+            critical = (f"; no rebound up to St {stuck:.3g}" if stuck else "") + (
+                f", first rebound at St {first:.3g}" if first else "")
             print(f"against the Legendre et al. (2006) fit over St {found['compared_St'][0]:g}-"
                   f"{found['compared_St'][1]:g}: rms {found['rms_to_fit']:.3f}, largest {found['max_abs_to_fit']:.3f} "
-                  f"({found['compared_runs']} runs); no rebound below St {found['critical_St'][0]}, "
-                  f"e = {found['e_at_largest_St']:.3f} at St {found['largest_St']:.4g}")
+                  f"({found['compared_runs']} runs){critical}; e = {found['e_at_largest_St']:.3f} at St "
+                  f"{found['largest_St']:.4g}")
     if found["failed"]:
         _say(f"error: {len(found['failed'])} of {len(rows)} runs failed (marked in restitution.csv and the figure, "
              f"not counted as e = 0): " + "; ".join(found["failed"][:3]) + (" ..." if len(found["failed"]) > 3 else ""))

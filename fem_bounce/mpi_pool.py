@@ -37,8 +37,14 @@ def petsc_on_self() -> None:
 def start_worker() -> None:
     """In each worker process: PETSc on COMM_SELF; SIGTERM stops the current run between two steps (it is
     recorded as interrupted and redone next time); SIGINT, a terminal's Ctrl-C, is left to the study's
-    process, which passes it on as SIGTERM; warnings are one line each."""
+    process, which passes it on as SIGTERM; warnings are one line each; the libraries' INFO logging (the
+    form compiler's gcc command lines on a cold cache) is dropped, their warnings kept."""
     petsc_on_self()
+    import logging
+
+    quiet = logging.StreamHandler(sys.stderr)
+    quiet.setLevel(logging.WARNING)
+    logging.getLogger().handlers[:] = [quiet]  # ffcx's logging.basicConfig() then adds no handler of its own
     from .run import Interrupts
 
     Interrupts(announce=False).__enter__()
