@@ -112,8 +112,8 @@ def _damped_restitution(damping: float) -> float:
 
 @functools.cache
 def tsuji_damping(dry_restitution: float) -> float:
-    """c of `_damped_restitution` that gives the dry restitution e_d (0.0218 for 0.97); e_d = 0 takes the
-    smallest damping that stops every impact (the contact then holds the sphere)."""
+    """c of `_damped_restitution` that gives the dry restitution e_d (0.0218 for 0.97); e_d = 0 takes
+    c = 100, a damping past which no impact rebounds (the contact then holds the sphere)."""
     from scipy.optimize import brentq
 
     if dry_restitution >= 1.0:
@@ -155,7 +155,7 @@ class ContactLaw:
         self.floor = -MAX_OVERLAP * radius if self.hertz else 0.0
         self.rebound_apex = REBOUND_MIN_APEX * length
 
-    def gap_at(self, speed: float) -> float:
+    def _gap_at(self, speed: float) -> float:
         """h_c [m] at the approach speed `speed` [m/s]: max(roughness, x_d) or delta_ss D (li2011)."""
         if not self.hertz:
             return self.delta_ss * self.length
@@ -166,12 +166,12 @@ class ContactLaw:
         """The gap [m] where a contact begins (approaching at `speed` >= 0), or ends (`engaged` given)."""
         if engaged is not None and self.hertz:
             return engaged
-        return self.gap_at(speed)
+        return self._gap_at(speed)
 
     def engage(self, speed: float) -> float:
         """What one contact keeps from the speed where it began: W_o [N] (li2011) or h_c [m]."""
         if self.hertz:
-            return self.gap_at(speed)
+            return self._gap_at(speed)
         return hertz_peak_force(self.radius, self.mass, self.e_star, speed)
 
     def force(self, gap: float, rate: float, engaged: float) -> float:
