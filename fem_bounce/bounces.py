@@ -127,6 +127,11 @@ class BounceRecord:
             self._end_rebound(t, h)
 
     @property
+    def engaged_now(self) -> float | None:
+        """What the contact in progress fixed when it began (ContactLaw.engage), None outside a contact."""
+        return self.engaged if self.in_contact else None
+
+    @property
     def contact_speed(self) -> float:
         """The approach speed where the current (or last) contact began [m/s]."""
         return self._contact_speed

@@ -136,9 +136,9 @@ class PairIntegrator(AdvancingTS):
         gaps = np.array([h1, h1 + self.diameters[0] + s])
         v = np.array([v1, v2])
         rates = self._rates(v)
-        pair_engaged = self.pair_record.engaged if self.pair_record.in_contact else None
+        pair_engaged = self.pair_record.engaged_now
         pair_gap, pair_film = self.pair.law.film(s, pair_engaged)  # held and fading inside a Hertz contact
-        wall_engaged = self.wall_record.engaged if self.wall and self.wall_record.in_contact else None
+        wall_engaged = self.wall_record.engaged_now if self.wall else None
         wall_gap, wall_film = self.wall.law.film(h1, wall_engaged) if self.wall else (h1, 1.0)
         wall_gaps, films = (wall_gap, gaps[1]), (wall_film, 1.0)  # to the wall, as each sphere's drag sees it
         th = self.theories
@@ -220,7 +220,7 @@ class PairIntegrator(AdvancingTS):
 
         def boundary(model, record, rate: float) -> float:
             """Where the contact begins at this approach rate, or ends (ContactLaw.boundary)."""
-            return model.law.boundary(max(-rate, 0.0), record.engaged if record.in_contact else None)
+            return model.law.boundary(max(-rate, 0.0), record.engaged_now)
         events = [
             ("pair_contact", lambda y: (y[2] - boundary(self.pair, self.pair_record, pair_rate(y))) / d_pair, 0, False),
             ("pair_turn", lambda y: pair_rate(y) / vu - TURNING_OFFSET, 0, False),

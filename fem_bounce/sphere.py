@@ -139,13 +139,13 @@ class SphereIntegrator(AdvancingTS):
     def _terms(self, h: float, v: float, z: np.ndarray) -> dict:
         """Every force term that does not need dV/dt [N], and C_M m_l [kg]."""
         th = self.theory
-        engaged = self.bounces.engaged if self.in_contact else None
+        engaged = self.bounces.engaged_now
         gap, film = self.law.film(h, engaged)  # inside a Hertz contact the film is held at h_c and fades
         terms = dict(
             blend=self._theory_weight(h),
             c_m=th.added_mass(gap)[0],
             drag=th.drag(gap, v, film),
-            history=th.history(gap, v, z),
+            history=th.history(gap, v, z, film),
             am_velocity=th.added_mass_velocity_term(gap, v) if film == 1.0 else 0.0,  # C_M held inside
             elastic=self.law.force(h, v, engaged) if self.in_contact else 0.0,
         )
@@ -205,7 +205,8 @@ class SphereIntegrator(AdvancingTS):
         jac[1, 1] = (g1(h, v + dv, z) - base) / dv + a * mass
         if n > 2:
             if self.mode == "free":
-                jac[1, 2:] = self._theory_weight(h) * self.theory.history_coefficients(h, v)
+                gap, film = self.law.film(h, self.bounces.engaged_now)
+                jac[1, 2:] = self._theory_weight(h) * self.theory.history_coefficients(gap, v, film)
             jac[2:, 1] = -a
             jac[2:, 2:] = np.diag(a + 1.0 / self.theory.history_times)
         P.setValues(range(n), range(n), jac.ravel())
@@ -217,8 +218,7 @@ class SphereIntegrator(AdvancingTS):
     # -- events and records ---------------------------------------------------------------
     def _indicators(self, ts, t, y, values) -> None:
         h, v = y.array_r[:2]
-        engaged = self.bounces.engaged if self.in_contact else None
-        values[0] = (h - self.law.boundary(max(-v, 0.0), engaged)) / self.diameter
+        values[0] = (h - self.law.boundary(max(-v, 0.0), self.bounces.engaged_now)) / self.diameter
         values[1] = v / self.scene.velocity_unit
         values[2] = (h - self.contact.blend_gap) / self.diameter
         values[3] = (h - self.law.floor) / self.diameter

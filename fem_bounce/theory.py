@@ -222,13 +222,14 @@ class TheoryForces:
         """-(3/4) m_l V dW/dt [N]."""
         return -0.5 * velocity**2 * self.added_mass(gap)[1]
 
-    def history_coefficients(self, gap: float, velocity: float) -> np.ndarray:
-        """c_i = 6 pi mu a K_H^(3/2) w_i(Re) [N s/m]: f_H = -sum_i c_i z_i, z_i from the history ODEs."""
-        wall = self._lambda(gap / self.diameter) if self._drag_scaled_history else 1.0
+    def history_coefficients(self, gap: float, velocity: float, film: float = 1.0) -> np.ndarray:
+        """c_i = 6 pi mu a K_H^(3/2) w_i(Re) [N s/m]: f_H = -sum_i c_i z_i, z_i from the history ODEs; the
+        drag-scaled K_H^(3/2) = lambda fades inside a Hertz contact as the drag's wall excess does (`film`)."""
+        wall = 1.0 + film * (self.wall_factor(gap) - 1.0) if self._drag_scaled_history else 1.0
         return (self.stokes_drag * wall) * history_weights(self._weights, self.reynolds(velocity))
 
-    def history(self, gap: float, velocity: float, states: np.ndarray) -> float:
+    def history(self, gap: float, velocity: float, states: np.ndarray, film: float = 1.0) -> float:
         """f_H [N] (0 when the history force is off or its states are not carried)."""
         if not self.history_on or len(states) == 0:
             return 0.0
-        return -float(self.history_coefficients(gap, velocity) @ states)
+        return -float(self.history_coefficients(gap, velocity, film) @ states)

@@ -214,3 +214,24 @@ def test_no_penetration_and_no_divergence_at_any_speed(speed, viscosity):
         assert -depth < impact.min_gap < 0.0 and depth < 0.2 * -law.floor
         if sc.stokes(impact.peak_speed) > 50.0:
             assert 0.0 < integrator.rebounds[0].peak_restitution <= sc.contact.dry_restitution + 1e-3
+
+
+def test_the_drag_scaled_history_fades_inside_the_contact_as_the_drag_does():
+    """K_H^(3/2) = lambda held at its h_c value through a Hertz contact (10^4 times the free value) drove the
+    sphere through the wall; it fades with the film's share, as the drag's wall excess does."""
+    sc = scene.load("li2011-case1", {"run.bounces": 1, "contact.history_wall_factor": "drag-scaled"})
+    integrator, rows = run(sc)
+    assert integrator.impacts and min(rows["gap"]) > integrator.law.floor
+
+
+def test_a_sphere_at_rest_on_the_wall_ends_the_run():
+    """After its last visible bounce the sphere rings in the Hertz contact until the film and the damping
+    have taken the energy that could lift it out; then the run stops there instead of crawling on."""
+    sc = scene.load("li2011-case1", {"run.bounces": 0, "run.end_time": 1.0})
+    integrator, rows = run(sc)
+    assert integrator.done and integrator.stop_reason.startswith("the sphere came to rest on the wall")
+    assert integrator.time < 0.2 and integrator.steps < 5000
+    weight = (sc.sphere.mass - sc.displaced_mass) * sc.gravity
+    static = (weight / integrator.law.stiffness) ** (2 / 3)  # Hertz overlap under the net weight: 29 nm
+    assert integrator.gap == pytest.approx(integrator.impacts[-1].contact_gap - static, abs=static)
+    assert abs(integrator.velocity) < 1e-3
