@@ -197,15 +197,18 @@ class TheoryForces:
     def reynolds(self, velocity: float) -> float:
         return self._re_per_speed * abs(velocity)
 
-    def wall_factor(self, gap: float) -> float:
-        """lambda(delta): the quasi-steady Stokes drag near the wall over 6 pi mu a V (wall_drag)."""
-        return self._lambda(gap / self.diameter) if self.wall_present else 1.0
+    def wall_factor(self, gap: float, film: float = 1.0) -> float:
+        """lambda(delta): the quasi-steady Stokes drag near the wall over 6 pi mu a V (wall_drag), with only
+        the share `film` of its wall excess lambda - 1 left inside a Hertz contact (contact.ContactLaw.film)."""
+        if not self.wall_present:
+            return 1.0
+        return 1.0 + film * (self._lambda(gap / self.diameter) - 1.0)
 
     def drag(self, gap: float, velocity: float, film: float = 1.0) -> float:
         """f_D = -6 pi mu a V (lambda(delta) + phi(Re) - 1) when additive, lambda(delta) phi(Re) when
         multiplicative ("schiller-naumann") [N]; only the share `film` of the wall's excess lambda - 1 is
         left inside a Hertz contact (contact.ContactLaw.film)."""
-        wall = 1.0 + film * (self.wall_factor(gap) - 1.0)
+        wall = self.wall_factor(gap, film)
         inertia = self._inertia(self.reynolds(velocity))
         factor = wall + inertia - 1.0 if self._additive else wall * inertia
         return -self.stokes_drag * velocity * factor
@@ -225,7 +228,7 @@ class TheoryForces:
     def history_coefficients(self, gap: float, velocity: float, film: float = 1.0) -> np.ndarray:
         """c_i = 6 pi mu a K_H^(3/2) w_i(Re) [N s/m]: f_H = -sum_i c_i z_i, z_i from the history ODEs; the
         drag-scaled K_H^(3/2) = lambda fades inside a Hertz contact as the drag's wall excess does (`film`)."""
-        wall = 1.0 + film * (self.wall_factor(gap) - 1.0) if self._drag_scaled_history else 1.0
+        wall = self.wall_factor(gap, film) if self._drag_scaled_history else 1.0
         return (self.stokes_drag * wall) * history_weights(self._weights, self.reynolds(velocity))
 
     def history(self, gap: float, velocity: float, states: np.ndarray, film: float = 1.0) -> float:

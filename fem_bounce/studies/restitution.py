@@ -17,6 +17,7 @@ so each point is compared with the fit at its own St* = St (1 + rho_l / (2 rho_p
 """
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -105,9 +106,14 @@ def compare(rows: list[dict]) -> dict:
 
 
 def _fit_of(row: dict) -> float:
-    """The fit at an ODE sweep row's St (its scene's density ratio and dry restitution)."""
-    scene = scenes.load(row["scene"])
-    return legendre_fit(row["St"], scene.density_ratio, scene.contact.dry_restitution)
+    """The fit at an ODE sweep row's St (its preset's density ratio and dry restitution)."""
+    return legendre_fit(row["St"], *_fit_inputs(row["scene"]))
+
+
+@functools.cache
+def _fit_inputs(name: str) -> tuple[float, float]:
+    scene = scenes.load(name)
+    return scene.density_ratio, scene.contact.dry_restitution
 
 
 def figure(rows: list[dict], ode: list[dict] | None, model: str, path: Path, dry_restitution: float = 0.97) -> Path:

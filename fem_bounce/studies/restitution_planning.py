@@ -65,8 +65,8 @@ def check_overrides(overrides: dict | None) -> None:
     """A sweep plans where each run starts and when it ends: a --set of those would defeat the plan."""
     for key in overrides or {}:
         if key in PLANNED_KEYS:
-            raise scenes.SceneError(f"--set {key}: the restitution sweep sets {key} for each run itself (a release "
-                                    "gap or launch speed per Stokes number); run one scene with `fem-bounce run` instead")
+            raise scenes.SceneError(f"--set {key}: the restitution sweep sets {key} for each run itself (a launch "
+                                    "speed per Stokes number); run one scene with `fem-bounce run` instead")
 
 
 def first_bounce(scene: scenes.Scene, launch: float, rebound: bool = True) -> dict:
