@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from . import numerics
+from .errors import Error
 
 AXISYMMETRIC_RE_LIMIT = 250.0  # paper section 2.1: axisymmetric flow below Re ~ 210-250
 # An unbounded scene's largest initial gap, in diameters: far beyond any wall effect (Brenner's correction
@@ -38,7 +39,7 @@ NEUTRAL_BUOYANCY = 1e-5
 _PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f.][^/\\\x00-\x1f]{0,99}")
 
 
-class SceneError(ValueError):
+class SceneError(Error, ValueError):
     """A scene value is missing, unknown or out of range; the message names the key."""
 
 
