@@ -2,5 +2,33 @@
 
 Li, Hunt & Colonius (2011), J. Fluid Mech. 691, 123-145: the contact model,
 here shared by a ladder of models (ode, fd, ib, ale); see README.md.
+
+From Python (the command line's scenes, runs and studies; docs/usage.md, section Python):
+
+    import fem_bounce as fb
+    scene = fb.load("li2011-case3", {"run.bounces": 2})      # a preset or TOML file, checked as --set
+    result = fb.simulate(scene, "ode")                        # kept in memory; out="DIR" writes a run directory
+    result.impacts[0].impact_speed, result.trajectory["t"]    # records and NumPy arrays
+
+Scenes:   Scene (scene.replace(**{"key": value}) is a checked variant), load, save, presets, model_names
+Runs:     simulate, resume, Result (impacts, rebounds, collisions, trajectory, to_pandas, draw),
+          Impact, Rebound, Collision
+Studies:  restitution (e against St), compare (several models on one scene), Table
+Errors:   Error, the base of SceneError, ModelError, OutputError, CheckpointError, RunnerError,
+          RunFailed, RunDiverged, RunInterrupted
 """
 __version__ = "0.1.0"
+
+from .api import (  # noqa: E402 -- after __version__, which the modules behind the API read
+    Collision, CheckpointError, Error, Impact, ModelError, OutputError, Rebound, Result, RunDiverged, RunFailed,
+    RunInterrupted, RunnerError, Scene, SceneError, Table, compare, load, model_names, presets, restitution, resume,
+    save, simulate)
+
+__all__ = [
+    "Scene", "load", "save", "presets", "model_names",
+    "simulate", "resume", "Result", "Impact", "Rebound", "Collision",
+    "restitution", "compare", "Table",
+    "Error", "SceneError", "ModelError", "OutputError", "CheckpointError", "RunnerError",
+    "RunFailed", "RunDiverged", "RunInterrupted",
+    "__version__",
+]

@@ -8,8 +8,9 @@
     fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
     fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
-Only this module and the demos touch MPI.COMM_WORLD (mpi_pool and the study runner ask its size, to find
-the workers of an mpi4py.futures pool).  Errors a user can cause print one line
+Only this module, the Python API behind it (api.py, the default communicator of fem_bounce.simulate) and the
+demos touch MPI.COMM_WORLD (mpi_pool and the study runner ask its size, to find the workers of an
+mpi4py.futures pool).  Errors a user can cause print one line
 (on rank 0 only under mpirun) naming the field or path and exit with status 2; a run that ends
 early prints one line and exits with 1 (diverged, or an output could not be written) or 128 + the
 signal (130 for SIGINT, 143 for SIGTERM) when interrupted.
@@ -117,36 +118,43 @@ def _parallel_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _study_runner(args):
-    """(the study's communicator, its Runner) from --jobs and --executor.  Under mpi4py.futures only
-    rank 0 runs the study, so it works on COMM_SELF and leaves COMM_WORLD to the pool."""
-    from mpi4py import MPI
+    """(the study's communicator, its Runner) from --jobs and --executor (api._study_runner)."""
+    from .api import _study_runner
 
-    from .studies.runner import Runner
-
-    comm = MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD
-    runner = Runner(comm, args.jobs, args.executor)
-    return comm, runner
+    return _study_runner(args.jobs, args.executor)
 
 
 def _scene_from_args(source: str | None, overrides: list[str]) -> scenes.Scene:
-    changes = dict(scenes.parse_override(text) for text in overrides)
-    return scenes.load(source or DEFAULT_SCENE, changes)
+    from .api import load
+
+    return load(source or DEFAULT_SCENE, overrides)
 
 
 def _out_path(text: str | None) -> Path | None:
     """The --out directory; an empty string is refused, not read as the current directory."""
-    if text is None:
-        return None
-    if not text.strip():
-        raise output.OutputError("--out is empty: give a directory, e.g. --out runs/mine")
-    return Path(text)
+    from .api import _out_path
+
+    return _out_path(text)
+
+
+def run_logged(scene: scenes.Scene, model: str, comm, out: Path, **options) -> dict:
+    """One run as `fem-bounce run` makes it, also behind fem_bounce.simulate: run.simulate(**options) with
+    what the libraries say kept for out/run.log once the run has begun (a refused run leaves out as it was)."""
+    from .errors import RunFailed
+    from .run import simulate
+
+    with _library_output():
+        try:
+            summary = simulate(scene, model, comm, out, **options)
+        except RunFailed:  # diverged, interrupted or failed: begun, so its directory is a run's
+            _LIBRARY_LOG.keep(out, comm)
+            raise
+        _LIBRARY_LOG.keep(out, comm)
+    return summary
 
 
 def _cmd_run(args) -> int:
     from mpi4py import MPI
-
-    from .errors import RunFailed
-    from .run import simulate
 
     comm = MPI.COMM_WORLD
     if args.restart is not None:
@@ -177,13 +185,8 @@ def _cmd_run(args) -> int:
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     if comm.rank == 0:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
-    try:
-        summary = simulate(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                           command=command, progress=not args.quiet)
-    except RunFailed:  # diverged, interrupted or failed: begun, so its directory is a run's
-        _LIBRARY_LOG.keep(out, comm)
-        raise
-    _LIBRARY_LOG.keep(out, comm)
+    summary = run_logged(scene, model, comm, out, force=args.force, restart=args.restart is not None,
+                         command=command, progress=not args.quiet)
     if comm.rank == 0:
         _print_records(summary)
     return 0
@@ -192,14 +195,11 @@ def _cmd_run(args) -> int:
 def _cmd_compare(args) -> int:
     from mpi4py import MPI
 
+    from . import api
     from .studies import compare
 
     comm = MPI.COMM_WORLD
-    names = [name.strip() for name in args.models.split(",") if name.strip()]
-    if not names:
-        raise models.ModelError("--models needs at least one model, e.g. --models ode,ib")
-    for name in names:
-        models.get(name)
+    names = api._model_list(args.models)
     _route_warnings()
     scene = _scene_from_args(args.scene, args.overrides)
     out = _out_path(args.out)
@@ -207,7 +207,7 @@ def _cmd_compare(args) -> int:
         out = comm.bcast(output.unused_directory(Path("runs") / f"compare-{scene.name}") if comm.rank == 0 else None,
                          root=0)
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
-    rows = compare.compare(scene, names, comm, out, force=args.force, progress=not args.quiet, command=command)
+    rows = api.compare(scene, names, out, force=args.force, progress=not args.quiet, comm=comm, command=command)
     if comm.rank == 0:
         print(compare.format_table(rows))
         print(f"-> {out}/comparison.csv, {out}/comparison.png")
@@ -302,20 +302,15 @@ def _cmd_scenes(args) -> int:
 
 
 def _cmd_restitution(args) -> int:
-    from .studies import restitution
+    from mpi4py import MPI
 
-    points = args.points or (40 if args.model == "ode" else 12)
-    if points < 2 or not 0 < args.st_min < args.st_max:
-        raise scenes.SceneError("restitution: need --points >= 2 and 0 < --st-min < --st-max")
-    models.get(args.model)
-    out = _out_path(args.out) or Path("results") / f"restitution-{args.model}"
-    changes = dict(scenes.parse_override(text) for text in args.overrides)
-    comm, runner = _study_runner(args)
-    with runner:
-        rows = restitution.run(args.model, comm, out, points, (args.st_min, args.st_max), overrides=changes,
-                               runner=runner)
-    found = restitution.compare(rows)
-    if comm.rank == 0:
+    from . import api
+
+    out = Path("results") / f"restitution-{args.model}" if args.out is None else args.out
+    rows = api.restitution(args.model, points=args.points, st_range=(args.st_min, args.st_max),
+                           overrides=args.overrides, out=out, jobs=args.jobs, executor=args.executor)
+    found = rows.summary
+    if (MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD).rank == 0:
         print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.json, {out}/restitution.png")
         if found["rms_to_fit"] is not None:
             stuck, first = found["critical_St"]
@@ -454,6 +449,9 @@ _LIBRARY_LOG = _LibraryLog()
 def _library_output():
     """The libraries' logging into _LIBRARY_LOG alone while a command runs; as it was afterwards."""
     root = logging.getLogger()
+    if _LIBRARY_LOG in root.handlers:  # already (a run inside a command): as it is
+        yield
+        return
     before = root.handlers[:]
     for handler in before:
         root.removeHandler(handler)

@@ -1,13 +1,26 @@
 """How a run ends early, for every layer: the models raise these, the controller (run.py) records
 them in summary.json and the command line turns them into one line and an exit status.
 
+Every error the package raises on purpose derives from Error (fem_bounce.Error): a scene value out of
+range (scene.SceneError), an unusable run directory (output.OutputError), --jobs or --executor asked for
+what cannot be (RunnerError), a run that ended early (RunFailed and its kinds).  The command line prints
+each as one line; a Python caller may catch them all with `except fem_bounce.Error`.
+
 Low in the package on purpose: a model imports its errors from here, never from the run module
 that drives it.
 """
 from __future__ import annotations
 
 
-class RunFailed(RuntimeError):
+class Error(Exception):
+    """Every error fem_bounce raises on purpose; the message is one line naming the field, path or cause."""
+
+
+class RunnerError(Error, ValueError):
+    """--jobs or --executor cannot be used as asked; the message says what to do instead."""
+
+
+class RunFailed(Error, RuntimeError):
     """A run ended before its end; its summary.json says why."""
 
 

@@ -37,6 +37,7 @@ from typing import Callable
 
 from . import __version__
 from . import scene as scenes
+from .errors import Error
 
 TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_history", "f_added_mass", "f_theory",
                       "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
@@ -50,7 +51,7 @@ MARKER = ".fem-bounce-run"
 MARKER_TEXT = "fem-bounce run directory: `fem-bounce run --force` may replace everything in it.\n"
 
 
-class OutputError(RuntimeError):
+class OutputError(Error, RuntimeError):
     """A run directory or one of its files cannot be used; the message names the path and the reason."""
 
 

@@ -36,11 +36,17 @@ def unit_labels(scene: dict) -> tuple[str, str]:
 
 def draw_run(run_dir: Path) -> list[Path]:
     run_dir = Path(run_dir)
-    traj, summary = read_trajectory(run_dir), read_summary(run_dir)
+    return draw(read_trajectory(run_dir), read_summary(run_dir), run_dir)
+
+
+def draw(traj: dict, summary: dict, directory: Path) -> list[Path]:
+    """A run's figures from its trajectory columns and summary, into directory/trajectory.png (and
+    velocity_gap.png for one sphere); fem_bounce.Result.draw draws a run kept in memory through this."""
+    directory = Path(directory)
     if "second_sphere" in summary["scene"]:
-        return [pair_figure(traj, summary, run_dir / "trajectory.png")]
-    return [trajectory_figure(traj, summary, run_dir / "trajectory.png"),
-            velocity_gap_figure(traj, summary, run_dir / "velocity_gap.png")]
+        return [pair_figure(traj, summary, directory / "trajectory.png")]
+    return [trajectory_figure(traj, summary, directory / "trajectory.png"),
+            velocity_gap_figure(traj, summary, directory / "velocity_gap.png")]
 
 
 def _paper(contact: dict) -> bool:

@@ -28,16 +28,12 @@ from typing import Iterator
 
 from .. import scene as scenes
 from ..cache import DEFAULT_ROOT, cached_run, finished, run_directory
-from ..errors import RunFailed, RunInterrupted
+from ..errors import RunFailed, RunInterrupted, RunnerError
 from ..mpi_pool import run_one, start_worker, under_mpi_futures
 from ..run import Interrupts, signal_name
 
 EXECUTORS = ("local", "mpi")
 POLL_SECONDS = 0.2  # how often the study looks for a signal while its workers run
-
-
-class RunnerError(ValueError):
-    """--jobs or --executor cannot be used as asked; the message says what to do instead."""
 
 
 class Runner:

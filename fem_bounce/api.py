@@ -1,0 +1,405 @@
+"""fem_bounce from Python: the command line's scenes, runs and studies as functions.
+
+    import fem_bounce as fb
+
+    scene = fb.load("li2011-case3")                               # a preset or a TOML file
+    softer = scene.replace(**{"contact.dry_restitution": 0.9})    # a variant: the checks of --set
+    result = fb.simulate(scene, "ode")                            # in memory: nothing written
+    result.impacts[0].impact_speed, result.trajectory["velocity"]
+    fine = fb.simulate(scene, "ale", out="runs/case3-ale", cells_per_diameter=8)   # a run directory
+    table = fb.restitution("ode", points=6)                       # e against St, as `fem-bounce restitution`
+
+Each function is what the command of the same name runs (fem_bounce.cli calls them or shares their
+parts): the same checks, the same one-line errors (fem_bounce.Error and its kinds), the same run
+directory, the same study cache.  MPI is optional: under `mpirun` the runs use MPI.COMM_WORLD as the
+command line does, serially they use the one process.
+"""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import functools
+import shutil
+import tempfile
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import models as _models
+from . import output as _output
+from . import scene as _scenes
+from .bounces import Impact, Rebound
+from .errors import Error, RunDiverged, RunFailed, RunInterrupted, RunnerError
+from .output import CheckpointError, OutputError
+from .scene import Scene, SceneError
+
+DEFAULT_CACHE = Path("results") / "cache"  # the study cache, relative to the working directory (as the command line)
+
+
+class ModelError(Error, _models.ModelError):
+    """An unknown model, or one whose libraries are not installed; or a model that cannot do what the scene
+    asks (a pair, a restart).  The API raises this kind of the package's models.ModelError."""
+
+
+def _public(function):
+    """The package's models.ModelError raised as fem_bounce.ModelError, so `except fem_bounce.Error`
+    catches every error a public function raises on purpose."""
+
+    @functools.wraps(function)
+    def wrapper(*args, **kwargs):
+        try:
+            return function(*args, **kwargs)
+        except _models.ModelError as err:
+            if isinstance(err, Error):
+                raise
+            raise ModelError(str(err)) from None
+
+    return wrapper
+
+
+# -- scenes -------------------------------------------------------------------------------------
+
+
+def _overrides(changes: Mapping[str, Any] | Iterable[str] | str | None) -> dict[str, Any]:
+    """{dotted key: value}, from a mapping or from "key=value" texts read as `--set` reads them."""
+    if changes is None:
+        return {}
+    if isinstance(changes, Mapping):
+        return dict(changes)
+    if isinstance(changes, str):
+        changes = [changes]
+    return dict(_scenes.parse_override(text) for text in changes)
+
+
+def load(source: str | Path, overrides: Mapping[str, Any] | Iterable[str] | None = None) -> Scene:
+    """The scene of a preset name (see presets()) or a TOML file, with dotted-key overrides applied and
+    checked as `--set` does: {"contact.delta_ss": 0.01} or ["contact.delta_ss=0.01"].  Raises SceneError
+    naming the key and its allowed range.  A loaded scene's variant: scene.replace(**{"key": value})."""
+    return _scenes.load(source, _overrides(overrides))
+
+
+def save(scene: Scene, path: str | Path) -> Path:
+    """Write the scene as TOML (whole or not at all) that load() reads back to an equal scene; OutputError
+    when it cannot be written."""
+    path = Path(path)
+    _output.write_scene(path, scene)
+    return path
+
+
+def presets() -> list[str]:
+    """The shipped scenes' names (`fem-bounce scenes`)."""
+    return _scenes.preset_names()
+
+
+def model_names(available: bool = False) -> list[str]:
+    """The models, cheapest first (ode, fd, ib, ale); with available=True only those whose libraries import."""
+    return _models.available() if available else list(_models.MODELS)
+
+
+# -- one run ------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Collision:
+    """A collision of a pair scene (sphere-sphere or sphere 1 on the wall), in time order: `kind` "pair" or
+    "wall", the time of the minimum gap [s], the relative impact speed [m/s], its Re and (binary) St, the
+    minimum gap [m] and the restitution (None when the run ended before it was known); `details` holds
+    every number summary.json records for it (docs/usage.md, two spheres)."""
+
+    kind: str
+    time: float
+    impact_speed: float
+    Re: float
+    St: float
+    min_gap: float
+    restitution: float | None
+    details: dict = field(default_factory=dict, repr=False)
+
+
+def _record(cls, data: dict):
+    return cls(**{f.name: data[f.name] for f in dataclasses.fields(cls) if f.name in data})
+
+
+@dataclass(frozen=True)
+class Result:
+    """One run: its scene, model, summary (summary.json as a dict), trajectory (trajectory.csv as
+    {column: NumPy array}, SI units, positive away from the wall) and run directory (None for a run kept in
+    memory)."""
+
+    scene: Scene
+    model: str
+    summary: dict = field(repr=False)
+    trajectory: dict[str, np.ndarray] = field(repr=False)
+    run_dir: Path | None = None
+
+    @property
+    def status(self) -> str:
+        """completed, diverged: ..., interrupted or failed: ... (docs/usage.md)."""
+        return self.summary["status"]
+
+    @property
+    def stop_reason(self) -> str:
+        return self.summary.get("stop_reason", "")
+
+    @property
+    def impacts(self) -> list[Impact]:
+        """Sphere 1's impacts on the wall (time, impact_speed as the 2 ms mean, peak_speed, contact_speed,
+        Re, St, min_gap, contact_gap)."""
+        return [_record(Impact, d) for d in self.summary["impacts"]]
+
+    @property
+    def rebounds(self) -> list[Rebound]:
+        """What followed each impact (restitution, rebound_speed, peak_rebound_speed, peak_restitution,
+        apex_gap, apex_time, rebounded)."""
+        return [_record(Rebound, d) for d in self.summary["rebounds"]]
+
+    @property
+    def collisions(self) -> list[Collision]:
+        """A pair's collisions, pair and wall, in time order (empty for one sphere)."""
+        return [Collision(kind=c["kind"], time=c["time"], impact_speed=c["impact_speed"], Re=c["Re"], St=c["St"],
+                          min_gap=c["min_gap"], restitution=c.get("restitution"), details=dict(c))
+                for c in self.summary.get("collisions", [])]
+
+    @property
+    def wall_time(self) -> float:
+        """Seconds the run took (all its segments)."""
+        return self.summary["wall_time_s"]
+
+    def to_pandas(self):
+        """The trajectory as a pandas DataFrame (pandas is not a dependency: ImportError without it)."""
+        return _data_frame(self.trajectory)
+
+    def draw(self, directory: str | Path | None = None) -> list[Path]:
+        """Draw the run's figures (trajectory.png, and velocity_gap.png for one sphere) into `directory`,
+        by default the run directory; a run kept in memory needs a directory.  Returns the files."""
+        if directory is None:
+            if self.run_dir is None:
+                raise OutputError("this run was kept in memory: give draw() a directory for its figures")
+            directory = self.run_dir
+        from . import plots
+
+        directory = Path(directory)
+        try:
+            directory.mkdir(parents=True, exist_ok=True)
+            return plots.draw(self.trajectory, self.summary, directory)
+        except OSError as err:
+            raise OutputError(f"cannot draw the figures in {directory}: {err.strerror or err}") from None
+
+
+def _data_frame(columns):
+    try:
+        import pandas
+    except ImportError:
+        raise ImportError("to_pandas() needs pandas, which fem_bounce does not install: pip install pandas") from None
+    return pandas.DataFrame(columns)
+
+
+def _world(comm=None):
+    """The communicator a run uses: the caller's, else MPI.COMM_WORLD (one process when not under mpirun)."""
+    if comm is not None:
+        return comm
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD
+
+
+def _out_path(text: str | Path | None) -> Path | None:
+    """An output directory; an empty string is refused, not read as the current directory."""
+    if text is None:
+        return None
+    if not str(text).strip():
+        raise OutputError("--out is empty: give a directory, e.g. --out runs/mine")
+    return Path(text)
+
+
+class _Scratch:
+    """A temporary directory that every rank sees (rank 0 makes it and removes it), for a run or a study
+    kept in memory: nothing is left where the user looks."""
+
+    def __init__(self, comm):
+        self.comm = comm
+        self.path = Path(comm.bcast(tempfile.mkdtemp(prefix="fem-bounce-") if comm.rank == 0 else None, root=0))
+
+    def __enter__(self) -> Path:
+        return self.path
+
+    def __exit__(self, *exc) -> None:
+        self.comm.barrier()
+        if self.comm.rank == 0:
+            shutil.rmtree(self.path, ignore_errors=True)
+
+
+def _read_run(scene: Scene, model: str, run_dir: Path, comm, kept: bool) -> Result | None:
+    """The run in run_dir as a Result (read on rank 0, the same on every rank); None without a summary."""
+    def read():
+        try:
+            return _output.read_summary(run_dir), _output.read_trajectory(run_dir)
+        except (OSError, ValueError):
+            return None
+
+    found = comm.bcast(read() if comm.rank == 0 else None, root=0)
+    if found is None:
+        return None
+    return Result(scene, model, found[0], found[1], run_dir if kept else None)
+
+
+@_public
+def simulate(scene: Scene | str | Path, model: str = "ode", out: str | Path | None = None, *, force: bool = False,
+             progress: bool = False, plots: bool = True, comm=None, **settings: Any) -> Result:
+    """Run `model` on `scene` (a Scene, a preset name or a TOML file), as `fem-bounce run` does.
+
+    out=None keeps the run in memory: it runs in a temporary directory that is removed afterwards, so
+    nothing is left behind; out=DIR writes the run directory (scene.toml, trajectory.csv, summary.json,
+    the figures unless plots=False; an existing run directory only with force=True).  settings are the
+    model's numerical settings by name, e.g. cells_per_diameter=8 for numerics.MODEL.cells_per_diameter
+    (dotted scene keys go through **{"run.bounces": 2}), checked as --set is.  progress draws the progress
+    line on stderr.  comm: an mpi4py communicator (default MPI.COMM_WORLD).
+
+    A run that ends early raises RunDiverged, RunInterrupted or RunFailed (all RunFailed); the exception's
+    `result` attribute holds what was computed until then (None when nothing was)."""
+    if not isinstance(scene, Scene):
+        scene = load(scene)
+    _models.info(model)
+    if settings:
+        scene = scene.replace(**{key if "." in key else f"numerics.{model}.{key}": value
+                                 for key, value in settings.items()})
+    _models.get(model)  # an unknown or missing model fails before anything runs, as on the command line
+    comm = _world(comm)
+    out = _out_path(out)
+    command = f"fem_bounce.simulate({scene.name!r}, {model!r}" + (f", out={str(out)!r})" if out else ")")
+    if out is not None:
+        return _run(scene, model, comm, out, True, force=force, command=command, progress=progress, plots=plots)
+    with _Scratch(comm) as scratch:
+        return _run(scene, model, comm, scratch, False, command=command, progress=progress, plots=False)
+
+
+@_public
+def resume(run_dir: str | Path, model: str | None = None, *, progress: bool = False, plots: bool = True,
+           comm=None) -> Result:
+    """Continue the killed fd, ib or ale run in run_dir from its last checkpoint (`fem-bounce run --restart
+    DIR`): the scene is run_dir/scene.toml, the model the checkpoint's (model, if given, must match)."""
+    from .cli import _restart_model
+
+    run_dir = Path(run_dir)
+    model = _restart_model(run_dir, model)
+    scene = _scenes.load(run_dir / "scene.toml")
+    _models.get(model)
+    return _run(scene, model, _world(comm), run_dir, True, restart=True, progress=progress, plots=plots,
+                command=f"fem_bounce.resume({str(run_dir)!r})")
+
+
+def _run(scene: Scene, model: str, comm, run_dir: Path, kept: bool, **options) -> Result:
+    from .cli import run_logged
+
+    try:
+        run_logged(scene, model, comm, run_dir, **options)
+    except RunFailed as err:
+        message = str(err) if kept else str(err).replace(f"; outputs kept in {run_dir}", "")
+        again = RunInterrupted(message, err.signum) if isinstance(err, RunInterrupted) else type(err)(message)
+        again.result = _read_run(scene, model, run_dir, comm, kept)
+        raise again from None
+    return _read_run(scene, model, run_dir, comm, kept)
+
+
+# -- studies ------------------------------------------------------------------------------------
+
+
+class Table(list):
+    """A study's rows (one dict per run or model, the columns of its CSV file), with `summary` (what the
+    study concluded, e.g. the restitution sweep against the Legendre et al. fit) and `to_pandas()`."""
+
+    def __init__(self, rows: Iterable[dict] = (), summary: dict | None = None):
+        super().__init__(rows)
+        self.summary = summary or {}
+
+    def column(self, name: str) -> np.ndarray:
+        """One column as a float array (missing values as NaN)."""
+        return np.array([np.nan if row.get(name) in (None, "") else row[name] for row in self], dtype=float)
+
+    def to_pandas(self):
+        """The rows as a pandas DataFrame (needs pandas, which fem_bounce does not install)."""
+        return _data_frame(list(self))
+
+
+def _study_runner(jobs: int, executor: str, comm=None, cache: str | Path = DEFAULT_CACHE):
+    """(the study's communicator, its Runner) from --jobs and --executor.  Under mpi4py.futures only rank 0
+    runs the study, so it works on COMM_SELF and leaves COMM_WORLD to the pool."""
+    from mpi4py import MPI
+
+    from .studies.runner import Runner
+
+    if comm is None:
+        comm = MPI.COMM_SELF if executor == "mpi" else MPI.COMM_WORLD
+    return comm, Runner(comm, jobs, executor, root=cache)
+
+
+@_public
+def restitution(model: str = "ode", *, points: int | None = None, st_range: tuple[float, float] = (1.0, 1000.0),
+                overrides: Mapping[str, Any] | Iterable[str] | None = None, out: str | Path | None = None,
+                jobs: int = 1, executor: str = "local", cache: str | Path = DEFAULT_CACHE, comm=None) -> Table:
+    """The coefficient of restitution against impact Stokes number, as `fem-bounce restitution`: the Table 3
+    material sets launched at the wall without gravity, `points` Stokes numbers over st_range (default 40
+    for ode, 12 otherwise) plus one every factor 1.3 over St 3-30, e and St where the gap passes 0.2 D
+    (docs/usage.md, Studies).  A row per run (scene, target_St, St, Re, speed_in, speed_out, restitution,
+    fit, status, failed, ...); `summary` compares them with the Legendre et al. (2006) fit (rms_to_fit,
+    max_abs_to_fit, critical_St, failed).  Runs go through the study cache `cache` and are spread over
+    `jobs` local processes or an mpi4py.futures pool (executor="mpi"), as --jobs and --executor.
+    out=DIR also writes restitution.csv, .json and .png there; out=None keeps only the cache."""
+    from .studies import restitution as study
+
+    points = points or (40 if model == "ode" else 12)
+    st_min, st_max = st_range
+    if points < 2 or not 0 < st_min < st_max:
+        raise SceneError("restitution: need --points >= 2 and 0 < --st-min < --st-max")
+    _models.get(model)
+    out = _out_path(out)
+    changes = _overrides(overrides)
+    comm, runner = _study_runner(jobs, executor, comm, cache)
+    with runner, _Scratch(comm) if out is None else contextlib.nullcontext(out) as where:
+        rows = study.run(model, comm, where, points, (st_min, st_max), overrides=changes, runner=runner)
+    return Table(rows, study.compare(rows))
+
+
+def _model_list(names: str | Sequence[str]) -> list[str]:
+    """The models of a comparison ("ode,fd" or a list), each known and installed."""
+    if isinstance(names, str):
+        names = names.split(",")
+    names = [name.strip() for name in names if name.strip()]
+    if not names:
+        raise _models.ModelError("--models needs at least one model, e.g. --models ode,ib")
+    for name in names:
+        _models.get(name)
+    return names
+
+
+@_public
+def compare(scene: Scene | str | Path, models: str | Sequence[str] = ("ode", "fd", "ib"), out: str | Path | None = None,
+            *, force: bool = False, progress: bool = False, comm=None, command: str = "") -> Table:
+    """Several models on one scene, as `fem-bounce compare`: a row per model (status, wall_time_s, steps,
+    unknowns, and per impact impact_speed_K, Re_K, restitution_K, apex_gap_over_D_K) and one for the
+    scene's measurement when it has one.  Each run goes through the study cache (results/cache under the
+    working directory, as the command line).  out=DIR also writes DIR/MODEL run directories,
+    comparison.csv and comparison.png; out=None keeps only the cache."""
+    from .studies import compare as study
+
+    names = _model_list(models)
+    if not isinstance(scene, Scene):
+        scene = load(scene)
+    comm = _world(comm)
+    out = _out_path(out)
+    command = command or f"fem_bounce.compare({scene.name!r}, {','.join(names)!r})"
+    with _Scratch(comm) if out is None else contextlib.nullcontext(out) as where:
+        rows = study.compare(scene, names, comm, where, force=force, progress=progress, command=command)
+    return Table(rows)
+
+
+__all__ = [
+    "Scene", "load", "save", "presets", "model_names",
+    "simulate", "resume", "Result", "Impact", "Rebound", "Collision",
+    "restitution", "compare", "Table",
+    "Error", "SceneError", "ModelError", "OutputError", "CheckpointError", "RunnerError",
+    "RunFailed", "RunDiverged", "RunInterrupted",
+]
