@@ -98,5 +98,13 @@ class AleNumerics:
     min_gap_cells: float = _setting(2.0, 0.5, 100.0)  # a remeshed gap has at least this many triangles across
     hold_delta: float = _setting(0.02, 0.0, 0.5)  # the mesh stops following the sphere at this gap / D
     fixed_solver: str = field(default="steady", metadata={"choices": ("steady", "march")})  # held sphere
+    # "every-step": implicit linearised convection, the step matrix factorised every step; "reuse": convection
+    # extrapolated (EXT2), GMRES preconditioned by the factors of an earlier step's matrix (models/ale/flow.py)
+    factorisation: str = field(default="every-step", metadata={"choices": ("reuse", "every-step")})
+    reuse_iterations: int = _setting(8, 1, 100)  # reuse: factorise again when GMRES needed more than this
+    krylov_rtol: float = _setting(1e-9, 1e-14, 1e-4)  # reuse: GMRES stops at |b - A x| <= this |b|
+    # reuse: a step whose largest cell Courant number |u* - w| dt / h is above this (or whose mesh holds the
+    # sphere) takes implicit convection and a fresh factorisation
+    explicit_courant: float = _setting(1.5, 0.05, 10.0)
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(100, 0, 10**9)  # 0: no checkpoints

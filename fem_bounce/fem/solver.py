@@ -5,6 +5,10 @@
     solver.refactor()             # after A's values changed (same sparsity: the analysis is reused)
     solver.destroy()
 
+`ReusedFactorOperator` keeps the factors of an earlier matrix as the preconditioner of a GMRES solve
+with the current one (the ale model's `numerics.ale.factorisation = "reuse"`) and factorises again only
+when a solve needs more than a bound of iterations.
+
 The default is MUMPS LU through PETSc (`-{prefix}pc_factor_mat_solver_type`,
 `-{prefix}mat_mumps_icntl_*` tune it from the command line).  The operator owns
 its KSP and destroys it; `back_solves` counts the solves, so a model can report
@@ -146,6 +150,61 @@ class FactorizedOperator:
         if self.ksp is not None:
             self.ksp.destroy()
             self.ksp = None
+
+
+class ReusedFactorOperator(FactorizedOperator):
+    """Solves with the current A (changed in place between solves, same sparsity) by GMRES
+    preconditioned (on the right, so the residual is the true one) by the LU factors of A as it was at
+    the last factorisation.  A solve is converged when |b - A x| <= rtol |b|, starting from the
+    solution vector's values (an initial guess).  When a solve needs more than `max_iterations`
+    iterations the operator is marked `stale`; `refactor` (by the caller, at the next matrix) clears it.
+    A solve that fails to converge in `limit` iterations refactorises at once and solves again.
+
+    `factorisations` counts the numerical factorisations, `iterations` the Krylov iterations
+    (each one back-solve with the factors and one product with A)."""
+
+    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-9, max_iterations: int = 8, limit: int = 100):
+        _default_option(f"{prefix}ksp_type", "gmres")
+        _default_option(f"{prefix}ksp_pc_side", "right")
+        _default_option(f"{prefix}ksp_gmres_restart", limit)
+        self.rtol, self.max_iterations, self.limit = rtol, max_iterations, limit
+        self.factorisations = 0
+        self.iterations = 0
+        self.last_iterations = 0
+        self.stale = False
+        super().__init__(A, prefix)
+        self.ksp.setInitialGuessNonzero(True)
+        self.ksp.getPC().setReusePreconditioner(True)
+
+    def _factorise(self, setup) -> None:
+        pc = self.ksp.getPC()
+        pc.setReusePreconditioner(False)
+        try:
+            super()._factorise(setup)
+        finally:
+            pc.setReusePreconditioner(True)
+        self.factorisations += 1
+        self.stale = False
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        norm = b.norm()
+        # |r| <= rtol |b| whatever the initial guess (PETSc's rtol is relative to the first residual)
+        self.ksp.setTolerances(rtol=1e-300, atol=max(self.rtol * norm, 1e-300), max_it=self.limit)
+        _counted_solve(self, b, x)
+        if self.ksp.getConvergedReason() < 0:  # the factors are too stale to precondition: factorise now
+            self.iterations += self.ksp.getIterationNumber()
+            self.refactor()
+            _counted_solve(self, b, x)
+            reason = self.ksp.getConvergedReason()
+            if reason < 0:
+                raise SolverError(f"GMRES with fresh factors failed ({self.prefix}): KSP reason {reason}")
+        self.last_iterations = self.ksp.getIterationNumber()
+        self.iterations += self.last_iterations
+        self.stale = self.stale or self.last_iterations > self.max_iterations
+
+    def solve_many(self, rhs: list, solutions: list) -> None:
+        for b, x in zip(rhs, solutions):
+            self.solve(b, x)
 
 
 class FieldSplitOperator:

@@ -9,10 +9,27 @@ the non-conservative ALE form (Formaggia & Nobile 2004, in "Finite Element Metho
 1970's and Beyond"; Foerster, Wall & Ramm 2007 CMAME 196): the time derivative is
 taken along mesh trajectories (the same dof at its old positions) and every integral
 on the current mesh, so a uniform flow is an exact discrete solution however the mesh
-moves.  Convection is linearised about the extrapolated velocity and kept implicit: the
-matrix changes each step anyway (the mesh moves), so it is assembled and factorised
-each step, and the step has no convective stability limit.  BDF2 and EXT2 follow
-Karniadakis, Israeli & Orszag (1991), as in the fd model.  Gravity is not in the fluid.
+moves.  Gravity is not in the fluid.  Two treatments of convection and of the matrix
+(numerics.ale.factorisation):
+
+- "every-step": convection linearised about the extrapolated velocity and kept implicit, as above;
+  the matrix changes each step (convection and the moving mesh), so it is assembled and factorised
+  each step, and the step has no convective stability limit.
+- "reuse": convection extrapolated (EXT2 of the whole term, as the fd model does),
+
+      rho (sum_j alpha_j u^{n+1-j}) / dt - mu Lap u^{n+1} + grad p^{n+1} = -rho ((u* - w) . grad) u*,
+
+  so the matrix rho c M + mu K - B - B^T depends only on the mesh and dt and changes only as the mesh
+  moves.  It is still assembled each step (a product with it is exact), but solved by GMRES
+  preconditioned with the LU factors of an earlier step's matrix (fem.solver.ReusedFactorOperator),
+  factorised again only when GMRES needs more than numerics.ale.reuse_iterations iterations, and on
+  every new mesh.  Explicit convection has a CFL limit; near the sphere the relative velocity u - w
+  vanishes on its surface, where the triangles are finest.
+
+BDF2 and EXT2 follow Karniadakis, Israeli & Orszag (1991), as in the fd model.  Every number that
+varies between runs or meshes (rho, mu, dt) enters the forms as a dolfinx Constant, so the compiled
+forms are the same for every scene and mesh of one time order and factorisation (compiled once per
+machine, in the form cache).
 
 The sphere surface is a no-slip boundary moving with the sphere, u = (0, U).  The flow
 is affine in U, so one factorisation and two back-solves give it for every U:
@@ -43,6 +60,8 @@ the pressure is pinned at the far corner.  SI units throughout.
 from __future__ import annotations
 
 import math
+import time
+from dataclasses import dataclass
 
 import numpy as np
 import ufl
@@ -53,8 +72,10 @@ from petsc4py import PETSc
 
 from ...fem import forms
 from ...fem.mesh import AXIS, SPHERE
-from ...fem.solver import FactorizedOperator
+from ...fem.solver import FactorizedOperator, ReusedFactorOperator
 from ...fem.taylor_hood import BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, side_constraints, taylor_hood_space
+
+FACTORISATIONS = ("reuse", "every-step")  # numerics.ale.factorisation
 
 
 class SphereFlow:
@@ -62,14 +83,22 @@ class SphereFlow:
     one mesh (moved in place by a MeshMotion).
 
     density [kg/m3], viscosity [Pa s], dt [s]; `sides` maps WALL/OUTER/TOP to a kind in
-    SIDE_KINDS; `mesh_velocity` is a UFL vector (motion.MeshMotion.velocity)."""
+    SIDE_KINDS; `mesh_velocity` is a UFL vector (motion.MeshMotion.velocity); `factorisation` is
+    "every-step" or "reuse" (then `reuse_iterations` and `krylov_rtol` set ReusedFactorOperator's bound
+    and tolerance)."""
 
     def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
                  mesh_velocity, inflow_speed: float = 0.0, order: int = 2, prefix: str = "ale_flow_",
-                 sphere_tags: tuple[int, ...] = (SPHERE,)):
+                 sphere_tags: tuple[int, ...] = (SPHERE,), factorisation: str = "every-step",
+                 reuse_iterations: int = 8, krylov_rtol: float = 1e-9):
         for kind in sides.values():
             if kind not in SIDE_KINDS:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
+        if factorisation not in FACTORISATIONS:
+            raise ValueError(f"numerics.ale.factorisation = {factorisation!r} is not one of {FACTORISATIONS}")
+        self.factorisation, self.reuse_iterations, self.krylov_rtol = factorisation, reuse_iterations, krylov_rtol
+        self.assembly_s = self.factorise_s = self.solve_s = 0.0  # [s] this flow's matrix assembly, factorisations, solves
+        self._direct_factorisations = 0
         self.mesh, self.density, self.viscosity, self.dt = mesh, density, viscosity, dt
         self.order, self.bdf, self.ext = order, BDF[order], EXTRAPOLATION[order]
         self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference)
@@ -89,24 +118,37 @@ class SphereFlow:
         self.dx = dx = ufl.Measure("dx", domain=mesh)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
-        rho, mu, c = density, viscosity, self.c
+        # the numbers of a scene as Constants, not literals: one compiled form for every scene and mesh
+        rho, mu = (fem.Constant(mesh, PETSc.ScalarType(value)) for value in (density, viscosity))
+        inverse_dt = fem.Constant(mesh, PETSc.ScalarType(1.0 / dt))
+        self.constants = {"density": rho, "viscosity": mu, "inverse_dt": inverse_dt}
+        self.rho, self.mu = rho, mu
         past = [ufl.split(state)[0] for state in self.states]
         extrapolated = sum(beta * u_j for beta, u_j in zip(self.ext, past))
-        history = -rho / dt * sum(alpha * u_j for alpha, u_j in zip(self.bdf[1:], past))
-        a = (forms.stokes_operator(u, p, v, q, rho * c, mu, r, dx)
-             + rho * forms.convection(extrapolated - mesh_velocity, u, v, r, dx))
+        history = -rho * inverse_dt * sum(alpha * u_j for alpha, u_j in zip(self.bdf[1:], past))
+        a = forms.stokes_operator(u, p, v, q, rho * self.bdf[0] * inverse_dt, mu, r, dx)
         L = forms.source(history, v, r, dx)
-        self.a, self.L = fem.form(a), fem.form(L)
-        self.force_forms = [fem.form(-2.0 * math.pi * (ufl.action(ufl.action(a, self.solution), phi)
-                                                       - ufl.action(L, phi))) for phi in self.phis]
-        self.force_slope_forms = [[fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, unit), phi))
-                                   for unit in self.units] for phi in self.phis]
-        self.surface_force_forms = [fem.form(surface_force(self.solution, mu, r, ds(tag))) for tag in self.sphere_tags]
+        relative = extrapolated - mesh_velocity
+        cells = fem.FunctionSpace(mesh, ("DG", 0))
+        self.courant = fem.Function(cells)  # |u* - w| dt / h at each cell's midpoint
+        self._courant = fem.Expression(ufl.sqrt(ufl.dot(relative, relative)) / (inverse_dt * ufl.CellDiameter(mesh)),
+                                       cells.element.interpolation_points())
+        # implicit: convection linearised about u*, in the matrix; explicit ("reuse" only): in the right side
+        self.schemes = {"implicit": self._scheme(a + rho * forms.convection(relative, u, v, r, dx), L)}
+        if factorisation == "reuse":
+            self.schemes["explicit"] = self._scheme(a, L - rho * forms.convection(relative, extrapolated, v, r, dx))
+        self.scheme = self.schemes["explicit" if factorisation == "reuse" else "implicit"]
+        self.surface_force_forms = [fem.form(surface_force(self.solution, self.mu, r, ds(tag))) for tag in self.sphere_tags]
+        self.rhs = create_vector(self.scheme.L)
 
-        self.matrix = assemble_matrix(self.a, bcs=self.bcs)
-        self.matrix.assemble()
-        self.operator: FactorizedOperator | None = None
-        self.rhs = create_vector(self.L)
+    def _scheme(self, a, L) -> "_Scheme":
+        """The compiled forms of one treatment of convection: the step's a and L, the variational force
+        -2 pi R(x; phi_k) and its slopes (flow.py's docstring); the matrix is made at the first step."""
+        return _Scheme(a=fem.form(a), L=fem.form(L),
+                       force_forms=[fem.form(-2.0 * math.pi * (ufl.action(ufl.action(a, self.solution), phi)
+                                                               - ufl.action(L, phi))) for phi in self.phis],
+                       slope_forms=[[fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, unit), phi))
+                                     for unit in self.units] for phi in self.phis])
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides) -> None:
@@ -181,24 +223,76 @@ class SphereFlow:
 
     # -- one step ------------------------------------------------------------------------------
     def factorise(self) -> None:
-        """Assemble the step's matrix on the mesh as it is now and factorise it."""
-        A = self.matrix
-        A.zeroEntries()
-        assemble_matrix(A, self.a, bcs=self.bcs)
-        A.assemble()
-        if self.operator is None:
-            self.operator = FactorizedOperator(A, self.prefix)
+        """Assemble the step matrix of the current scheme on the mesh as it is now and factorise it: every
+        step for the implicit scheme; for the explicit one ("reuse") on a new mesh and when the last
+        solves needed more than reuse_iterations GMRES iterations."""
+        start = time.perf_counter()
+        scheme = self.scheme
+        if scheme.matrix is None:
+            scheme.matrix = assemble_matrix(scheme.a, bcs=self.bcs)
         else:
-            self.operator.refactor()
+            scheme.matrix.zeroEntries()
+            assemble_matrix(scheme.matrix, scheme.a, bcs=self.bcs)
+        scheme.matrix.assemble()
+        assembled = time.perf_counter()
+        self.assembly_s += assembled - start
+        explicit = scheme is self.schemes.get("explicit")
+        if scheme.operator is None:
+            if explicit:
+                scheme.operator = ReusedFactorOperator(scheme.matrix, self.prefix + "reuse_", rtol=self.krylov_rtol,
+                                                       max_iterations=self.reuse_iterations)
+            else:
+                scheme.operator = FactorizedOperator(scheme.matrix, self.prefix)
+                self._direct_factorisations += 1
+        elif not explicit:
+            scheme.operator.refactor()
+            self._direct_factorisations += 1
+        elif scheme.operator.stale:
+            scheme.operator.refactor()
+        self.factorise_s += time.perf_counter() - assembled
+
+    @property
+    def operator(self):
+        """The current scheme's solver (None before its first step)."""
+        return self.scheme.operator
+
+    @property
+    def matrix(self):
+        return self.scheme.matrix
+
+    @property
+    def factorisations(self) -> int:
+        """Numerical factorisations of the step matrices on this mesh so far."""
+        explicit = self.schemes.get("explicit")
+        reused = explicit.operator.factorisations if explicit is not None and explicit.operator is not None else 0
+        return self._direct_factorisations + reused
+
+    @property
+    def krylov_iterations(self) -> int:
+        """GMRES iterations on this mesh so far (the explicit scheme's; 0 for "every-step")."""
+        explicit = self.schemes.get("explicit")
+        return explicit.operator.iterations if explicit is not None and explicit.operator is not None else 0
 
     def _solve(self, with_history: bool, out: fem.Function) -> None:
-        b = lifted_rhs(self.rhs, self.L if with_history else None, self.a, self.bcs)
-        self.operator.solve(b, out.vector)
+        scheme = self.scheme
+        b = lifted_rhs(self.rhs, scheme.L if with_history else None, scheme.a, self.bcs)
+        start = time.perf_counter()
+        scheme.operator.solve(b, out.vector)  # explicit: out holds the initial guess (the last step's field)
+        self.solve_s += time.perf_counter() - start
         out.x.scatter_forward()
 
-    def step(self, reference_velocity):
-        """Factorise, solve for U_ref and for the unit response of each sphere; return (F(U_ref) [N],
-        dF/dU [N s/m]): floats for one sphere, for a pair F_i and the matrix dF_i/dU_j."""
+    def max_courant(self) -> float:
+        """The largest cell Courant number |u* - w| dt / h of the coming step (u* extrapolated, at cell
+        midpoints, h the cell diameter)."""
+        self.courant.interpolate(self._courant)
+        local = self.courant.x.array.max() if self.courant.x.array.size else 0.0
+        return self.mesh.comm.allreduce(local, op=MPI.MAX)
+
+    def step(self, reference_velocity, implicit: bool = False):
+        """Factorise (if due), solve for U_ref and for the unit response of each sphere; return
+        (F(U_ref) [N], dF/dU [N s/m]): floats for one sphere, for a pair F_i and the matrix dF_i/dU_j.
+        `implicit` takes the implicit scheme for this step under "reuse" ("every-step" always does)."""
+        self.scheme = self.schemes["implicit" if implicit or "explicit" not in self.schemes else "explicit"]
         self.factorise()
         self.set_boundary_values(reference_velocity)
         self._solve(True, self.solution)
@@ -206,8 +300,8 @@ class SphereFlow:
             self.set_boundary_values(np.eye(len(self.units))[k], inflow=0.0)
             self._solve(False, unit)
         self.set_boundary_values(reference_velocity)
-        forces = np.array([self.assemble(form) for form in self.force_forms])
-        slopes = np.array([[self.assemble(form) for form in row] for row in self.force_slope_forms])
+        forces = np.array([self.assemble(form) for form in self.scheme.force_forms])
+        slopes = np.array([[self.assemble(form) for form in row] for row in self.scheme.slope_forms])
         return self._result(forces), self._result(slopes)
 
     def assemble(self, form) -> float:
@@ -219,7 +313,7 @@ class SphereFlow:
 
     def momentum(self, state: fem.Function) -> float:
         """The fluid's axial momentum 2 pi rho int u_z r dx of a (u, p) function on this mesh [kg m/s]."""
-        return self.assemble(fem.form(2.0 * math.pi * self.density * ufl.split(state)[0][1] * self.r * ufl.dx))
+        return self.assemble(fem.form(2.0 * math.pi * self.rho * ufl.split(state)[0][1] * self.r * ufl.dx))
 
     def fluid_volume(self) -> float:
         """2 pi int r dx: the volume of liquid the mesh holds [m^3]."""
@@ -230,7 +324,7 @@ class SphereFlow:
         """Solve the steady Stokes (or Navier-Stokes, by Newton from the Stokes state) problem with the
         sphere surface at sphere_velocity (one per sphere for a pair) [m/s]; set every history level to
         it; return the force on each sphere [N]."""
-        rho, mu, r, dx = self.density, self.viscosity, self.r, self.dx
+        rho, mu, r, dx = self.rho, self.mu, self.r, self.dx
         (u_trial, p_trial), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         x = self.solution
         u, p = ufl.split(x)
@@ -289,14 +383,29 @@ class SphereFlow:
         return self.W.dofmap.index_map.size_global * self.W.dofmap.index_map_bs
 
     def destroy(self) -> None:
-        if self.operator is not None:
-            self.operator.destroy()
-        self.matrix.destroy()
+        for scheme in self.schemes.values():
+            if scheme.operator is not None:
+                scheme.operator.destroy()
+            if scheme.matrix is not None:
+                scheme.matrix.destroy()
         self.rhs.destroy()
 
 
-def surface_force(state: fem.Function, viscosity: float, r, ds_sphere):
-    """-2 pi int_S (sigma n)_z r ds, n the fluid's outward normal: the z-force on the sphere (a UFL form).
+@dataclass
+class _Scheme:
+    """One treatment of convection's forms, its step matrix and that matrix's solver."""
+
+    a: fem.FormMetaClass
+    L: fem.FormMetaClass
+    force_forms: list
+    slope_forms: list
+    matrix: PETSc.Mat | None = None
+    operator: FactorizedOperator | None = None
+
+
+def surface_force(state: fem.Function, viscosity, r, ds_sphere):
+    """-2 pi int_S (sigma n)_z r ds, n the fluid's outward normal: the z-force on the sphere (a UFL form);
+    viscosity [Pa s] a float or a Constant.
 
     sigma = -p I + mu (grad u + grad u^T); only its (r, z) block enters the axial force."""
     u, p = ufl.split(state)

@@ -139,6 +139,14 @@ class Statistics:
     min_mesh_gap: float = math.inf
     max_unknowns: int = 0
     min_mesh_pair_gap: float = math.inf  # a pair: the smallest gap between the mesh's two spheres [m]
+    implicit_steps: int = 0  # "reuse": steps taken with implicit convection (held, or above explicit_courant)
+    max_explicit_courant: float = 0.0  # "reuse": the largest cell Courant number of an explicit step
+    # of the step matrix, over the meshes already left (report() adds the current mesh's)
+    factorisations: int = 0
+    krylov_iterations: int = 0
+    assembly_s: float = 0.0
+    factorise_s: float = 0.0
+    solve_s: float = 0.0
 
 
 class AleModel(FlowModel):
@@ -171,9 +179,19 @@ class AleModel(FlowModel):
         motion = MeshMotion(mesh, facet_tags, center, sphere_tags=self.sphere_tags)
         flow = SphereFlow(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
                           motion.velocity, inflow_speed=domain.inflow_speed, order=self.settings.time_order,
-                          sphere_tags=self.sphere_tags)
+                          sphere_tags=self.sphere_tags, factorisation=self.settings.factorisation,
+                          reuse_iterations=self.settings.reuse_iterations, krylov_rtol=self.settings.krylov_rtol)
         self.stats.max_unknowns = max(self.stats.max_unknowns, flow.unknowns)
         return mesh, motion, flow
+
+    def _tally(self, flow: SphereFlow) -> None:
+        """Add a flow's (a mesh's) solver counts and times to the run's, before it is dropped."""
+        s = self.stats
+        s.factorisations += flow.factorisations
+        s.krylov_iterations += flow.krylov_iterations
+        s.assembly_s += flow.assembly_s
+        s.factorise_s += flow.factorise_s
+        s.solve_s += flow.solve_s
 
     def remesh(self, center: float, quality: float) -> None:
         """Mesh around the sphere centred at `center` [m] and carry the flow's history over."""
@@ -205,6 +223,7 @@ class AleModel(FlowModel):
                 projection.destroy()
             momenta.append((before, interpolated, flow.momentum(new_state)))
         motion.move_to(center)
+        self._tally(old_flow)
         old_flow.destroy()
         self.mesh, self.motion, self.flow = mesh, motion, flow
         seconds = time.perf_counter() - start
@@ -298,7 +317,8 @@ class AleModel(FlowModel):
         self.stats.min_mesh_gap = min(self.stats.min_mesh_gap, gap)
         reference = k.reference_velocity
         start = time.perf_counter()
-        force, slope = self.flow.step(reference)
+        implicit = self._implicit_step(held)
+        force, slope = self.flow.step(reference, implicit=implicit)
         self.stats.factorisation_s += time.perf_counter() - start
         added_mass = -slope / self.flow.c  # a pair: the matrix M_ij = -(dF_i/dU_j) / c
         if not (np.all(np.isfinite(force)) and np.all(np.isfinite(added_mass))):
@@ -307,6 +327,25 @@ class AleModel(FlowModel):
         self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed)
         self._integrator_start = time.perf_counter()
         return FluidForce(explicit=force, added_mass=added_mass)
+
+    def _implicit_step(self, held: bool) -> bool:
+        """Under factorisation = "reuse", whether this step takes the implicit scheme: when the mesh holds
+        the sphere (its surface then moves through the finest cells, u - w = U there, and its velocity
+        reverses within a step), or when the largest cell Courant number |u* - w| dt / h exceeds
+        numerics.ale.explicit_courant (explicit convection is stable only with the viscous damping of
+        small cell Courant numbers)."""
+        if self.settings.factorisation != "reuse":
+            return True
+        if held:
+            self.stats.implicit_steps += 1
+            return True
+        courant = self.flow.max_courant()
+        self.stats.max_explicit_courant = max(self.stats.max_explicit_courant,
+                                              courant if courant <= self.settings.explicit_courant else 0.0)
+        if courant > self.settings.explicit_courant:
+            self.stats.implicit_steps += 1
+            return True
+        return False
 
     def complete(self, velocity: float, time_now: float) -> None:
         self.stats.integrator_s += time.perf_counter() - self._integrator_start
@@ -355,6 +394,11 @@ class AleModel(FlowModel):
         k = self.kinematics
         arrays = gather_history(self.flow.states)
         stats = asdict(self.stats)
+        flow = self.flow  # the current mesh's solver tallies: a restart starts a new mesh's from zero
+        for key, value in (("factorisations", flow.factorisations), ("krylov_iterations", flow.krylov_iterations),
+                           ("assembly_s", flow.assembly_s), ("factorise_s", flow.factorise_s),
+                           ("solve_s", flow.solve_s)):
+            stats[key] += value
         state = {"dt": self.dt, "mesh_center": _plain(self.motion.reference_center),
                  "velocities": [_plain(v) for v in k.velocities], "centers": [_plain(z) for z in k.centers],
                  "kinematics_step": k.step, "last_force": [_plain(x) for x in self.last_force],
@@ -423,6 +467,8 @@ class AleModel(FlowModel):
         """Cost, remeshing and near-contact details for summary.json [SI]."""
         stats = self.stats
         steps = max(self.kinematics.step, 1)
+        flow = self.flow
+        factorisations = stats.factorisations + flow.factorisations
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
         diameter = self.scene.sphere.diameter
         force, added_mass = self.last_force
@@ -434,9 +480,17 @@ class AleModel(FlowModel):
         return {
             "solver": "steady" if self.steady else "march",
             "timings_s": {"setup": stats.setup_s, "steps": self.loop_seconds, "factorise_and_solve": stats.factorisation_s,
-                          "integrator": stats.integrator_s, "remesh": stats.remesh_s},
+                          "integrator": stats.integrator_s, "remesh": stats.remesh_s,
+                          "assembly": stats.assembly_s + flow.assembly_s,
+                          "factorisation": stats.factorise_s + flow.factorise_s,
+                          "solves": stats.solve_s + flow.solve_s},
             "time_per_step_s": self.loop_seconds / steps,
-            "factorisations_per_step": 1,  # plus two per remesh (the projections)
+            "factorisation": self.settings.factorisation,
+            "factorisations": factorisations,  # of the step matrix (each remesh adds two projections)
+            "factorisations_per_step": factorisations / steps,
+            "krylov_iterations": stats.krylov_iterations + flow.krylov_iterations,
+            "implicit_steps": stats.implicit_steps if self.settings.factorisation == "reuse" else steps,
+            "max_explicit_courant": stats.max_explicit_courant,
             "remesh_count": len(stats.remeshes),
             "remeshes": [asdict(r) for r in stats.remeshes],
             "hold_delta": self.settings.hold_delta,
