@@ -24,11 +24,10 @@ from .api import (  # noqa: E402 -- after __version__, which the modules behind 
     RunInterrupted, RunnerError, Scene, SceneError, Table, compare, load, model_names, presets, restitution, resume,
     save, simulate)
 
-__all__ = [
+__all__ = [  # what help(fem_bounce) lists
     "Scene", "load", "save", "presets", "model_names",
     "simulate", "resume", "Result", "Impact", "Rebound", "Collision",
     "restitution", "compare", "Table",
     "Error", "SceneError", "ModelError", "OutputError", "CheckpointError", "RunnerError",
     "RunFailed", "RunDiverged", "RunInterrupted",
-    "__version__",
 ]

@@ -31,9 +31,10 @@ import numpy as np
 from . import models as _models
 from . import output as _output
 from . import scene as _scenes
+# the records and errors of the API, re-exported by fem_bounce/__init__.py
 from .bounces import Impact, Rebound
-from .errors import Error, RunDiverged, RunFailed, RunInterrupted, RunnerError
-from .output import CheckpointError, OutputError
+from .errors import Error, RunDiverged, RunFailed, RunInterrupted, RunnerError  # noqa: F401
+from .output import CheckpointError, OutputError  # noqa: F401
 from .scene import Scene, SceneError
 
 DEFAULT_CACHE = Path("results") / "cache"  # the study cache, relative to the working directory (as the command line)
@@ -395,11 +396,3 @@ def compare(scene: Scene | str | Path, models: str | Sequence[str] = ("ode", "fd
         rows = study.compare(scene, names, comm, where, force=force, progress=progress, command=command)
     return Table(rows)
 
-
-__all__ = [
-    "Scene", "load", "save", "presets", "model_names",
-    "simulate", "resume", "Result", "Impact", "Rebound", "Collision",
-    "restitution", "compare", "Table",
-    "Error", "SceneError", "ModelError", "OutputError", "CheckpointError", "RunnerError",
-    "RunFailed", "RunDiverged", "RunInterrupted",
-]
