@@ -300,3 +300,148 @@ class PairResistance:
         x11, x12, x21, x22 = self.coefficients(h)
         stokes = 6.0 * math.pi * viscosity
         return -stokes * self.a1 * (x11 * u1 + x12 * u2), -stokes * self.a2 * (x21 * u1 + x22 * u2)
+
+
+# -- the pair's added mass in potential flow ---------------------------------------------------------------
+
+ADDED_MASS_TERMS = 14.0  # terms fall like exp(-3 n omega): n omega = 14 leaves exp(-42) ~ 6e-19 of the first
+
+
+def _pole_rates(a_upper: float, a_lower: float, gap: float) -> float:
+    """d(alpha)/dh of `bispherical_poles` (alpha the upper sphere's pole) [1/m]."""
+    d = a_upper + a_lower + gap
+    g = gap * (gap + 2.0 * a_lower) / (4.0 * d * a_upper)
+    dg = ((2.0 * gap + 2.0 * a_lower) * d - gap * (gap + 2.0 * a_lower)) / (4.0 * a_upper * d * d)
+    return dg / (math.sqrt(g) * math.sqrt(1.0 + g))
+
+
+def added_mass_series(a1: float, a2: float, h: float, derivative: bool = False):
+    """The potential-flow added-mass coefficients C of two spheres translating along their line of centres.
+
+    Sphere 1 (radius a1) below sphere 2 (radius a2), surface gap h > 0, velocities V1, V2 along the axis; the
+    liquid's kinetic energy is T = (1/2) sum_ij M_ij V_i V_j with M_ij = m_l,i C_ij, m_l,i = rho (4/3) pi a_i^3
+    the liquid each sphere displaces (isolated: C = diag(1/2)).  In the bispherical coordinates of
+    `bispherical_poles` (sphere 2 at xi = alpha, sphere 1 at xi = -beta, omega = alpha + beta):
+
+        C11 = 1/2 + (3/2) sum_{n>=1} [sinh(beta) / sinh(beta + n omega)]^3,
+        C12 = -(3/2) sum_{n>=1} [sinh(beta) / sinh(n omega)]^3,        (C22, C21: alpha for beta)
+
+    derived here by the method of images that Hicks (1880) and Lamb (1932, section 98) apply to this problem
+    (their texts were not available to us: docs/pair_theory.md section 8): each sphere's doublet (moment
+    V a^3 / 2) is reflected in the other sphere, an axial doublet mu at distance f from the centre of a
+    sphere of radius R having the image -mu (R / f)^3 at the inverse point; inversion in the sphere
+    xi = alpha maps xi to 2 alpha - xi, which gives the sinh ratios.  A body's added mass is 4 pi rho (the
+    doublets inside it per unit velocity) less its displaced mass, its interaction 4 pi rho (the doublets
+    its motion induces inside the other body) (Taylor 1928).  Checks (tests):
+    m_l,1 C12 = m_l,2 C21 (reciprocity: both equal -2 pi rho c^3 sum sinh(n omega)^-3); equal spheres
+    approaching at +-U have the plane of symmetry as a wall, C11 - C12 = the wall's C_M (theory.exact_w) at
+    h / 2; a2 -> infinity gives the wall's C_M; far apart C12 -> -(3/2) a2^3 / d^3 (Lamb's leading term).
+
+    Returns the 2x2 C, and with derivative=True also dC/dh [1/m] (analytic)."""
+    if h <= 0.0:
+        raise ValueError(f"the gap must be positive, got h = {h}")
+    alpha, beta, _ = bispherical_poles(a2, a1, h)
+    omega = alpha + beta
+    n = np.arange(1.0, int(ADDED_MASS_TERMS / omega) + 4.0)
+    poles = (beta, alpha)  # sphere 1, sphere 2
+    own = [(math.sinh(p) / np.sinh(p + n * omega)) ** 3 for p in poles]
+    cross = [(math.sinh(p) / np.sinh(n * omega)) ** 3 for p in poles]
+    c = np.array([[0.5 + 1.5 * np.sum(own[0]), -1.5 * np.sum(cross[0])],
+                  [-1.5 * np.sum(cross[1]), 0.5 + 1.5 * np.sum(own[1])]])
+    if not derivative:
+        return c
+    rates = (_pole_rates(a1, a2, h), _pole_rates(a2, a1, h))  # d(beta)/dh, d(alpha)/dh
+    d_omega = rates[0] + rates[1]
+    d_own = [3.0 * own[k] * (rates[k] / math.tanh(poles[k]) - (rates[k] + n * d_omega) / np.tanh(poles[k] + n * omega))
+             for k in range(2)]
+    d_cross = [3.0 * cross[k] * (rates[k] / math.tanh(poles[k]) - n * d_omega / np.tanh(n * omega)) for k in range(2)]
+    dc = np.array([[1.5 * np.sum(d_own[0]), -1.5 * np.sum(d_cross[0])],
+                   [-1.5 * np.sum(d_cross[1]), 1.5 * np.sum(d_own[1])]])
+    return c, dc
+
+
+def added_mass_at_contact(a1: float, a2: float) -> np.ndarray:
+    """C of `added_mass_series` as h -> 0: alpha, beta -> 0 with alpha / beta -> a1 / a2, so
+
+        C11 = 1/2 + (3/2) q^-3 zeta(3, 1 + 1/q),  q = 1 + a1/a2,     C12 = -(3/2) zeta(3) (a2 / (a1 + a2))^3
+
+    (zeta(3, x) Hurwitz's zeta).  Equal spheres: C11 = 1/2 + (3/2)((7/8) zeta(3) - 1) = 0.57770,
+    C12 = -(3/16) zeta(3) = -0.22539 (so C11 - C12 = 1/2 + (3/2)(zeta(3) - 1) = 0.80309, the sphere touching
+    a wall, and C11 + C12 = 0.35231 for the touching pair moving together); a2 -> infinity: C11 -> 0.80309."""
+    from scipy.special import zeta
+
+    q1, q2 = 1.0 + a1 / a2, 1.0 + a2 / a1
+    own = [0.5 + 1.5 * q**-3 * float(zeta(3.0, 1.0 + 1.0 / q)) for q in (q1, q2)]
+    z3 = float(zeta(3.0))
+    return np.array([[own[0], -1.5 * z3 * (a2 / (a1 + a2)) ** 3], [-1.5 * z3 * (a1 / (a1 + a2)) ** 3, own[1]]])
+
+
+def added_mass_far_field(a1: float, a2: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """(C, dC/dh) far apart, d = a1 + a2 + h: the first image of each series, which is exact,
+
+        C11 = 1/2 + (3/2) (a1 a2)^3 / (d^2 - a2^2)^3 + O(d^-12),    C12 = -(3/2) a2^3 / d^3 + O(d^-9)
+
+    (the doublet of sphere 1 reflected in sphere 2, at a2^2 / d from its centre, and back; Lamb 1932,
+    section 98: L = (2/3) pi rho a^3 (1 + 3 a^3 b^3 / d^6 + ...), M = -2 pi rho a^3 b^3 / d^3 + ...)."""
+    d = a1 + a2 + h
+    p = (a1 * a2) ** 3
+    c = np.array([[0.5 + 1.5 * p / (d * d - a2 * a2) ** 3, -1.5 * a2**3 / d**3],
+                  [-1.5 * a1**3 / d**3, 0.5 + 1.5 * p / (d * d - a1 * a1) ** 3]])
+    dc = np.array([[-9.0 * d * p / (d * d - a2 * a2) ** 4, 4.5 * a2**3 / d**4],
+                   [4.5 * a1**3 / d**4, -9.0 * d * p / (d * d - a1 * a1) ** 4]])
+    return c, dc
+
+
+class PairAddedMass:
+    """C(h) and dC/dh of `added_mass_series` for one pair of radii, tabulated once: the series needs
+    about 14 / omega terms (thousands near contact), a right-hand side needs microseconds.
+
+    Table: gaps from TABLE_MIN a* to TABLE_MAX (a1 + a2), POINTS_PER_DECADE per decade, cubic splines in
+    ln h of C11, C12, C22 (smooth: near contact C - C(0) ~ h ln h, far away ~ h^-3); dC/dh is the splines'
+    own derivative, so that the Lagrangian force of `PairContactModel` is exactly that of the tabulated
+    kinetic energy (an inviscid pair keeps its energy and impulse: tests/test_pair.py).  Below the table C
+    is held at its value there (1e-6 a*: below any surface's roughness) with dC/dh = 0; above it,
+    `added_mass_far_field`.  C21 = a1^3 C12 / a2^3 (reciprocity).  Measured against the series:
+    docs/pair_theory.md section 8, tests/test_pair_theory.py."""
+
+    TABLE_MIN = 1e-6  # in units of a*
+    TABLE_MAX = 100.0  # in units of a1 + a2
+    POINTS_PER_DECADE = 24
+
+    def __init__(self, a1: float, a2: float):
+        if a1 <= 0.0 or a2 <= 0.0:
+            raise ValueError(f"radii must be positive, got a1 = {a1}, a2 = {a2}")
+        self.a1, self.a2 = a1, a2
+        self._ratio = (a1 / a2) ** 3
+        self.h_min = self.TABLE_MIN * reduced_radius(a1, a2)
+        self.h_max = self.TABLE_MAX * (a1 + a2)
+        decades = math.log10(self.h_max / self.h_min)
+        log_gap = np.linspace(math.log(self.h_min), math.log(self.h_max), int(decades * self.POINTS_PER_DECADE) + 1)
+        table = np.array([added_mass_series(a1, a2, math.exp(x)) for x in log_gap])
+        spline = CubicSpline(log_gap, np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1), axis=0)
+        self.gaps = np.exp(log_gap)  # [m], the table's knots
+        self._knots = log_gap.tolist()
+        self._coefficients = [tuple(tuple(spline.c[p, i, :]) for p in range(4)) for i in range(len(log_gap) - 1)]
+        self._lowest = tuple(float(v) for v in spline(log_gap[0]))
+
+    def coefficients(self, h: float) -> tuple[tuple[float, float, float, float], tuple[float, float, float, float]]:
+        """((C11, C12, C21, C22), their derivatives d/dh [1/m]) at gap h [m]: plain floats."""
+        if h > self.h_max:
+            c, dc = added_mass_far_field(self.a1, self.a2, h)
+            return tuple(c.ravel().tolist()), tuple(dc.ravel().tolist())
+        if h <= self.h_min:
+            c11, c12, c22 = self._lowest
+            return (c11, c12, self._ratio * c12, c22), (0.0, 0.0, 0.0, 0.0)
+        x = math.log(h)
+        i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
+        t = x - self._knots[i]
+        c3, c2, c1, c0 = self._coefficients[i]
+        value = [((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3)]
+        slope = [((3.0 * c3[j] * t + 2.0 * c2[j]) * t + c1[j]) / h for j in range(3)]
+        return ((value[0], value[1], self._ratio * value[1], value[2]),
+                (slope[0], slope[1], self._ratio * slope[1], slope[2]))
+
+    def __call__(self, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """(C, dC/dh) at gap h [m] as 2x2 arrays."""
+        c, dc = self.coefficients(h)
+        return np.array(c).reshape(2, 2), np.array(dc).reshape(2, 2)

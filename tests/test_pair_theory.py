@@ -123,3 +123,95 @@ def test_table_agrees_with_the_series(a1, a2):
     x = table(0.1 * a1)
     assert f1 == pytest.approx(-6 * math.pi * 1e-3 * a1 * (0.2 * x[0, 0] - 0.1 * x[0, 1]), rel=1e-14)
     assert f2 == pytest.approx(-6 * math.pi * 1e-3 * a2 * (0.2 * x[1, 0] - 0.1 * x[1, 1]), rel=1e-14)
+
+
+# -- the pair's added mass in potential flow (added_mass_series and friends) ---------------------------------
+
+ZETA3 = 1.2020569031595942  # Apery's constant, zeta(3)
+
+
+@pytest.mark.parametrize("h", (1e-6, 1e-3, 0.1, 1.0, 10.0))
+def test_equal_spheres_approaching_have_the_walls_added_mass_at_half_the_gap(h):
+    # potential flow: the mid-plane of two equal spheres approaching at +-U carries no normal velocity, so
+    # it is a wall at gap h/2 (tangential slip is free in potential flow): C11 - C12 is the wall's
+    # C_M = (1 + 3 W) / 2 of theory.exact_w (Milne-Thomson's image sum), an independent series
+    c = pair_theory.added_mass_series(1.0, 1.0, h)
+    w, _ = theory.exact_w(0.5 * h / 2.0)
+    assert c[0, 0] - c[0, 1] == pytest.approx(0.5 * (1.0 + 3.0 * w), rel=1e-12)
+    assert c[1, 1] - c[1, 0] == pytest.approx(0.5 * (1.0 + 3.0 * w), rel=1e-12)
+
+
+def test_touching_equal_spheres_have_the_zeta3_values():
+    # touching: C11 = 1/2 + (3/2)((7/8) zeta(3) - 1), C12 = -(3/16) zeta(3) (the image series at h = 0)
+    contact = pair_theory.added_mass_at_contact(1.0, 1.0)
+    assert contact[0, 0] == pytest.approx(0.5 + 1.5 * (0.875 * ZETA3 - 1.0), rel=1e-12)
+    assert contact[0, 1] == pytest.approx(-3.0 / 16.0 * ZETA3, rel=1e-12)
+    assert contact[0, 0] == pytest.approx(0.57770, abs=1e-5) and contact[0, 1] == pytest.approx(-0.22539, abs=1e-5)
+    # approaching: the sphere touching a wall, 1/2 + (3/2)(zeta(3) - 1) = 0.80309; together: 0.35231
+    assert contact[0, 0] - contact[0, 1] == pytest.approx(0.80309, abs=1e-5)
+    assert contact[0, 0] + contact[0, 1] == pytest.approx(0.35231, abs=1e-5)
+
+
+@pytest.mark.parametrize("a1,a2", [(1.0, 1.0), (1.0, 3.0), (2.0, 0.7), (1.0, 1e3)])
+def test_the_series_tends_to_its_contact_values(a1, a2):
+    contact = pair_theory.added_mass_at_contact(a1, a2)
+    a_star = pair_theory.reduced_radius(a1, a2)
+    errors = [np.abs(pair_theory.added_mass_series(a1, a2, g * a_star) - contact).max() for g in (1e-4, 1e-6, 1e-8)]
+    # C - C(0) ~ h ln h: each factor 100 in the gap shrinks the difference at least 50-fold
+    assert errors[2] < 3e-7 and errors[2] < errors[1] / 50.0 < errors[0] / 2500.0  # measured 1.3e-7 (a2 = 1e3 a1)
+
+
+@pytest.mark.parametrize("delta", (1e-3, 0.01, 0.1, 1.0))
+def test_a_large_second_sphere_gives_the_walls_added_mass(delta):
+    # a1 = 1 at gap h = 2 delta beside a sphere of radius 1e6: the wall's C_M = (1 + 3 W(delta)) / 2
+    w, _ = theory.exact_w(delta)
+    c = pair_theory.added_mass_series(1.0, 1e6, 2.0 * delta)
+    assert c[0, 0] == pytest.approx(0.5 * (1.0 + 3.0 * w), rel=1e-5)  # measured 6e-7 at delta = 0.01
+    assert pair_theory.added_mass_at_contact(1.0, 1e6)[0, 0] == pytest.approx(0.5 + 1.5 * (ZETA3 - 1.0), rel=1e-5)
+
+
+@pytest.mark.parametrize("a1,a2", [(1.0, 1.0), (1.0, 3.0), (2.5, 1.0)])
+def test_far_apart_the_spheres_are_isolated_and_the_series_matches_lambs_terms(a1, a2):
+    d = 20.0 * (a1 + a2)
+    c = pair_theory.added_mass_series(a1, a2, d - a1 - a2)
+    # Lamb (1932) section 98: M = -2 pi rho a1^3 a2^3 / d^3, i.e. C12 = -(3/2) a2^3 / d^3 per m_l,1
+    assert c[0, 1] == pytest.approx(-1.5 * a2**3 / d**3, rel=1e-6)
+    assert c[0, 0] - 0.5 == pytest.approx(1.5 * (a1 * a2) ** 3 / d**6, rel=1e-2)
+    far, _ = pair_theory.added_mass_far_field(a1, a2, d - a1 - a2)
+    assert np.abs(far - c).max() < 1e-10
+    isolated = pair_theory.added_mass_series(a1, a2, 1e4 * (a1 + a2))
+    assert np.abs(isolated - 0.5 * np.eye(2)).max() < 2e-12
+
+
+@pytest.mark.parametrize("a1,a2", [(1.0, 2.5), (1.0, 40.0), (0.3, 1.0)])
+@pytest.mark.parametrize("gap", [1e-4, 0.3, 30.0])
+def test_the_added_mass_matrix_is_symmetric(a1, a2, gap):
+    # m_l,1 C12 = m_l,2 C21: two sums over different poles (sinh beta against sinh alpha)
+    c = pair_theory.added_mass_series(a1, a2, gap * pair_theory.reduced_radius(a1, a2))
+    assert a1**3 * c[0, 1] == pytest.approx(a2**3 * c[1, 0], rel=1e-11)
+
+
+@pytest.mark.parametrize("a1,a2", [(1.0, 1.0), (1.0, 3.0), (1.0, 1e3)])
+@pytest.mark.parametrize("gap", [1e-4, 1e-2, 1.0, 10.0])
+def test_the_added_mass_derivative_is_the_series_slope(a1, a2, gap):
+    h = gap * pair_theory.reduced_radius(a1, a2)
+    _, slope = pair_theory.added_mass_series(a1, a2, h, derivative=True)
+    step = 1e-4 * h
+    central = (pair_theory.added_mass_series(a1, a2, h + step) - pair_theory.added_mass_series(a1, a2, h - step)) / (
+        2.0 * step)
+    assert np.abs(slope - central).max() < 1e-6 * np.abs(slope).max()
+    assert slope[0, 0] < 0.0 < slope[0, 1]  # the coupling weakens as the gap opens
+
+
+@pytest.mark.parametrize("a1,a2", [(1.0, 1.0), (1.0, 7.0), (6.35e-3, 6.35e-3)])
+def test_the_added_mass_table_agrees_with_the_series(a1, a2):
+    table = pair_theory.PairAddedMass(a1, a2)
+    for h in np.sqrt(table.gaps[1:] * table.gaps[:-1])[::3]:  # halfway between knots
+        c, slope = pair_theory.added_mass_series(a1, a2, h, derivative=True)
+        c_table, slope_table = table(h)
+        assert np.abs(c_table - c).max() < 2e-7  # measured 1.5e-8 (equal) to 1.3e-7 (a2 = 1000 a1)
+        assert np.abs(slope_table - slope).max() * h < 2e-5  # h dC/dh, measured below 5e-6
+    for edge in (table.h_max,):  # the far-field form takes over continuously
+        assert np.abs(table(edge * (1 - 1e-9))[0] - table(edge * (1 + 1e-9))[0]).max() < 1e-10
+    below, slope_below = table(0.1 * table.h_min)  # held below the table (1e-6 a*)
+    assert np.abs(below - pair_theory.added_mass_at_contact(a1, a2)).max() < 1e-4 and not slope_below.any()
