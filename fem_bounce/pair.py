@@ -14,19 +14,26 @@ of pair_contact.py and theory.py:
     f_i = -6 pi mu a_i [lambda_i(delta_i) + phi(Re_i) - 1] V_i          its own drag, the wall's excess included
           - 6 pi mu a_i sum_j (X_ij(s) - delta_ij) V_j                   the pair's Stokes interaction
           - C_M,i m_l,i dV_i/dt - (1/2) m_l,i V_i^2 dC_M,i/dh_i          added mass: 1/2 and the wall's image
+          - sum_j Mx_ij(s) dV_j/dt + F_v,i                                the pair's added mass (potential flow)
+          - 6 pi mu a_i K_i sum_k w_k(Re_i) z_i,k                        history (Mei & Adrian), as one sphere's
 
-(the wall and the pair added, not a three-body solution; no history force and no pair added mass:
-docs/physics.md section 6).  A held ("fixed") or prescribed sphere follows its motion (sphere 1:
+with Mx = M(s) - diag(m_l,i / 2) the pair's added-mass matrix less the isolated spheres' (pair_theory,
+PairContactModel.added_mass) and F_v its Lagrangian velocity terms; K_i = 1, or with
+contact.history_wall_factor = "drag-scaled" lambda_i + X_ii(s) - 1 (the wall's and the pair's excess).
+The wall and the pair are added, not solved as three bodies, and each sphere's history sees only its own
+velocity (docs/physics.md section 6).  A held ("fixed") or prescribed sphere follows its motion (sphere 1:
 scene [motion]; sphere 2: second_sphere.mode and .velocity).
 
-The state is y = [h1, V1, s, V2]: the pair gap, not h2, is integrated, so that the relative tolerance
-governs it near contact as it governs the wall gap of one sphere (an error of rtol h2 would exceed the
-film).  TS events: the pair gap crossing its contact gap (contact.ContactLaw: h_c or delta_ss 2a*,
-what the contact keeps fixed from the relative speed there) and delta_sl 2a*, the relative velocity
-changing sign (the collision's minimum gap, or the gap's maximum), the pair gap reaching the law's floor
-(penetration: sphere 2 can never pass sphere 1); and the same for sphere 1 and the wall when the wall
-is present.  Two BounceRecords (bounces.py) keep the collisions of the pair
-and of the wall.
+The state is y = [h1, V1, s, V2, z1..., z2...]: the pair gap, not h2, is integrated, so that the relative
+tolerance governs it near contact as it governs the wall gap of one sphere (an error of rtol h2 would
+exceed the film); z_i are sphere i's history modes, z' = dV_i/dt - z / T_k (theory.history_modes), carried
+only without a resolved flow and with contact.history on.
+
+TS events: the pair gap crossing its contact gap (contact.ContactLaw: h_c or delta_ss 2a*, what the contact
+keeps fixed from the relative speed there) and delta_sl 2a*, the relative velocity changing sign (the
+collision's minimum gap, or the gap's maximum), the pair gap reaching the law's floor (penetration: sphere
+2 can never pass sphere 1); and the same for sphere 1 and the wall when the wall is present.  Two
+BounceRecords (bounces.py) keep the collisions of the pair and of the wall.
 """
 from __future__ import annotations
 
@@ -85,6 +92,9 @@ class PairIntegrator(AdvancingTS):
         displaced = np.array([scene.liquid.density * s.volume for s in scene.spheres])
         self.weights = (self.masses - displaced) * scene.gravity  # net, toward z = 0 [N]
         self.fluid = FluidForce(np.zeros(2), np.zeros((2, 2)))
+        # the history modes of each sphere (none with a resolved flow: its flow carries the history)
+        self.n_history = tuple(0 if resolved else th.n_history for th in self.theories)
+        self._drag_scaled_history = scene.contact.history_wall_factor == "drag-scaled"
         self.observers: list[Callable[[dict], None]] = []
         self.pair_record = BounceRecord(scene, self.pair, stop_after_impacts, numbers=self.pair.numbers,
                                         separating=True)
@@ -96,7 +106,12 @@ class PairIntegrator(AdvancingTS):
 
     @property
     def n(self) -> int:
-        return 4
+        return 4 + sum(self.n_history)
+
+    def _history_states(self, y) -> tuple[np.ndarray, np.ndarray]:
+        """(z1, z2): each sphere's history modes in the state y."""
+        n1 = self.n_history[0]
+        return np.asarray(y[4:4 + n1]), np.asarray(y[4 + n1:])
 
     @property
     def hold_gaps(self) -> tuple[float, float]:
@@ -109,9 +124,10 @@ class PairIntegrator(AdvancingTS):
         scene, opts = self.scene, self.scene.numerics.ode
         v1, v2 = start_velocities(scene)
         v1 = v1 if self.free[0] else self._prescribed[0](0.0)[0]  # a prescribed series' own V(0)
-        self.y = PETSc.Vec().createSeq(4, comm=PETSc.COMM_SELF)
-        self.y.setArray([scene.initial_gap, v1, scene.second_sphere.gap, v2])
-        self._jac = PETSc.Mat().createDense([4, 4], comm=PETSc.COMM_SELF)
+        n = self.n
+        self.y = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
+        self.y.setArray(np.r_[scene.initial_gap, v1, scene.second_sphere.gap, v2, np.zeros(n - 4)])
+        self._jac = PETSc.Mat().createDense([n, n], comm=PETSc.COMM_SELF)
         self._jac.setUp()
         atol = self._atol = self.y.duplicate()
         atol.set(opts.atol)
@@ -131,8 +147,9 @@ class PairIntegrator(AdvancingTS):
         return np.where(self.held, 0.0, v)
 
     def _terms(self, t: float, y) -> dict:
-        """Every force term that does not need the accelerations [N], the added masses C_M,i m_l,i [kg]."""
-        h1, v1, s, v2 = y
+        """Every force term that does not need the accelerations [N], the added masses C_M,i m_l,i [kg] and
+        the pair's added-mass matrix less the isolated spheres' [kg]."""
+        h1, v1, s, v2 = y[:4]
         gaps = np.array([h1, h1 + self.diameters[0] + s])
         v = np.array([v1, v2])
         rates = self._rates(v)
@@ -150,7 +167,21 @@ class PairIntegrator(AdvancingTS):
                                   for k in range(2)]),  # C_M held inside a Hertz contact
             pair=self.pair.interaction(pair_gap, v, pair_film),
             elastic=np.zeros(2), correction=np.zeros(2), correction_mass=np.zeros(2),
+            pair_mass=np.zeros((2, 2)), pair_am_velocity=np.zeros(2), history=np.zeros(2),
+            history_coefficients=[np.zeros(0), np.zeros(0)],
         )
+        if not self.resolved:  # the pair's added mass, held with the film inside a Hertz contact as C_M is
+            terms["pair_mass"] = self.pair.added_mass(pair_gap)[0]
+            if pair_film == 1.0:
+                terms["pair_am_velocity"] = self.pair.added_mass_velocity_term(pair_gap, v, rates[1] - rates[0])
+            for k, z in enumerate(self._history_states(y)):
+                if len(z):
+                    c = th[k].history_coefficients(wall_gaps[k], v[k], films[k])
+                    if self._drag_scaled_history:  # K_H^(3/2): the wall's lambda plus the pair's X_kk - 1
+                        wall = th[k].wall_factor(wall_gaps[k], films[k])
+                        c = c * (wall + pair_film * (self.pair.resistance(pair_gap)[k, k] - 1.0)) / wall
+                    terms["history_coefficients"][k] = c
+                    terms["history"][k] = -float(c @ z)
         if pair_engaged is not None:
             push = self.pair.law.force(s, rates[1] - rates[0], pair_engaged)
             terms["elastic"] += (-push, push)
@@ -172,8 +203,8 @@ class PairIntegrator(AdvancingTS):
             mass = np.diag(self.masses + f["correction_mass"]) + np.asarray(self.fluid.added_mass, dtype=float)
             rhs = np.asarray(self.fluid.explicit, dtype=float) + f["correction"]
         else:
-            mass = np.diag(self.masses + f["c_m"])
-            rhs = f["drag"] + f["am_velocity"] + f["pair"]
+            mass = np.diag(self.masses + f["c_m"]) + f["pair_mass"]
+            rhs = f["drag"] + f["am_velocity"] + f["pair"] + f["pair_am_velocity"] + f["history"]
         rhs = rhs + f["elastic"] - self.weights
         for k in np.flatnonzero(~self.free):
             mass[k] = np.eye(2)[k]
@@ -184,7 +215,10 @@ class PairIntegrator(AdvancingTS):
         mass, rhs = self._balance(t, y)
         rates = self._rates(np.array([y[1], y[3]]))
         force = mass @ np.array([ydot[1], ydot[3]]) - rhs
-        return np.array([ydot[0] - rates[0], force[0], ydot[2] - (rates[1] - rates[0]), force[1]])
+        out = [np.array([ydot[0] - rates[0], force[0], ydot[2] - (rates[1] - rates[0]), force[1]])]
+        for k, (z, zdot) in enumerate(zip(self._history_states(y), self._history_states(ydot))):
+            out.append(zdot - ydot[1 + 2 * k] + z / self.theories[k].history_times[: len(z)])
+        return np.concatenate(out)
 
     def _ifunction(self, ts, t, y, ydot, f) -> None:
         f.setArray(self._residual(t, y.array_r, ydot.array_r))
@@ -193,17 +227,29 @@ class PairIntegrator(AdvancingTS):
         y, ydot = np.array(y.array_r), np.array(ydot.array_r)
         base = self._residual(t, y, ydot)
         scales = (self.diameters[0] * 1e-3, 1e-3, self.pair.diameter * 1e-3, 1e-3)
-        jac = np.empty((4, 4))
+        n = self.n
+        jac = np.zeros((n, n))
         for k in range(4):  # d/dy by differences (the rate rows exactly so: they are linear)
             step = 1e-7 * max(abs(y[k]), scales[k])
             shifted = y.copy()
             shifted[k] += step
             jac[:, k] = (self._residual(t, shifted, ydot) - base) / step
-        mass, _ = self._balance(t, y)
+        terms = self._terms(t, y)
+        mass, _ = self._balance(t, y, terms)
         jac[0, 0] += a
         jac[2, 2] += a
         jac[np.ix_([1, 3], [1, 3])] += a * mass
-        P.setValues(range(4), range(4), jac.ravel())
+        start = 4
+        for k, count in enumerate(self.n_history):  # the history rows and columns, exactly
+            if not count:
+                continue
+            modes = slice(start, start + count)
+            if self.free[k]:
+                jac[1 + 2 * k, modes] = terms["history_coefficients"][k]
+            jac[modes, 1 + 2 * k] = -a
+            jac[modes, modes] = np.diag(a + 1.0 / self.theories[k].history_times[:count])
+            start += count
+        P.setValues(range(n), range(n), jac.ravel())
         P.assemble()
         if A != P:
             A.assemble()
@@ -242,7 +288,7 @@ class PairIntegrator(AdvancingTS):
             values[k] = indicator(y)
 
     def _post_event(self, ts, events, t, y, forward) -> None:
-        h1, v1, s, v2 = y.array_r
+        h1, v1, s, v2 = y.array_r[:4]
         rates = self._rates(np.array([v1, v2]))
         pair_rate = rates[1] - rates[0]
         for event in events:
@@ -272,7 +318,7 @@ class PairIntegrator(AdvancingTS):
         return [r for r in (self.pair_record, self.wall_record) if r is not None]
 
     def _log(self, t: float, y, initial: bool = False) -> None:
-        h1, v1, s, v2 = y
+        h1, v1, s, v2 = y[:4]
         rates = self._rates(np.array([v1, v2]))
         self.pair_record.log(t, s, rates[1] - rates[0], initial=initial)
         if self.wall_record is not None:
@@ -301,18 +347,20 @@ class PairIntegrator(AdvancingTS):
         wall)."""
         if not (self.wall and self.free.all() and self.pair_record.in_contact and self.wall_record.in_contact):
             return False
-        h1, v1, s, v2 = y
+        h1, v1, s, v2 = y[:4]
         return (self.pair.law.resting(s, v2 - v1, self.pair_record.engaged, self.masses[1], self.weights[1])
                 and self.wall.law.resting(h1, v1, self.wall_record.engaged, self.masses.sum(), self.weights.sum()))
 
     def row(self, t: float, y) -> dict:
         """Both spheres' gaps, velocities, accelerations and force terms at one instant [SI]: the
-        columns of output.PAIR_TRAJECTORY_COLUMNS (suffix _1: sphere 1, _2: sphere 2)."""
+        columns of output.PAIR_TRAJECTORY_COLUMNS (suffix _1: sphere 1, _2: sphere 2).  f_added_mass holds
+        the pair's added mass too; the history force has no column of its own: f_theory - f_drag - f_pair -
+        f_added_mass."""
         f = self._terms(t, y)
         mass, rhs = self._balance(t, y, f)
         accel = np.linalg.solve(mass, rhs)
-        added_mass = -f["c_m"] * accel + f["am_velocity"]
-        theory = f["drag"] + f["pair"] + added_mass
+        added_mass = -f["c_m"] * accel - f["pair_mass"] @ accel + f["am_velocity"] + f["pair_am_velocity"]
+        theory = f["drag"] + f["pair"] + added_mass + f["history"]
         fluid = self.fluid
         sim = (np.asarray(fluid.explicit) - np.asarray(fluid.added_mass) @ accel) if self.resolved else theory
         correction = f["correction"] - f["correction_mass"] * accel
@@ -334,12 +382,12 @@ class PairIntegrator(AdvancingTS):
 
     @property
     def gap(self) -> np.ndarray:
-        h1, _, s, _ = self._state()
+        h1, _, s, _ = self._state()[:4]
         return np.array([h1, h1 + self.diameters[0] + s])
 
     @property
     def velocity(self) -> np.ndarray:
-        _, v1, _, v2 = self._state()
+        _, v1, _, v2 = self._state()[:4]
         return np.array([v1, v2])
 
     @property

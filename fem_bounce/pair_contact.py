@@ -18,7 +18,11 @@ roughness, and the gap h between the two surfaces scaled by the reduced diameter
 - A resolved flow's correction (contact.near_wall = "correction"): the flow holds the pair gap at
   delta_sl 2a* and the increment the held flow misses, -6 pi mu a_i sum_j [X_ij(h) - X_ij(delta_sl 2a*)] U_j,
   is added below it; exact in steady Stokes flow, as at the wall.  The pair's added-mass increment is not
-  added (the pair's added mass is each sphere's m_l / 2: section 6 of docs/physics.md).
+  added to a resolved flow (its flow carries the pair's added mass down to the hold).
+- The pair's added mass in potential flow (ODE model): the kinetic energy T = (1/2) V^T M(h) V of the
+  liquid, M_ij = m_l,i C_ij(h) (pair_theory.added_mass_series: the image series of Hicks 1880 and Lamb 1932,
+  section 98), gives by Lagrange's equations F_i = -d/dt(sum_j M_ij V_j) + dT/dz_i; the isolated
+  spheres' m_l,i / 2 stay in each sphere's own C_M (theory.py), this model gives the rest.
 """
 from __future__ import annotations
 
@@ -27,7 +31,7 @@ import math
 import numpy as np
 
 from .contact import ContactGaps, ContactLaw, reduced_modulus
-from .pair_theory import PairResistance, reduced_radius
+from .pair_theory import PairAddedMass, PairResistance, reduced_radius
 from .scene import Scene
 
 # Trial states of an implicit step may close the pair gap; real penetration is an event of the integrator.
@@ -60,6 +64,8 @@ class PairContactModel(ContactGaps):
         self.correcting = resolved and scene.near_wall_law == "correction" and any(free)
         self._resistance = PairResistance(first.radius, second.radius)  # tabulated once, ~3 us a call
         self._resistance_hold = self.resistance(self.blend_gap)
+        self._added_mass = PairAddedMass(first.radius, second.radius)  # tabulated once, ~3 us a call
+        self.displaced_masses = np.array([scene.liquid.density * s.volume for s in (first, second)])  # m_l,i [kg]
 
     # -- the collision's numbers ---------------------------------------------------------------------
     def stokes(self, speed: float) -> float:
@@ -91,3 +97,26 @@ class PairContactModel(ContactGaps):
         if not self.correcting or gap >= self.blend_gap:
             return np.zeros(2)
         return -film * self.stokes_drags * ((self.resistance(gap) - self._resistance_hold) @ velocities)
+
+    def added_mass(self, gap: float) -> tuple[np.ndarray, np.ndarray]:
+        """(M - diag(m_l,i / 2) [kg], dM/dh [kg/m]) at the pair gap h [m]: the pair's potential-flow added-mass
+        matrix M_ij = m_l,i C_ij(h) (symmetric) less each isolated sphere's own m_l,i / 2, which the
+        sphere's C_M already holds (module docstring)."""
+        (c11, c12, c21, c22), (d11, d12, d21, d22) = self._added_mass.coefficients(
+            max(gap, MIN_PAIR_DELTA * self.diameter))
+        m1, m2 = self.displaced_masses
+        excess = np.array([[m1 * (c11 - 0.5), m1 * c12], [m2 * c21, m2 * (c22 - 0.5)]])
+        return excess, np.array([[m1 * d11, m1 * d12], [m2 * d21, m2 * d22]])
+
+    def added_mass_velocity_term(self, gap: float, velocities: np.ndarray, rate: float) -> np.ndarray:
+        """The added mass's forces that do not multiply an acceleration [N], from Lagrange's equations with
+        T = (1/2) V^T M(h) V and h = z2 - z1 - a1 - a2 (dh/dz1 = -1, dh/dz2 = +1):
+
+            F_i = -sum_j (dM_ij/dh) hdot V_j + (1/2) (dh/dz_i) V^T (dM/dh) V,     hdot = `rate` [m/s].
+
+        With sphere 2 held and infinitely large (hdot = -V1) it is the wall's -(1/2) m_l V1^2 dC_M/dh_wall
+        (theory.TheoryForces.added_mass_velocity_term).  The sum over the spheres is -(dM/dt) V: what the
+        pair hands the liquid's impulse, so that sum_i m_i V_i + sum_ij M_ij V_j is conserved."""
+        _, slope = self.added_mass(gap)
+        quadratic = 0.5 * float(velocities @ slope @ velocities)
+        return -rate * (slope @ velocities) + quadratic * np.array([-1.0, 1.0])

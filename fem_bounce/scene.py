@@ -395,9 +395,6 @@ class Scene:
                              f"motion.mode = {self.motion.mode!r} give motion.velocity instead")
         self._check_start_outside_contact()
         c = self.contact
-        if second is not None and c.history != "off":
-            raise SceneError(f"contact.history = {c.history!r} is not modelled for a pair of spheres: set "
-                             'contact.history = "off" (docs/physics.md section 6)')
         if second is not None and self.near_wall_law != "correction":
             raise SceneError(f"contact.near_wall = {c.near_wall!r} is not implemented for a pair of spheres: use "
                              '"correction"')
