@@ -467,11 +467,15 @@ def _library_output():
             root.addHandler(handler)
 
 
+_SHOWN: set[str] = set()  # the warnings printed by this command: each once, however often it recurs
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """The package's warnings as one line each; a library's (ffcx's unclosed files...) into run.log."""
+    """The package's warnings as one line each, each once; a library's (ffcx's unclosed files...) into run.log."""
     if issubclass(category, ResourceWarning) or not _LIBRARIES.isdisjoint(Path(filename).parts):
         _LIBRARY_LOG.add_warning(message, category, filename, lineno)
-    else:
+    elif str(message) not in _SHOWN:
+        _SHOWN.add(str(message))
         _say(f"warning: {message}")
 
 
@@ -497,6 +501,7 @@ def main(argv: list[str] | None = None) -> int:
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
                "study": _cmd_study, "compare": _cmd_compare}[args.command]
     graceful = args.command != "scenes"  # runs stop between two steps; listing scenes stops at once
+    _SHOWN.clear()
     with warnings.catch_warnings(), _library_output(), \
             (Interrupts(announce=_RANK == 0) if graceful else contextlib.nullcontext()):
         warnings.simplefilter("always")

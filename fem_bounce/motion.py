@@ -7,12 +7,9 @@ branching on motion.mode.
 """
 from __future__ import annotations
 
-import csv
 from typing import Callable
 
-import numpy as np
-
-from .scene import Scene, SceneError
+from .scene import Scene, read_series
 
 
 def is_free(scene: Scene) -> bool:
@@ -49,8 +46,7 @@ def series_speed(scene: Scene) -> float:
     motion = scene.motion
     if motion.mode != "prescribed" or not motion.series:
         return 0.0
-    data = np.genfromtxt(motion.series, delimiter=",", names=True)
-    return float(np.max(np.abs(data["velocity"])))
+    return max(abs(v) for v in read_series(motion.series)[1])
 
 
 def prescribed_velocity(scene: Scene) -> Callable[[float], tuple[float, float]]:
@@ -60,14 +56,6 @@ def prescribed_velocity(scene: Scene) -> Callable[[float], tuple[float, float]]:
         return lambda t: (motion.velocity, 0.0)
     from scipy.interpolate import CubicSpline
 
-    with open(motion.series, newline="") as stream:
-        rows = [r for r in csv.DictReader(line for line in stream if not line.startswith("#"))]
-    try:
-        times = np.array([float(r["t"]) for r in rows])
-        velocity = np.array([float(r["velocity"]) for r in rows])
-    except (KeyError, ValueError) as err:
-        raise SceneError(f"motion.series {motion.series!r}: needs numeric columns 't' and 'velocity' ({err})")
-    keep = np.r_[True, np.diff(times) > 0.0]
-    spline = CubicSpline(times[keep], velocity[keep])
+    spline = CubicSpline(*read_series(motion.series))
     derivative = spline.derivative()
     return lambda t: (float(spline(t)), float(derivative(t)))

@@ -1,6 +1,7 @@
 """What a run leaves behind, the same for every model.
 
-    DIR/.fem-bounce-run   the marker, written first: `--force` replaces only a directory that holds it
+    DIR/.fem-bounce-run   the marker, written first and locked while a run uses DIR: `--force` replaces
+                          only a directory that holds it, and never one that another run holds
     DIR/scene.toml        the resolved scene (runs again unchanged)
     DIR/trajectory.csv    t, gap, velocity, acceleration and each force term [SI]
     DIR/summary.json      scene, model, status, stop reason, impacts, rebounds, cost, versions, command
@@ -12,6 +13,9 @@ Only rank 0 writes.  Nothing is lost by accident:
 - a directory is never reused silently: an existing non-empty one needs `force=True`, and even then
   only a run directory (one holding the marker) is replaced; the current directory, the home directory,
   a repository root and their parents never are;
+- one process at a time uses a run directory: the marker is locked (flock) before anything is written
+  or deleted, so a second run on it is refused, `--force` included; a run directory is never made inside
+  another, and `--force` never deletes one that holds another run;
 - a file whose half would mislead (scene.toml, summary.json, every checkpoint file) is written beside
   its place, flushed to the disk and renamed over it, so a kill or a full disk leaves the old file or
   the new one, never a mix;
@@ -24,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import fcntl
 import json
 import os
 import platform
@@ -92,6 +97,42 @@ def is_run_directory(path: Path) -> bool:
     return (Path(path) / MARKER).is_file()
 
 
+_LOCKS: dict[Path, int] = {}  # run directory (resolved) -> its marker, held open and locked by this process
+
+
+def lock_directory(path: Path) -> None:
+    """Lock DIR's marker (creating it) for this process until release_directory: another process that
+    tries is refused.  The marker is never replaced while locked (a new file would not carry the lock)."""
+    key = Path(path).resolve()
+    if key in _LOCKS:
+        return
+    try:
+        fd = os.open(key / MARKER, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as err:
+        raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise OutputError(f"{path} is in use by another fem-bounce run; wait for it to end or choose another "
+                          "--out") from None
+    _LOCKS[key] = fd
+    if os.fstat(fd).st_size == 0:
+        os.write(fd, MARKER_TEXT.encode())
+        os.fsync(fd)
+
+
+def release_directory(path: Path) -> None:
+    """Give up this process's lock on DIR (see lock_directory)."""
+    fd = _LOCKS.pop(Path(path).resolve(), None)
+    if fd is not None:
+        os.close(fd)
+
+
+def _enclosing_run(path: Path) -> Path | None:
+    return next((parent for parent in path.resolve().parents if is_run_directory(parent)), None)
+
+
 def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> Path:
     """Create a fresh run directory, its marker first.  An existing non-empty directory is refused
     unless `force` and it is a run directory (then it is replaced); `resume` keeps it as it is."""
@@ -102,9 +143,13 @@ def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> 
     try:
         if path.exists() and not path.is_dir():
             raise OutputError(f"{path} exists and is not a directory; choose another --out")
+        if (outer := _enclosing_run(path)) is not None:
+            raise OutputError(f"{path} is inside the run directory {outer}: a run directory cannot hold another; "
+                              "choose another --out")
         if resume:
-            if not path.is_dir():
-                raise OutputError(f"{path} is not a run directory: it does not exist")
+            if not is_run_directory(path):
+                raise OutputError(f"{path} is not a run directory" + ("" if path.is_dir() else ": it does not exist"))
+            lock_directory(path)
             return path
         if path.is_dir() and any(path.iterdir()):
             if not force:
@@ -112,11 +157,18 @@ def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> 
             if not is_run_directory(path):
                 raise OutputError(f"{path} is not a fem-bounce run directory (it has no {MARKER}): --force "
                                   "replaces only run directories; choose another --out")
-            shutil.rmtree(path)
+            inner = next((marker.parent for marker in path.glob(f"*/**/{MARKER}")), None)
+            if inner is not None:
+                raise OutputError(f"{path} holds another run directory, {inner}: --force never deletes a run; move "
+                                  "it out or choose another --out")
+            lock_directory(path)
+            for entry in path.iterdir():
+                if entry.name != MARKER:
+                    shutil.rmtree(entry) if entry.is_dir() and not entry.is_symlink() else entry.unlink()
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
-    atomic_write_text(path / MARKER, MARKER_TEXT)
+    lock_directory(path)
     return path
 
 

@@ -21,6 +21,12 @@ def velocity_curve(name: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array([r["t_s"] for r in rows]), np.array([r["u_m_per_s"] for r in rows])
 
 
+def velocity_curve_names() -> list[str]:
+    """The packaged CSVs that hold a velocity curve (columns t_s and u_m_per_s)."""
+    names = sorted(p.name[:-4] for p in (resources.files("fem_bounce") / "data").iterdir() if p.name.endswith(".csv"))
+    return [name for name in names if {"t_s", "u_m_per_s"} <= set(next(iter(table(name)), {}))]
+
+
 def _number(text: str):
     try:
         return float(text)

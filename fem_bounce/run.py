@@ -292,6 +292,10 @@ def _warnings(scene, model: str, comm, guards: _Safeguards) -> list[str]:
                      f"{scene.liquid.density:g} kg/m3: the sphere rises and never reaches the wall; the run stops "
                      f"when it has {guards.where} (gap {guards.ceiling / d:.3g} D)")
     entry = models.info(model)
+    if not entry.resolved and not scene.container.unbounded:
+        found.append(f"the {model} model's forces are those of an unbounded liquid: it ignores [container] "
+                     f"(radius {scene.container.radius:g} m, height {scene.container.height:g} m); a resolved "
+                     "model (fd, ib, ale) meshes the container")
     if entry.min_cells_across_blend_gap is not None:
         cells = entry.resolution(scene)
         across, needed = cells * scene.contact.delta_sl, entry.min_cells_across_blend_gap
@@ -323,6 +327,7 @@ def _scene_changes(saved_text: str, scene) -> list[str]:
 def _resume(out_dir: Path, scene, model: str) -> dict:
     """Check that DIR can continue (rank 0): a whole checkpoint of this model, the same scene, the
     trajectory it continues; only then make its checkpoint DIR/checkpoint and cut the trajectory back."""
+    output.prepare_directory(out_dir, resume=True)  # locked: no second run continues it at the same time
     found = output.find_checkpoint(out_dir, required=models.info(model).checkpoint_files)
     if found.model != model:
         raise output.CheckpointError(f"the checkpoint in {out_dir} was written by the {found.model!r} model, "
@@ -640,6 +645,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
             if status == "completed":
                 raise RunFailed(str(err)) from None
             unwritten = f" ({err})"
+        on_root(comm, lambda: output.release_directory(out_dir))
     if status == "completed":
         return data
     if status == "interrupted":

@@ -12,6 +12,7 @@ Conventions: z points away from the wall, velocity is positive upward, the gap
 """
 from __future__ import annotations
 
+import csv
 import dataclasses
 import difflib
 import math
@@ -24,7 +25,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from . import numerics
+from . import numerics, reference
 from .errors import Error
 
 AXISYMMETRIC_RE_LIMIT = 250.0  # paper section 2.1: axisymmetric flow below Re ~ 210-250
@@ -36,6 +37,15 @@ MAX_GAP_DIAMETERS = 1e10
 # 6,314 steps where 1e-5 took 966 on li2011-case3; 1e-7 reached 0.19 ms in 50,000; ratio 1 never ends:
 # benchmarks/neutral_buoyancy.py).
 NEUTRAL_BUOYANCY = 1e-5
+# Where the material bounds come from (each also keeps every formula finite in double precision):
+DIAMETER_NOTE = ("below 1 um Brownian motion, not modelled, moves the sphere; 1e3 m lets a second sphere stand in "
+                 "for a wall (the pair's wall limit)")
+SOLID_DENSITY_NOTE = "the densest solid, osmium, is 2.26e4 kg/m3"
+MODULUS_NOTE = "the stiffest solid, diamond, has 1.2e12 Pa"
+LIQUID_DENSITY_NOTE = ("the densest liquid, mercury, is 1.35e4 kg/m3; down to 1e-30 for near-dry checks, below "
+                       "which the flow's kinematic viscosity overflows the solvers")
+VISCOSITY_NOTE = ("pitch is ~1e8 Pa s; above it the sphere's viscous relaxation time m / (6 pi mu a) falls below "
+                  "the integrator's smallest step and a run stops advancing")
 _PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f.][^/\\\x00-\x1f]{0,99}")
 
 
@@ -46,8 +56,9 @@ class SceneError(Error, ValueError):
 # -- declarative field ranges ------------------------------------------------------------
 
 
-def _positive(default: Any = dataclasses.MISSING, unit: str = "") -> Any:
-    return field(default=default, metadata={"range": (0.0, None, True, False), "unit": unit})
+def _positive(default: Any = dataclasses.MISSING, unit: str = "", hi: float | None = None, note: str = "") -> Any:
+    """> 0, and <= hi when given (`note` says where the bound comes from)."""
+    return field(default=default, metadata={"range": (0.0, hi, True, False), "unit": unit, "note": note})
 
 
 def _between(lo, hi, default: Any = dataclasses.MISSING, unit: str = "", open_ends=False, open_low=None,
@@ -98,9 +109,9 @@ def _check_fields(obj: Any, prefix: str) -> None:
 
 @dataclass(frozen=True)
 class Sphere:
-    diameter: float = _positive(unit="m")
-    density: float = _positive(unit="kg/m3")
-    youngs_modulus: float = _positive(unit="Pa")
+    diameter: float = _between(1e-6, 1e3, unit="m", note=DIAMETER_NOTE)
+    density: float = _positive(unit="kg/m3", hi=1e5, note=SOLID_DENSITY_NOTE)
+    youngs_modulus: float = _positive(unit="Pa", hi=1e13, note=MODULUS_NOTE)
     poisson_ratio: float = _between(-1.0, 0.5, open_ends=True, note="an isotropic solid's range")
     # keyword-only so that SecondSphere's own required fields may follow it
     roughness: float = field(default=0.0, kw_only=True, metadata={
@@ -128,8 +139,8 @@ def pair_diameter(first: Sphere, second: Sphere) -> float:
 
 @dataclass(frozen=True)
 class Liquid:
-    density: float = _positive(unit="kg/m3")
-    viscosity: float = _positive(unit="Pa s")
+    density: float = _between(1e-30, 1e5, unit="kg/m3", note=LIQUID_DENSITY_NOTE)
+    viscosity: float = _positive(unit="Pa s", hi=1e8, note=VISCOSITY_NOTE)
 
     @property
     def kinematic_viscosity(self) -> float:
@@ -153,7 +164,7 @@ class Wall:
     """The plane z = 0.  Without it (present = false) z = 0 is only the origin (and the bottom of the
     domain a resolved model meshes, an open boundary there); its elastic constants are then unused."""
 
-    youngs_modulus: float | None = _positive(None, unit="Pa")
+    youngs_modulus: float | None = _positive(None, unit="Pa", hi=1e13, note=MODULUS_NOTE)
     poisson_ratio: float | None = _between(-1.0, 0.5, None, open_ends=True, note="an isotropic solid's range")
     present: bool = True
     roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note="the height of the surface's asperities; Li et al. "
@@ -204,7 +215,8 @@ class Contact:
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")
-    history_c1: float = _positive(2.0)
+    history_c1: float = _between(0.1, 100.0, 2.0, note="Mei & Adrian's (1992) constant is 2; the history kernel's "
+                                 "exponential fit (theory.history_modes) is built and checked for 0.1-100")
     history_c2: float = _between(0.0, 10.0, 0.105)
 
     @property
@@ -231,6 +243,34 @@ class Motion:
     velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s")
     stream_velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s")
     series: str = ""
+
+
+def read_series(path: str) -> tuple[list[float], list[float]]:
+    """(t [s], velocity [m/s]) of a prescribed motion's CSV (columns t and velocity, '#' lines skipped),
+    checked: UTF-8, finite numbers, two rows or more, t increasing and starting at or before 0."""
+    what = f"motion.series = {path!r}"
+    file = Path(path)
+    if not file.is_file():
+        raise SceneError(f"{what}: no such file" if not file.exists() else f"{what}: not a regular file")
+    try:
+        lines = [line for line in file.read_bytes().decode("utf-8-sig").splitlines() if not line.startswith("#")]
+    except (OSError, UnicodeDecodeError) as err:
+        raise SceneError(f"{what}: cannot be read as UTF-8 text ({err})") from None
+    rows = list(csv.DictReader(lines))
+    try:
+        times = [float(row["t"]) for row in rows]
+        velocity = [float(row["velocity"]) for row in rows]
+    except (KeyError, TypeError, ValueError):
+        raise SceneError(f"{what}: needs a header t,velocity and a number in both columns of every row") from None
+    if len(times) < 2:
+        raise SceneError(f"{what}: has {len(times)} row(s); a series needs at least 2")
+    if not all(math.isfinite(x) for x in times + velocity):
+        raise SceneError(f"{what}: holds a value that is not finite (nan or inf)")
+    if any(later <= earlier for earlier, later in zip(times, times[1:])):
+        raise SceneError(f"{what}: the times t must increase from row to row")
+    if times[0] > 0.0:
+        raise SceneError(f"{what}: starts at t = {times[0]:g} s; it must cover the start of the run, t = 0")
+    return times, velocity
 
 
 @dataclass(frozen=True)
@@ -416,8 +456,11 @@ class Scene:
                 raise SceneError(f"container.radius = {box.radius:g} m must exceed second_sphere's radius "
                                  f"{second.radius:g} m")
         if self.motion.mode == "prescribed" and self.motion.series:
-            if not Path(self.motion.series).is_file():
-                raise SceneError(f"motion.series = {self.motion.series!r}: no such file")
+            read_series(self.motion.series)
+        curve = self.reference.velocity_curve
+        if curve and curve not in (names := reference.velocity_curve_names()):
+            raise SceneError(f"reference.velocity_curve = {curve!r} is not one of the package's velocity curves: "
+                             f"{', '.join(repr(n) for n in names)} (or \"\" for none)")
         speed = max(abs(self.motion.velocity), abs(self.motion.stream_velocity),
                     abs(second.velocity) if second is not None else 0.0)
         re_max = self.reynolds(max(self.estimated_impact_speed(), speed) if self.motion.mode == "free" else speed)
@@ -610,19 +653,36 @@ def preset_text(name: str) -> str:
     return path.read_text()
 
 
+def read_scene_file(path: Path) -> str:
+    """The text of a scene file, UTF-8 (a byte-order mark is dropped); SceneError naming the file otherwise."""
+    if not path.exists():
+        raise SceneError(f"scene file {str(path)!r} does not exist"
+                         + (" (a symbolic link to a missing file)" if path.is_symlink() else ""))
+    if not path.is_file():
+        raise SceneError(f"scene file {str(path)!r} is not a regular file (a directory, FIFO or device): give a TOML file")
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise SceneError(f"scene file {str(path)!r} cannot be read: {err.strerror}") from None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise SceneError(f"scene file {str(path)!r} is not UTF-8 text (byte {err.start}): save it as UTF-8 TOML") from None
+
+
 def load(source: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
     """A scene from a preset name or a TOML file, with dotted-key overrides applied."""
     path = Path(source)
-    if path.suffix == ".toml" or path.is_file():
-        if not path.is_file():
-            raise SceneError(f"scene file {str(path)!r} does not exist")
-        text, default_name = path.read_text(), path.stem
+    if path.suffix == ".toml" or path.exists() or path.is_symlink():
+        text, default_name = read_scene_file(path), path.stem
     else:
         text, default_name = preset_text(str(source)), str(source)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise SceneError(f"{source}: not valid TOML ({err})") from None
+    except RecursionError:
+        raise SceneError(f"{source}: its tables or arrays are nested too deeply to read") from None
     data.setdefault("name", default_name)
     if overrides:
         data = _set_dotted(data, overrides)

@@ -134,6 +134,8 @@ class SphereIntegrator(AdvancingTS):
         events = None
         if self.mode == "free":
             events = ([0, 0, 0, -1], [False, False, False, True], self._indicators, self._post_event)
+        elif self.scene.wall.present:  # an imposed path that reaches the wall is an error in the path
+            events = ([-1], [True], self._wall_indicator, self._path_reaches_wall)
         self.ts = rosw_solver("sphere_", self, atol, self.scene.time_unit, opts.rtol, events)
 
     def _terms(self, h: float, v: float, z: np.ndarray) -> dict:
@@ -236,6 +238,16 @@ class SphereIntegrator(AdvancingTS):
                 raise PenetrationError(penetration_message(
                     self.law, "the sphere went through the wall", t, h, self.bounces.contact_speed,
                     "sphere.youngs_modulus, wall.youngs_modulus"))
+
+    def _wall_indicator(self, ts, t, y, values) -> None:
+        values[0] = y.array_r[0] / self.diameter
+
+    def _path_reaches_wall(self, ts, events, t, y, forward) -> None:
+        motion = self.scene.motion
+        path = f"motion.series = {motion.series!r}" if motion.series else f"motion.velocity = {motion.velocity:g} m/s"
+        raise PenetrationError(f"the {motion.mode} motion ({path}) drives the sphere into the wall at t = {t:.6g} s: "
+                               f"an imposed path must keep the gap above 0 (initial_gap = {self.scene.initial_gap:g} m); "
+                               "change the path or end the run earlier (run.end_time)")
 
     def _post_step(self, ts) -> None:
         t = ts.getTime()

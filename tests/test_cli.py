@@ -77,7 +77,7 @@ def test_existing_directory_is_never_silently_replaced(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv,message", [
     (["run", "--model", "ode", "--set", "sphere.densty=3"], "unknown key sphere.densty; did you mean sphere.density?"),
-    (["run", "--model", "ode", "--set", "liquid.viscosity=-1"], "liquid.viscosity = -1.0 Pa s is out of range: allowed > 0 Pa s"),
+    (["run", "--model", "ode", "--set", "liquid.viscosity=-1"], "liquid.viscosity = -1.0 Pa s is out of range: allowed in (0, 1e+08] Pa s"),
     (["run", "--model", "ode", "--set", "initial_gap=0"], "initial_gap = 0.0 m is out of range: allowed > 0 m"),
     (["run", "--model", "ode", "--set", "contact.delta_ss=0.3"], "must be smaller than contact.delta_sl"),
     (["run", "--model", "xyz"], "unknown model 'xyz': choose one of ode, fd, ib, ale"),

@@ -1,4 +1,5 @@
 """Scenes: presets, round trips, overrides and the errors a user can cause."""
+import re
 import tomllib
 import warnings
 
@@ -40,7 +41,7 @@ def test_overrides_and_files(tmp_path):
 
 @pytest.mark.parametrize("override,message", [
     ({"sphere.densty": 1.0}, "did you mean sphere.density"),
-    ({"liquid.viscosity": -1.0}, "liquid.viscosity = -1.0 Pa s is out of range: allowed > 0"),
+    ({"liquid.viscosity": -1.0}, "liquid.viscosity = -1.0 Pa s is out of range: allowed in (0, 1e+08] Pa s"),
     ({"liquid.density": 0.0}, "liquid.density = 0.0 kg/m3 is out of range"),
     ({"initial_gap": 0.0}, "initial_gap = 0.0 m is out of range"),
     ({"contact.delta_ss": 0.3}, "must be smaller than contact.delta_sl"),
@@ -52,7 +53,7 @@ def test_overrides_and_files(tmp_path):
     ({"numerics.fd.steady_stokes": 1}, "numerics.fd.steady_stokes = 1 must be true or false"),
 ])
 def test_bad_values_name_the_field_and_range(override, message):
-    with pytest.raises(scene.SceneError, match=message.replace("(", r"\(").replace(")", r"\)")):
+    with pytest.raises(scene.SceneError, match=re.escape(message)):
         scene.load("li2011-case3", override)
 
 

@@ -45,7 +45,8 @@ def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = Fa
         finished = cached_run(scene, name, comm, progress=progress, command=command)
         run_dir = out_dir / name
         if comm.rank == 0:
-            shutil.copytree(finished, run_dir)
+            # a copy inside the comparison, not a run directory of its own (no marker: --force replaces it)
+            shutil.copytree(finished, run_dir, ignore=shutil.ignore_patterns(output.MARKER))
             draw_run(run_dir)
         comm.barrier()
         runs.append(run_dir)

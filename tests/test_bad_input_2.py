@@ -1,0 +1,168 @@
+"""Round two of bad input (issue 27), one test per finding: the exit status, the one line naming the
+culprit, and nothing written for a refusal.  The ODE model in this process wherever the finding is not
+model-specific; real processes where two runs at once are the point."""
+import json
+import os
+import time
+from pathlib import Path
+
+import pytest
+
+from fem_bounce import output
+from test_bad_input import ODE, assert_one_line, run_cli, spawn
+
+PRESET = Path(__file__).resolve().parents[1] / "fem_bounce" / "presets" / "li2011-case3.toml"
+
+
+def refused(capsys, tmp_path, monkeypatch, *argv, message: str, status: int = 2) -> None:
+    monkeypatch.chdir(tmp_path)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    code, lines = run_cli(capsys, *argv)
+    assert code == status
+    assert_one_line(lines, "error: ", message)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written
+
+
+# -- scene files that are not scenes ------------------------------------------------------------------
+
+
+def _write(path: Path, kind: str) -> None:
+    if kind == "random bytes":
+        path.write_bytes(bytes(range(128, 256)) * 2)
+    elif kind == "utf-16":
+        path.write_bytes('name = "x"\n'.encode("utf-16"))
+    elif kind == "nested 100000 deep":
+        path.write_text("a = " + "[" * 100_000 + "]" * 100_000 + "\n")
+    elif kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "directory":
+        path.mkdir()
+    elif kind == "dangling symlink":
+        path.symlink_to(path.parent / "nothing-here.toml")
+
+
+@pytest.mark.parametrize("kind,message", [
+    ("random bytes", "is not UTF-8 text"),
+    ("utf-16", "is not UTF-8 text"),
+    ("nested 100000 deep", "nested too deeply to read"),
+    ("fifo", "is not a regular file"),
+    ("directory", "is not a regular file"),
+    ("dangling symlink", "does not exist (a symbolic link to a missing file)"),
+])
+def test_scene_file_that_is_not_a_scene_gives_one_line(kind, message, tmp_path, monkeypatch, capsys):
+    """UnicodeDecodeError, RecursionError, a FIFO or directory 'does not exist', a dangling link."""
+    source = tmp_path / "x.toml"
+    _write(source, kind)
+    refused(capsys, tmp_path, monkeypatch, "run", "x.toml", *ODE, "--out", "r", message=message)
+
+
+def test_byte_order_mark_is_accepted(tmp_path, monkeypatch, capsys):
+    """A UTF-8 file saved with a BOM said 'Invalid statement (at line 1, column 1)'."""
+    (tmp_path / "bom.toml").write_bytes(b"\xef\xbb\xbf" + PRESET.read_bytes())
+    monkeypatch.chdir(tmp_path)
+    status, _ = run_cli(capsys, "run", "bom.toml", *ODE, "--set", "run.bounces=1", "--out", "r")
+    assert status == 0 and (tmp_path / "r" / "summary.json").is_file()
+
+
+# -- values inside the old ranges that overflowed, hung or crashed ----------------------------------------
+
+
+@pytest.mark.parametrize("override,message", [
+    ("liquid.viscosity=1e20", "liquid.viscosity = 1e+20 Pa s is out of range: allowed in (0, 1e+08] Pa s (pitch"),
+    ("sphere.diameter=1e300", "sphere.diameter = 1e+300 m is out of range: allowed in [1e-06, 1000] m"),
+    ("sphere.diameter=1e-10", "sphere.diameter = 1e-10 m is out of range"),
+    ("sphere.density=1e300", "sphere.density = 1e+300 kg/m3 is out of range: allowed in (0, 100000] kg/m3"),
+    ("liquid.density=1e-300", "liquid.density = 1e-300 kg/m3 is out of range: allowed in [1e-30, 100000]"),
+    ("sphere.youngs_modulus=1e300", "sphere.youngs_modulus = 1e+300 Pa is out of range"),
+    ("contact.history_c1=1e-3", "contact.history_c1 = 0.001 is out of range: allowed in [0.1, 100] (Mei & Adrian"),
+    ("contact.history_c1=1e6", "contact.history_c1 = 1000000.0 is out of range"),
+    ("reference.velocity_curve=nope", "reference.velocity_curve = 'nope' is not one of the package's velocity curves: "
+                                      "'tencate2002_E4'"),
+])
+def test_values_that_broke_a_run_are_refused(override, message, tmp_path, monkeypatch, capsys):
+    """viscosity 1e20 printed a warning a step for ever; diameters and densities of 1e300 overflowed;
+    history_c1 1e-3 / 1e6 failed in scipy's nnls; an unknown velocity curve failed after the run."""
+    refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", "r", "--set", override,
+            message=message)
+
+
+@pytest.mark.parametrize("override", ["second_sphere.diameter=1e300", "second_sphere.diameter=1e-300"])
+def test_pair_sizes_that_crashed_are_refused(override, tmp_path, monkeypatch, capsys):
+    """OverflowError and LinAlgError (leaving r/ behind)."""
+    refused(capsys, tmp_path, monkeypatch, "run", "yang-hunt2006-pair", *ODE, "--out", "r", "--set", override,
+            message="second_sphere.diameter = ")
+
+
+def test_the_ode_model_says_it_ignores_the_container(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--out", "r", "--set", "run.bounces=1",
+                            "--set", "container.radius=0.02", "--set", "container.height=0.1")
+    assert status == 0
+    assert_one_line([line for line in lines if "warning" in line], "ignores [container]")
+
+
+# -- prescribed motion ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("content,message", [
+    (b"", "has 0 row(s); a series needs at least 2"),
+    (bytes(range(128, 256)), "cannot be read as UTF-8 text"),
+    (b"t,velocity\n0,0.1\n", "has 1 row(s)"),
+    (b"t,velocity\n0,0\n0.2,-0.1\n0.1,-0.1\n", "the times t must increase"),
+    (b"t,velocity\n0,0\n0.1,nan\n", "holds a value that is not finite"),
+    (b"t,velocity\n0.5,0\n1,-0.1\n", "starts at t = 0.5 s; it must cover the start of the run, t = 0"),
+    (b"time,speed\n0,0\n1,1\n", "needs a header t,velocity"),
+])
+def test_bad_series_is_refused_before_the_run(content, message, tmp_path, monkeypatch, capsys):
+    (tmp_path / "series.csv").write_bytes(content)
+    refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", "r", "--set", "motion.mode=prescribed",
+            "--set", "motion.series=series.csv", message=f"motion.series = 'series.csv': {message}")
+
+
+def test_prescribed_path_through_the_wall_is_a_divergence(tmp_path, monkeypatch, capsys):
+    """It completed with 'the sphere ended -0.5053 D above the wall'."""
+    (tmp_path / "series.csv").write_text("t,velocity\n0,0\n0.05,-0.2\n0.2,-0.2\n")
+    monkeypatch.chdir(tmp_path)
+    status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--out", "r", "--set", "motion.mode=prescribed",
+                            "--set", "motion.series=series.csv", "--set", "run.end_time=0.2")
+    assert status == 1
+    assert_one_line(lines, "diverged: the prescribed motion (motion.series = 'series.csv') drives the sphere into "
+                           "the wall")
+    assert json.loads((tmp_path / "r" / "summary.json").read_text())["status"].startswith("diverged")
+
+
+# -- run directories: one owner, no nesting ---------------------------------------------------------------
+
+
+def test_two_forced_runs_on_one_directory_do_not_mix(tmp_path):
+    """Both exited 0 with summary.json from one run and scene.toml from the other."""
+    argv = ["run", "li2011-case3", *ODE, "--out", "same", "--force", "--set", "run.bounces=3"]
+    first = spawn(argv, tmp_path)
+    marker = tmp_path / "same" / output.MARKER
+    start = time.monotonic()
+    while not marker.is_file() and first.poll() is None and time.monotonic() - start < 120:
+        time.sleep(0.01)
+    second = spawn(argv + ["--set", "sphere.density=8500"], tmp_path)
+    outcomes = [p.wait(timeout=300) for p in (first, second)]
+    errors = [p.stderr.read() for p in (first, second)]
+    assert sorted(outcomes) == [0, 2], errors
+    refusal = errors[outcomes.index(2)]
+    assert "is in use by another fem-bounce run" in refusal and "Traceback" not in refusal
+    summary = json.loads((tmp_path / "same" / "summary.json").read_text())
+    scene_text = (tmp_path / "same" / "scene.toml").read_text()
+    assert summary["status"] == "completed"
+    assert ("8500" in scene_text) == (summary["scene"]["sphere"]["density"] == 8500)  # one run's files only
+
+
+def test_no_run_inside_a_run_and_force_keeps_nested_runs(tmp_path, monkeypatch, capsys):
+    """--out outer/inner was accepted, and a later --out outer --force deleted it without a word."""
+    monkeypatch.chdir(tmp_path)
+    assert run_cli(capsys, "run", "li2011-case3", *ODE, "--out", "outer", "--set", "run.bounces=1")[0] == 0
+    status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--out", "outer/inner")
+    assert status == 2 and not (tmp_path / "outer" / "inner").exists()
+    assert_one_line(lines, "error: outer/inner is inside the run directory")
+    (tmp_path / "outer" / "kept" / "run").mkdir(parents=True)
+    (tmp_path / "outer" / "kept" / "run" / output.MARKER).write_text(output.MARKER_TEXT)
+    status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--out", "outer", "--force")
+    assert status == 2 and (tmp_path / "outer" / "kept" / "run" / output.MARKER).is_file()
+    assert_one_line(lines, "holds another run directory", "--force never deletes a run")
