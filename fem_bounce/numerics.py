@@ -101,8 +101,13 @@ class AleNumerics:
     # "every-step": implicit linearised convection, the step matrix factorised every step; "reuse": convection
     # extrapolated (EXT2), GMRES preconditioned by the factors of an earlier step's matrix (models/ale/flow.py)
     factorisation: str = field(default="every-step", metadata={"choices": ("reuse", "every-step")})
-    reuse_iterations: int = _setting(8, 1, 100)  # reuse: factorise again when GMRES needed more than this
-    krylov_rtol: float = _setting(1e-9, 1e-14, 1e-4)  # reuse: GMRES stops at |b - A x| <= this |b|
+    # reuse: factorise again when a step's GMRES iterations exceed their average since the last factorisation
+    # with a factorisation counted as this many iterations (a renewal rule, fem.solver.ReusedFactorOperator),
+    # or when one solve needs more than reuse_iterations
+    factorisation_cost: float = _setting(15.0, 0.0, 1000.0)
+    reuse_iterations: int = _setting(30, 1, 100)
+    # reuse: GMRES stops at |b - A x| <= this |b| (V_i, e within 2e-5 of 1e-11's at case 3, 8 cells/D)
+    krylov_rtol: float = _setting(1e-7, 1e-14, 1e-4)
     # reuse: a step whose largest cell Courant number |u* - w| dt / h is above this (or whose mesh holds the
     # sphere) takes implicit convection and a fresh factorisation
     explicit_courant: float = _setting(1.5, 0.05, 10.0)

@@ -156,22 +156,31 @@ class ReusedFactorOperator(FactorizedOperator):
     """Solves with the current A (changed in place between solves, same sparsity) by GMRES
     preconditioned (on the right, so the residual is the true one) by the LU factors of A as it was at
     the last factorisation.  A solve is converged when |b - A x| <= rtol |b|, starting from the
-    solution vector's values (an initial guess).  When a solve needs more than `max_iterations`
-    iterations the operator is marked `stale`; `refactor` (by the caller, at the next matrix) clears it.
-    A solve that fails to converge in `limit` iterations refactorises at once and solves again.
+    solution vector's values (an initial guess).
+
+    When to factorise again is a renewal problem: with f the cost of a factorisation and i_1, i_2, ...
+    the iterations of the steps since (each about one back-solve), the cost per step (f + sum i_j) / n
+    is smallest when the last step's iterations reach it, so `end_step` marks the operator `stale` when
+    i_n > (f + sum_j i_j) / n, f = `factorisation_cost` in iterations; also when one solve needs more than
+    `max_iterations`.  `refactor` (by the caller, at the next matrix) clears it.  A solve that fails to
+    converge in `limit` iterations factorises at once and solves again.  The rule counts iterations, not
+    seconds, so a run is reproducible.
 
     `factorisations` counts the numerical factorisations, `iterations` the Krylov iterations
     (each one back-solve with the factors and one product with A)."""
 
-    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-9, max_iterations: int = 8, limit: int = 100):
+    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-9, factorisation_cost: float = 15.0,
+                 max_iterations: int = 30, limit: int = 100):
         _default_option(f"{prefix}ksp_type", "gmres")
         _default_option(f"{prefix}ksp_pc_side", "right")
         _default_option(f"{prefix}ksp_gmres_restart", limit)
-        self.rtol, self.max_iterations, self.limit = rtol, max_iterations, limit
+        self.rtol, self.factorisation_cost, self.max_iterations, self.limit = rtol, factorisation_cost, max_iterations, limit
         self.factorisations = 0
         self.iterations = 0
         self.last_iterations = 0
         self.stale = False
+        self._since = []  # iterations of each step since the last factorisation
+        self._step_iterations = 0
         super().__init__(A, prefix)
         self.ksp.setInitialGuessNonzero(True)
         self.ksp.getPC().setReusePreconditioner(True)
@@ -185,6 +194,7 @@ class ReusedFactorOperator(FactorizedOperator):
             pc.setReusePreconditioner(True)
         self.factorisations += 1
         self.stale = False
+        self._since, self._step_iterations = [], 0
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         norm = b.norm()
@@ -200,7 +210,15 @@ class ReusedFactorOperator(FactorizedOperator):
                 raise SolverError(f"GMRES with fresh factors failed ({self.prefix}): KSP reason {reason}")
         self.last_iterations = self.ksp.getIterationNumber()
         self.iterations += self.last_iterations
+        self._step_iterations += self.last_iterations
         self.stale = self.stale or self.last_iterations > self.max_iterations
+
+    def end_step(self) -> None:
+        """The solves of one step are done: decide whether the next step factorises (the rule above)."""
+        self._since.append(self._step_iterations)
+        self._step_iterations = 0
+        average = (self.factorisation_cost + sum(self._since)) / len(self._since)
+        self.stale = self.stale or self._since[-1] > average
 
     def solve_many(self, rhs: list, solutions: list) -> None:
         for b, x in zip(rhs, solutions):

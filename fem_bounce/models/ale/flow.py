@@ -90,13 +90,14 @@ class SphereFlow:
     def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
                  mesh_velocity, inflow_speed: float = 0.0, order: int = 2, prefix: str = "ale_flow_",
                  sphere_tags: tuple[int, ...] = (SPHERE,), factorisation: str = "every-step",
-                 reuse_iterations: int = 8, krylov_rtol: float = 1e-9):
+                 reuse_iterations: int = 30, krylov_rtol: float = 1e-7, factorisation_cost: float = 15.0):
         for kind in sides.values():
             if kind not in SIDE_KINDS:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
         if factorisation not in FACTORISATIONS:
             raise ValueError(f"numerics.ale.factorisation = {factorisation!r} is not one of {FACTORISATIONS}")
         self.factorisation, self.reuse_iterations, self.krylov_rtol = factorisation, reuse_iterations, krylov_rtol
+        self.factorisation_cost = factorisation_cost
         self.assembly_s = self.factorise_s = self.solve_s = 0.0  # [s] this flow's matrix assembly, factorisations, solves
         self._direct_factorisations = 0
         self.mesh, self.density, self.viscosity, self.dt = mesh, density, viscosity, dt
@@ -236,15 +237,16 @@ class SphereFlow:
         scheme.matrix.assemble()
         assembled = time.perf_counter()
         self.assembly_s += assembled - start
-        explicit = scheme is self.schemes.get("explicit")
         if scheme.operator is None:
-            if explicit:
-                scheme.operator = ReusedFactorOperator(scheme.matrix, self.prefix + "reuse_", rtol=self.krylov_rtol,
+            if self.factorisation == "reuse":
+                name = next(name for name, other in self.schemes.items() if other is scheme)
+                scheme.operator = ReusedFactorOperator(scheme.matrix, f"{self.prefix}reuse_{name}_",
+                                                       rtol=self.krylov_rtol, factorisation_cost=self.factorisation_cost,
                                                        max_iterations=self.reuse_iterations)
             else:
                 scheme.operator = FactorizedOperator(scheme.matrix, self.prefix)
                 self._direct_factorisations += 1
-        elif not explicit:
+        elif self.factorisation == "every-step":
             scheme.operator.refactor()
             self._direct_factorisations += 1
         elif scheme.operator.stale:
@@ -260,18 +262,18 @@ class SphereFlow:
     def matrix(self):
         return self.scheme.matrix
 
+    def _reused(self) -> list:
+        return [scheme.operator for scheme in self.schemes.values() if isinstance(scheme.operator, ReusedFactorOperator)]
+
     @property
     def factorisations(self) -> int:
         """Numerical factorisations of the step matrices on this mesh so far."""
-        explicit = self.schemes.get("explicit")
-        reused = explicit.operator.factorisations if explicit is not None and explicit.operator is not None else 0
-        return self._direct_factorisations + reused
+        return self._direct_factorisations + sum(operator.factorisations for operator in self._reused())
 
     @property
     def krylov_iterations(self) -> int:
-        """GMRES iterations on this mesh so far (the explicit scheme's; 0 for "every-step")."""
-        explicit = self.schemes.get("explicit")
-        return explicit.operator.iterations if explicit is not None and explicit.operator is not None else 0
+        """GMRES iterations on this mesh so far ("reuse"; 0 for "every-step")."""
+        return sum(operator.iterations for operator in self._reused())
 
     def _solve(self, with_history: bool, out: fem.Function) -> None:
         scheme = self.scheme
@@ -288,18 +290,31 @@ class SphereFlow:
         local = self.courant.x.array.max() if self.courant.x.array.size else 0.0
         return self.mesh.comm.allreduce(local, op=MPI.MAX)
 
-    def step(self, reference_velocity, implicit: bool = False):
+    def step(self, reference_velocity, implicit: bool = False, extrapolated_velocity=None):
         """Factorise (if due), solve for U_ref and for the unit response of each sphere; return
         (F(U_ref) [N], dF/dU [N s/m]): floats for one sphere, for a pair F_i and the matrix dF_i/dU_j.
-        `implicit` takes the implicit scheme for this step under "reuse" ("every-step" always does)."""
+        `implicit` takes the implicit scheme for this step under "reuse" ("every-step" always does).
+        Under "reuse" the Krylov solves start from the last step's unit responses and, for U_ref, from
+        the extrapolated field u* moved to the surface velocity U_ref by those responses: u* + sum_k
+        (U_ref,k - U*_k) x_unit,k, with U* = `extrapolated_velocity` the spheres' extrapolated velocities
+        (the surface values of u*) [m/s]."""
         self.scheme = self.schemes["implicit" if implicit or "explicit" not in self.schemes else "explicit"]
         self.factorise()
-        self.set_boundary_values(reference_velocity)
-        self._solve(True, self.solution)
+        reused = isinstance(self.operator, ReusedFactorOperator)
         for k, unit in enumerate(self.units):
             self.set_boundary_values(np.eye(len(self.units))[k], inflow=0.0)
             self._solve(False, unit)
         self.set_boundary_values(reference_velocity)
+        if reused:
+            guess = self.solution.x.array
+            guess[:] = sum(beta * state.x.array for beta, state in zip(self.ext, self.states))
+            if extrapolated_velocity is not None:
+                shifts = self.per_sphere(reference_velocity) - self.per_sphere(extrapolated_velocity)
+                for shift, unit in zip(shifts, self.units):
+                    guess += shift * unit.x.array
+        self._solve(True, self.solution)
+        if reused:
+            self.operator.end_step()
         forces = np.array([self.assemble(form) for form in self.scheme.force_forms])
         slopes = np.array([[self.assemble(form) for form in row] for row in self.scheme.slope_forms])
         return self._result(forces), self._result(slopes)

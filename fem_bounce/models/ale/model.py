@@ -180,7 +180,8 @@ class AleModel(FlowModel):
         flow = SphereFlow(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
                           motion.velocity, inflow_speed=domain.inflow_speed, order=self.settings.time_order,
                           sphere_tags=self.sphere_tags, factorisation=self.settings.factorisation,
-                          reuse_iterations=self.settings.reuse_iterations, krylov_rtol=self.settings.krylov_rtol)
+                          reuse_iterations=self.settings.reuse_iterations, krylov_rtol=self.settings.krylov_rtol,
+                          factorisation_cost=self.settings.factorisation_cost)
         self.stats.max_unknowns = max(self.stats.max_unknowns, flow.unknowns)
         return mesh, motion, flow
 
@@ -318,7 +319,8 @@ class AleModel(FlowModel):
         reference = k.reference_velocity
         start = time.perf_counter()
         implicit = self._implicit_step(held)
-        force, slope = self.flow.step(reference, implicit=implicit)
+        extrapolated = sum(beta * v for beta, v in zip(self.flow.ext, k.velocities))
+        force, slope = self.flow.step(reference, implicit=implicit, extrapolated_velocity=extrapolated)
         self.stats.factorisation_s += time.perf_counter() - start
         added_mass = -slope / self.flow.c  # a pair: the matrix M_ij = -(dF_i/dU_j) / c
         if not (np.all(np.isfinite(force)) and np.all(np.isfinite(added_mass))):
