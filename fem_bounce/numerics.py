@@ -100,7 +100,7 @@ class AleNumerics:
     fixed_solver: str = field(default="steady", metadata={"choices": ("steady", "march")})  # held sphere
     # "every-step": implicit linearised convection, the step matrix factorised every step; "reuse": convection
     # extrapolated (EXT2), GMRES preconditioned by the factors of an earlier step's matrix (models/ale/flow.py)
-    factorisation: str = field(default="every-step", metadata={"choices": ("reuse", "every-step")})
+    factorisation: str = field(default="reuse", metadata={"choices": ("reuse", "every-step")})
     # reuse: factorise again when a step's GMRES iterations exceed their average since the last factorisation
     # with a factorisation counted as this many iterations (a renewal rule, fem.solver.ReusedFactorOperator),
     # or when one solve needs more than reuse_iterations

@@ -242,7 +242,10 @@ def test_a_bounce_through_the_command_line_remeshes_holds_and_writes_moving_fiel
     out = tmp_path / "bounce"
     assert cli.main(["run", "li2011-case1", "--model", "ale", "--out", str(out), "--quiet",
                      "--set", "numerics.ale.cells_per_diameter=6", "--set", "numerics.ale.output_every=10",
-                     "--set", "run.bounces=1", "--set", "contact.delta_sl=0.03"]) == 0
+                     "--set", "run.bounces=1", "--set", "contact.delta_sl=0.03",
+                     # direct solves: the momentum identity below needs an exactly divergence-free old field
+                     # (the reused factors' GMRES leaves a residual of krylov_rtol: 5e-6 in the momentum)
+                     "--set", "numerics.ale.factorisation=every-step"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     ale = summary["ale"]
     assert summary["status"] == "completed" and len(summary["impacts"]) == 1 and len(summary["rebounds"]) == 1

@@ -197,6 +197,11 @@ class ReusedFactorOperator(FactorizedOperator):
         self._since, self._step_iterations = [], 0
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        if not self._since:
+            # fresh factors (the first step since the factorisation) converge in one iteration from any guess:
+            # start from 0, so that a run restarted after a checkpoint (the model factorises there,
+            # fem_bounce.models.ale) repeats the digits
+            x.set(0.0)
         norm = b.norm()
         # |r| <= rtol |b| whatever the initial guess (PETSc's rtol is relative to the first residual)
         self.ksp.setTolerances(rtol=1e-300, atol=max(self.rtol * norm, 1e-300), max_it=self.limit)

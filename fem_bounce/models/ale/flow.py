@@ -262,6 +262,12 @@ class SphereFlow:
     def matrix(self):
         return self.scheme.matrix
 
+    def renew(self) -> None:
+        """Factorise at the next step of each scheme (a checkpoint: a restart, which has no factors, then
+        repeats the run's digits)."""
+        for operator in self._reused():
+            operator.stale = True
+
     def _reused(self) -> list:
         return [scheme.operator for scheme in self.schemes.values() if isinstance(scheme.operator, ReusedFactorOperator)]
 

@@ -394,6 +394,7 @@ class AleModel(FlowModel):
     # coordinates on the mesh where it is now, the mesh's and the sphere's past, the statistics -----
     def checkpoint_state(self) -> tuple[dict, dict]:
         k = self.kinematics
+        self.flow.renew()  # reused factors: the run goes on with fresh ones, as a restart from here does
         arrays = gather_history(self.flow.states)
         stats = asdict(self.stats)
         flow = self.flow  # the current mesh's solver tallies: a restart starts a new mesh's from zero
