@@ -173,7 +173,7 @@ def _cmd_run(args) -> int:
         models.get(model)
     else:
         scene = _scene_from_args(args.scene, args.overrides)
-        model = args.model or models.default()
+        model = args.model if args.model is not None else models.default()
         if args.accuracy is not None:
             scene, model = _scene_for_accuracy(scene, args.accuracy, args.model)
         models.get(model)  # fail early on an unknown or missing model

@@ -9,10 +9,13 @@ petsc4py.PETSc: this module imports neither PETSc nor the rest of the package at
 """
 from __future__ import annotations
 
+import ctypes
 import os
 import signal
 import sys
 import warnings
+
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
 def under_mpi_futures() -> bool:
@@ -38,7 +41,9 @@ def start_worker() -> None:
     """In each worker process: PETSc on COMM_SELF; SIGTERM stops the current run between two steps (it is
     recorded as interrupted and redone next time); SIGINT, a terminal's Ctrl-C, is left to the study's
     process, which passes it on as SIGTERM; warnings are one line each; the libraries' INFO logging (the
-    form compiler's gcc command lines on a cold cache) is dropped, their warnings kept."""
+    form compiler's gcc command lines on a cold cache) is dropped, their warnings kept.  A worker dies
+    with the study's process (_die_with_parent)."""
+    _die_with_parent()
     petsc_on_self()
     import logging
 
@@ -53,6 +58,20 @@ def start_worker() -> None:
     warnings.simplefilter("ignore", ResourceWarning)  # the form compiler's JIT leaves files to the collector
     warnings.showwarning = lambda message, *args, **kwargs: print(
         f"fem-bounce: worker {os.getpid()}: warning: {message}", file=sys.stderr, flush=True)
+
+
+def _die_with_parent() -> None:
+    """Linux: the kernel sends this process SIGKILL when its parent, the study, dies, however it dies
+    (SIGKILL included), so no worker runs on for nobody (its unfinished run is redone next time, as
+    after any interruption).  Elsewhere nothing happens."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL))
+    except (OSError, AttributeError):
+        return
+    if os.getppid() == 1:  # the parent died before the request was made
+        os._exit(1)
 
 
 def run_one(scene, model: str, root: str) -> str:

@@ -137,7 +137,12 @@ def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> 
     """Create a fresh run directory, its marker first.  An existing non-empty directory is refused
     unless `force` and it is a run directory (then it is replaced); `resume` keeps it as it is."""
     path = Path(path)
-    why = _protected(path)
+    try:
+        why = _protected(path)
+    except RuntimeError:  # Path.resolve met a loop of symbolic links
+        raise OutputError(f"{path} is a loop of symbolic links; choose another --out") from None
+    except OSError as err:  # a name too long for the filesystem, ...
+        raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
     if why is not None:
         raise OutputError(f"{path} is {why}: it cannot be a run directory; choose another --out")
     try:

@@ -177,7 +177,24 @@ def pair_figure(traj: dict, summary: dict, path: Path) -> Path:
     return path
 
 
+def main(argv: list[str]) -> int:
+    """python -m fem_bounce.plots RUN_DIR...: redraw run directories' figures; one line for each that cannot be."""
+    if not argv or argv[0] in ("-h", "--help"):
+        print("usage: python -m fem_bounce.plots RUN_DIR [RUN_DIR ...]  (redraw a run's figures)", file=sys.stderr)
+        return 0 if argv else 2
+    status = 0
+    for folder in argv:
+        try:
+            for made in draw_run(Path(folder)):
+                print(made)
+        except (OSError, ValueError, KeyError, IndexError, TypeError) as err:
+            reason = err.strerror if isinstance(err, OSError) and err.strerror else f"{type(err).__name__}: {err}"
+            where = f" ({err.filename})" if isinstance(err, OSError) and err.filename else ""
+            print(f"fem-bounce plots: error: cannot draw {folder}: {reason}{where}; is it a run directory with "
+                  "trajectory.csv and summary.json?", file=sys.stderr)
+            status = 2
+    return status
+
+
 if __name__ == "__main__":
-    for folder in sys.argv[1:]:
-        for made in draw_run(Path(folder)):
-            print(made)
+    sys.exit(main(sys.argv[1:]))

@@ -3,6 +3,8 @@ culprit, and nothing written for a refusal.  The ODE model in this process where
 model-specific; real processes where two runs at once are the point."""
 import json
 import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -166,3 +168,65 @@ def test_no_run_inside_a_run_and_force_keeps_nested_runs(tmp_path, monkeypatch, 
     status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--out", "outer", "--force")
     assert status == 2 and (tmp_path / "outer" / "kept" / "run" / output.MARKER).is_file()
     assert_one_line(lines, "holds another run directory", "--force never deletes a run")
+
+
+# -- paths and entry points ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("out,message", [
+    ("a" * 300, "File name too long"),
+    ("loop", "is a loop of symbolic links"),
+])
+def test_out_paths_the_filesystem_refuses_give_one_line(out, message, tmp_path, monkeypatch, capsys):
+    """OSError 36 and RuntimeError tracebacks."""
+    (tmp_path / "loop").symlink_to(tmp_path / "loop2")
+    (tmp_path / "loop2").symlink_to(tmp_path / "loop")
+    refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", out, message=message)
+
+
+def test_empty_model_name_is_refused(tmp_path, monkeypatch, capsys):
+    """--model '' ran the default fd model at 24 cells/D."""
+    refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", "--model", "", "--quiet", "--out", "r",
+            message="unknown model ''")
+
+
+@pytest.mark.parametrize("make", ["missing", "empty", "corrupt summary"])
+def test_plots_entry_point_on_a_bad_directory_gives_one_line(make, tmp_path):
+    """Six different tracebacks, and exit 0 with no argument."""
+    folder = tmp_path / "d"
+    if make != "missing":
+        folder.mkdir()
+    if make == "corrupt summary":
+        (folder / "summary.json").write_text("{")
+        (folder / "trajectory.csv").write_text("t,gap\n")
+    done = subprocess.run([sys.executable, "-m", "fem_bounce.plots", str(folder)], capture_output=True, text=True)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert len(done.stderr.splitlines()) == 1 and f"cannot draw {folder}" in done.stderr
+    bare = subprocess.run([sys.executable, "-m", "fem_bounce.plots"], capture_output=True, text=True)
+    assert bare.returncode == 2 and bare.stderr.startswith("usage: python -m fem_bounce.plots")
+
+
+def test_study_workers_die_with_the_study(tmp_path):
+    """A restitution sweep killed by SIGKILL left its two workers running on (50 s and more)."""
+    study = spawn(["restitution", "--points", "4", "--jobs", "2", "--out", "sweep"], tmp_path)
+    workers: list[int] = []
+    start = time.monotonic()
+    while len(workers) < 2 and time.monotonic() - start < 120 and study.poll() is None:
+        children = subprocess.run(["pgrep", "-P", str(study.pid), "-f", "spawn_main"], capture_output=True, text=True)
+        workers = [int(pid) for pid in children.stdout.split()]
+        time.sleep(0.2)
+    assert len(workers) == 2, "the study did not start its workers"
+    study.kill()
+    study.wait()
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and any(Path(f"/proc/{pid}").exists() and
+                                              "Z" not in _state(pid) for pid in workers):
+        time.sleep(0.2)
+    assert not [pid for pid in workers if Path(f"/proc/{pid}").exists() and "Z" not in _state(pid)]
+
+
+def _state(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
+    except OSError:
+        return "Z"
