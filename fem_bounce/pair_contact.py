@@ -64,7 +64,7 @@ class PairContactModel(ContactGaps):
         self.correcting = resolved and scene.near_wall_law == "correction" and any(free)
         self._resistance = PairResistance(first.radius, second.radius)  # tabulated once, ~3 us a call
         self._resistance_hold = self.resistance(self.blend_gap)
-        self._added_mass = PairAddedMass(first.radius, second.radius)  # tabulated once, ~3 us a call
+        self._added_mass = PairAddedMass(first.radius, second.radius)  # tabulated once, microseconds a call
         self.displaced_masses = np.array([scene.liquid.density * s.volume for s in (first, second)])  # m_l,i [kg]
 
     # -- the collision's numbers ---------------------------------------------------------------------
