@@ -14,7 +14,9 @@ check, outputs).  Then the floor: one assembly, one factorisation, one back-solv
 with the matrix timed on the first mesh, and the time a step would take with one assembly and two
 back-solves.  The machine's load average is recorded: timings compare only within one run.
 
-Results are merged into benchmarks/history/ale_speed.json (key: date and ranks).
+The runs go through fem_bounce.cli.run_logged, as `fem-bounce run` makes them: on a cold form cache the
+compiler's log goes to each run's run.log, not the terminal.  Results are merged into
+benchmarks/history/ale_speed.json (key: date and ranks).
 """
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ from mpi4py import MPI
 
 import ffcx.codegeneration.jit as ffcx_jit
 from fem_bounce import scene
-from fem_bounce.run import simulate
+from fem_bounce.cli import run_logged
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "ale_speed.json"
@@ -68,8 +70,8 @@ def load(changes: dict):
 def run(comm, out: Path, path: str) -> dict:
     with CompileClock() as clock:
         start = time.perf_counter()
-        summary = simulate(load({"numerics.ale.factorisation": path}), "ale", comm, out / path, force=True,
-                           progress=False, plots=False)
+        summary = run_logged(load({"numerics.ale.factorisation": path}), "ale", comm, out / path, force=True,
+                             progress=False, plots=False)
         wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     ale = summary["ale"]
     t = ale["timings_s"]
@@ -128,8 +130,8 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     load_before = os.getloadavg()
     with CompileClock() as warm:  # fill the form cache (both schemes, the projections) on a short run
-        simulate(load({"numerics.ale.factorisation": "reuse", "run.bounces": 1, "numerics.ale.cells_per_diameter": 4}),
-                 "ale", comm, args.out / "warm-up", force=True, progress=False, plots=False)
+        run_logged(load({"numerics.ale.factorisation": "reuse", "run.bounces": 1, "numerics.ale.cells_per_diameter": 4}),
+                   "ale", comm, args.out / "warm-up", force=True, progress=False, plots=False)
     runs = {path: run(comm, args.out, path) for path in PATHS}
     costs = floor(comm)
     old, new = runs["every-step"], runs["reuse"]

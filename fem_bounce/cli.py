@@ -15,7 +15,7 @@ mpi4py.futures pool).  Errors a user can cause print one line
 early prints one line and exits with 1 (diverged, or an output could not be written) or 128 + the
 signal (130 for SIGINT, 143 for SIGTERM) when interrupted.
 What the libraries print (ffcx's compiler lines and ResourceWarnings on a form's first compile) goes to
-the run directory's run.log, not the terminal.
+the run directory's run.log, not the terminal (`fem-bounce run --verbose`: to both).
 """
 from __future__ import annotations
 
@@ -49,6 +49,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--restart", type=Path, default=None, metavar="DIR",
                      help="continue the killed run in DIR from its last checkpoint")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    run.add_argument("--verbose", action="store_true",
+                     help="show what the libraries say (the form compiler's log, their warnings) on the terminal "
+                          "too, not only in the run directory's run.log")
     run.add_argument("--accuracy", default=None, metavar="PERCENT",
                      help="pick the cheapest model and resolution that the recorded study says reaches this "
                           "error on the scene's quantities (1%%, 5%% or 10%%)")
@@ -182,6 +185,7 @@ def _cmd_run(args) -> int:
             base = Path("runs") / f"{scene.name}-{model}"
             out = comm.bcast(output.unused_directory(base) if comm.rank == 0 else None, root=0)
     _route_warnings()
+    _LIBRARY_LOG.verbose = args.verbose
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     if comm.rank == 0:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
@@ -422,14 +426,26 @@ class _LibraryLog(logging.Handler):
         super().__init__(logging.DEBUG)
         self.setFormatter(logging.Formatter("%(levelname)s:%(name)s:%(message)s"))
         self.lines: list[str] = []
+        self.verbose = False  # run --verbose: every line on the terminal (stderr) as well
 
     def emit(self, record: logging.LogRecord) -> None:
-        self.lines.append(self.format(record))
-        if record.levelno >= logging.WARNING:  # a library's own warning still shows, on one line
+        line = self.format(record)
+        self.lines.append(line)
+        if self.verbose:
+            self._echo(line)
+        elif record.levelno >= logging.WARNING:  # a library's own warning still shows, on one line
             _say(f"{record.levelname.lower()}: {record.name}: {record.getMessage().splitlines()[0]}")
 
     def add_warning(self, message, category, filename: str, lineno: int) -> None:
-        self.lines.append(warnings.formatwarning(message, category, filename, lineno, "").rstrip())
+        line = warnings.formatwarning(message, category, filename, lineno, "").rstrip()
+        self.lines.append(line)
+        if self.verbose:
+            self._echo(line)
+
+    @staticmethod
+    def _echo(line: str) -> None:
+        if _RANK == 0:
+            print(line, file=sys.stderr, flush=True)
 
     def keep(self, run_dir: Path | None, comm) -> None:
         """Append what was said to run_dir/run.log (rank 0; nothing to say, no file); dropped without a run
@@ -456,8 +472,9 @@ def _library_output():
     for handler in before:
         root.removeHandler(handler)
     root.addHandler(_LIBRARY_LOG)  # and ffcx's logging.basicConfig() on import does nothing
-    for name in ("ffcx", "FFCX", "UFL"):  # no --verbose: their INFO lines would go to run.log only anyway
-        logging.getLogger(name).setLevel(logging.WARNING)
+    if not _LIBRARY_LOG.verbose:
+        for name in ("ffcx", "FFCX", "UFL"):  # their INFO lines would go to run.log only anyway
+            logging.getLogger(name).setLevel(logging.WARNING)
     _LIBRARY_LOG.lines.clear()
     try:
         yield
