@@ -154,7 +154,7 @@ class FactorizedOperator:
 
 class ReusedFactorOperator(FactorizedOperator):
     """Solves with the current A (changed in place between solves, same sparsity) by GMRES
-    preconditioned (on the right, so the residual is the true one) by the LU factors of A as it was at
+    preconditioned (flexible GMRES, on the right: the residual is the true one) by the LU factors of A as it was at
     the last factorisation.  A solve is converged when |b - A x| <= rtol |b|, starting from the
     solution vector's values (an initial guess).
 
@@ -169,10 +169,11 @@ class ReusedFactorOperator(FactorizedOperator):
     `factorisations` counts the numerical factorisations, `iterations` the Krylov iterations
     (each one back-solve with the factors and one product with A)."""
 
-    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-9, factorisation_cost: float = 15.0,
+    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-7, factorisation_cost: float = 20.0,
                  max_iterations: int = 30, limit: int = 100):
-        _default_option(f"{prefix}ksp_type", "gmres")
-        _default_option(f"{prefix}ksp_pc_side", "right")
+        # flexible GMRES: right-preconditioned (the residual it tests is the true one) and keeps the
+        # preconditioned directions, so the solution needs no extra back-solve at the end as GMRES's does
+        _default_option(f"{prefix}ksp_type", "fgmres")
         _default_option(f"{prefix}ksp_gmres_restart", limit)
         self.rtol, self.factorisation_cost, self.max_iterations, self.limit = rtol, factorisation_cost, max_iterations, limit
         self.factorisations = 0
