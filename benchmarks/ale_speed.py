@@ -23,6 +23,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
+import subprocess
 import time
 import warnings
 from pathlib import Path
@@ -135,7 +137,9 @@ def main() -> None:
     runs = {path: run(comm, args.out, path) for path in PATHS}
     costs = floor(comm)
     old, new = runs["every-step"], runs["reuse"]
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout.strip()
     result = {
+        "commit": commit, "machine": platform.node(), "cores": os.cpu_count(),
         "ranks": comm.size, "load_average_before": load_before, "load_average_after": os.getloadavg(),
         "warm_up_compilations": warm.count, "runs": runs,
         "relative_difference": {key: new[key] / old[key] - 1.0 for key in ("V_i", "Re_II", "e_1")},
