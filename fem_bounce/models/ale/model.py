@@ -6,8 +6,12 @@ One fluid step of length dt (motion.MeshMotion, flow.SphereFlow):
    sphere there, but never closer to the wall than hold_delta D (see below);
 2. if the moved mesh would have a triangle of quality below min_quality, remesh around that
    position and carry the flow over (remesh below), then move the mesh and set its velocity;
-3. assemble and factorise the step's matrix on the moved mesh; two back-solves give the flow
-   for the reference sphere velocity U_ref and the response to a unit velocity;
+3. assemble the step's matrix on the moved mesh; two solves give the flow for the reference sphere
+   velocity U_ref and the response to a unit velocity (numerics.ale.factorisation: "every-step"
+   factorises the matrix, with implicit convection, every step; "reuse", the default, extrapolates
+   convection while the mesh follows the sphere and solves by GMRES preconditioned with the factors
+   of an earlier step, factorising when that pays, and takes the implicit scheme while the mesh holds
+   the sphere or the cell Courant number exceeds numerics.ale.explicit_courant: flow.py);
 4. the variational force is affine in the new sphere velocity U, F(U) = F* - m_a c (U - U_ref)
    with m_a = -(dF/dU) / c: hand F* and m_a to the shared SphereIntegrator, which sub-cycles
    through the contact and blends f_sim with f_thr below delta_sl as every model does;
