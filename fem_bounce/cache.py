@@ -66,7 +66,9 @@ def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT,
                command: str = "") -> Path:
     """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed."""
     run_dir = run_directory(scene, model, root)
-    if finished(run_dir) is None:
+    # decided on rank 0 for every rank: a rank that arrives after rank 0 has finished the run would
+    # otherwise skip the run's collectives that the others are in
+    if not comm.bcast(finished(run_dir) is not None if comm.rank == 0 else None, root=0):
         try:
             simulate(scene, model, comm, run_dir, force=True, progress=progress, plots=False,
                      command=command or f"cached run of {scene.name} with {model}")

@@ -121,6 +121,7 @@ def test_a_saved_scene_loads_back_equal(tmp_path):
     (lambda: fb.restitution("ode", points=4, jobs=0), fb.RunnerError, "--jobs 0: give a whole number"),
     (lambda: fb.compare("li2011-case3", []), fb.ModelError, "needs at least one model"),
     (lambda: fb.compare("yang-hunt2006-pair", ["ode"]), fb.SceneError, "has a second sphere"),
+    (lambda: fb.resume("nowhere"), fb.CheckpointError, "cannot restart nowhere: it does not exist"),
 ])
 def test_every_refusal_is_one_fem_bounce_error(call, kind, message, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)

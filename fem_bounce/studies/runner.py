@@ -100,9 +100,13 @@ class Runner:
     def run(self, tasks: list[tuple[scenes.Scene, str]]) -> Iterator[tuple[int, Path]]:
         """(index into tasks, finished run directory), cached runs first, then in the order they finish."""
         directories = [run_directory(scene, model, self.root) for scene, model in tasks]
+        # rank 0's view of the cache for every rank: a rank that comes later must not find the run rank 0
+        # has just finished and skip the collective run the others are in
+        done = self.comm.bcast([finished(d) is not None for d in directories] if self.comm.rank == 0 else None,
+                               root=0)
         pending: dict[Path, list[int]] = {}
         for k, run_dir in enumerate(directories):
-            if finished(run_dir) is not None:
+            if done[k]:
                 yield k, run_dir
             else:
                 pending.setdefault(run_dir, []).append(k)
