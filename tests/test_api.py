@@ -194,3 +194,21 @@ def test_help_lists_every_public_name():
     for name in fb.__all__:
         assert name in text, name
         assert getattr(fb, name).__doc__, f"{name} has no docstring"
+
+
+def test_a_diverged_run_raises_with_what_it_computed(tmp_path, monkeypatch):
+    """The paper's spring with delta_ss = 0.0003 cannot stop case 3's sphere: the run diverges.  The error
+    carries the partial run; kept in memory, its message points at no directory and none is left."""
+    monkeypatch.chdir(tmp_path)
+    scene = fb.load("li2011-case3", {"contact.model": "li2011", "contact.delta_ss": 0.0003})
+    scratch = scratch_dirs()
+    with pytest.raises(fb.RunDiverged) as err:
+        fb.simulate(scene, "ode")
+    assert isinstance(err.value, fb.RunFailed) and "outputs kept" not in str(err.value)
+    partial = err.value.result
+    assert partial.status.startswith("diverged") and partial.run_dir is None
+    assert partial.trajectory["gap"].min() < 0.0003 * scene.sphere.diameter  # it got into the contact layer
+    assert os.listdir(tmp_path) == [] and scratch_dirs() <= scratch
+    with pytest.raises(fb.RunDiverged, match="outputs kept in") as err:
+        fb.simulate(scene, "ode", out=tmp_path / "kept")
+    assert err.value.result.run_dir == tmp_path / "kept" and (tmp_path / "kept" / "summary.json").is_file()
