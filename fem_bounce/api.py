@@ -20,6 +20,7 @@ import contextlib
 import dataclasses
 import functools
 import shutil
+import sys
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -47,18 +48,37 @@ class ModelError(Error, _models.ModelError):
 
 def _public(function):
     """The package's models.ModelError raised as fem_bounce.ModelError, so `except fem_bounce.Error`
-    catches every error a public function raises on purpose."""
+    catches every error a public function raises on purpose; and the caller's matplotlib backend kept."""
 
     @functools.wraps(function)
     def wrapper(*args, **kwargs):
         try:
-            return function(*args, **kwargs)
+            with _backend_kept():
+                return function(*args, **kwargs)
         except _models.ModelError as err:
             if isinstance(err, Error):
                 raise
             raise ModelError(str(err)) from None
 
     return wrapper
+
+
+@contextlib.contextmanager
+def _backend_kept():
+    """The matplotlib backend the caller chose (a notebook's inline one) as it was afterwards: the package
+    draws its files with the Agg backend (plots.py and the studies select it), which would otherwise stay."""
+    if "matplotlib.pyplot" not in sys.modules:  # the caller has chosen none
+        yield
+        return
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    chosen = matplotlib.get_backend()
+    try:
+        yield
+    finally:
+        if matplotlib.get_backend() != chosen:
+            plt.switch_backend(chosen)
 
 
 # -- scenes -------------------------------------------------------------------------------------

@@ -212,3 +212,19 @@ def test_a_diverged_run_raises_with_what_it_computed(tmp_path, monkeypatch):
     with pytest.raises(fb.RunDiverged, match="outputs kept in") as err:
         fb.simulate(scene, "ode", out=tmp_path / "kept")
     assert err.value.result.run_dir == tmp_path / "kept" and (tmp_path / "kept" / "summary.json").is_file()
+
+
+def test_the_callers_matplotlib_backend_is_kept(tmp_path, monkeypatch):
+    """A notebook draws inline: the package's figures select Agg, and the API puts the caller's backend back."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    monkeypatch.chdir(tmp_path)
+    before = matplotlib.get_backend()
+    plt.switch_backend("svg")
+    try:
+        fb.compare(fb.load("li2011-case3", TOY), ["ode"], out=tmp_path / "compared")  # draws comparison.png
+        assert (tmp_path / "compared" / "comparison.png").is_file()
+        assert matplotlib.get_backend() == "svg"
+    finally:
+        plt.switch_backend(before)
