@@ -371,7 +371,7 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
     out=DIR also writes restitution.csv, .json and .png there; out=None keeps only the cache."""
     from .studies import restitution as study
 
-    points = points or (40 if model == "ode" else 12)
+    points = (40 if model == "ode" else 12) if points is None else points
     st_min, st_max = st_range
     if points < 2 or not 0 < st_min < st_max:
         raise SceneError("restitution: need --points >= 2 and 0 < --st-min < --st-max")
@@ -391,6 +391,9 @@ def _model_list(names: str | Sequence[str]) -> list[str]:
     names = [name.strip() for name in names if name.strip()]
     if not names:
         raise _models.ModelError("--models needs at least one model, e.g. --models ode,ib")
+    if len(set(names)) < len(names):
+        twice = sorted({name for name in names if names.count(name) > 1})
+        raise _models.ModelError(f"--models names {', '.join(twice)} more than once: each model runs once")
     for name in names:
         _models.get(name)
     return names

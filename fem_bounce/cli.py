@@ -22,6 +22,8 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
+import math
+import os
 import shlex
 import signal
 import sys
@@ -351,9 +353,12 @@ def _study(args, comm, runner) -> int:
 
     def numbers(text: str | None, option: str = "--levels") -> tuple | None:
         try:
-            return tuple(float(x) for x in text.split(",")) if text else None
+            values = tuple(float(x) for x in text.split(",")) if text else None
         except ValueError:
-            raise scenes.SceneError(f"{option} {text!r}: expected comma-separated numbers, e.g. 8,12,16") from None
+            values = (math.nan,)
+        if values is not None and not all(math.isfinite(v) and v > 0.0 for v in values):
+            raise scenes.SceneError(f"{option} {text!r}: expected comma-separated positive numbers, e.g. 8,12,16")
+        return values
 
     if args.kind == "convergence":
         studies.convergence.run(scenes.load(args.scene, changes), args.model, comm, out, numbers(args.levels),
@@ -538,3 +543,7 @@ def main(argv: list[str] | None = None) -> int:
             signum = getattr(err, "signum", signal.SIGINT)
             _say(f"interrupted by {signal_name(signum)}")
             return 128 + signum
+        except OSError as err:  # the terminal's or a redirection's output failed (a full disk, /dev/full, ...)
+            sys.stdout = open(os.devnull, "w")  # so that the interpreter's last flush does not fail again
+            _say(f"error: cannot write the output: {err.strerror or err}")
+            return 1

@@ -230,3 +230,37 @@ def _state(pid: int) -> str:
         return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
     except OSError:
         return "Z"
+
+
+# -- studies and sweeps: checked like scene fields, nothing written when refused ---------------------------------
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["study", "convergence", "li2011-case3", "--model", "ode", "--levels", "nan,inf"], "--levels 'nan,inf': expected"),
+    (["study", "convergence", "li2011-case3", "--model", "fd", "--cfls", "0,-1"], "--cfls '0,-1': expected"),
+    (["restitution", "--set", "sphere.densty=5"], "unknown key sphere.densty"),
+    (["study", "restitution", "--model", "ode", "--points", "0"], "--points 0: allowed 2 to 1000"),
+    (["restitution", "--points", "0"], "need --points >= 2"),
+    (["restitution", "--points", "1000000000"], "--points 1000000000: allowed 2 to 1000"),
+    (["restitution", "--set", "initial_gap=5"], "--set initial_gap: the restitution sweep sets initial_gap"),
+    (["compare", "li2011-case3", "--models", "ode,ode"], "--models names ode more than once"),
+])
+def test_study_arguments_are_checked_before_anything_is_written(argv, message, tmp_path, monkeypatch, capsys):
+    """--levels nan named numerics.ode.rtol and left an empty directory, --points 0 meant the default,
+    10^9 points ran silently for ever, compare --models ode,ode ended in FileExistsError."""
+    refused(capsys, tmp_path, monkeypatch, *argv, "--out", "study", message=message)
+
+
+def test_pair_refused_by_fd_writes_nothing(tmp_path, monkeypatch, capsys):
+    """The refusal came after the marker, scene.toml, a header-only trajectory and a 64 kB reserve."""
+    refused(capsys, tmp_path, monkeypatch, "run", "yang-hunt2006-pair", "--model", "fd", "--quiet", "--out", "r",
+            "--set", "numerics.fd.cells_per_diameter=6", message="the two spheres' indicators overlap")
+
+
+def test_full_stdout_gives_one_line(tmp_path):
+    """OSError 28 traceback after the run when stdout is /dev/full."""
+    with open("/dev/full", "w") as full:
+        done = subprocess.run([sys.executable, "-m", "fem_bounce", "run", "li2011-case3", *ODE, "--out", "r",
+                               "--set", "run.bounces=1"], cwd=tmp_path, stdout=full, stderr=subprocess.PIPE, text=True)
+    assert done.returncode == 1 and "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
+    assert done.stderr.splitlines()[-1] == "fem-bounce: error: cannot write the output: No space left on device"

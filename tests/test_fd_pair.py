@@ -69,7 +69,8 @@ def test_uncoupled_spheres_reduce_to_the_single_sphere_formulas():
 
 
 # -- one step on a toy mesh -------------------------------------------------------------------------
-TOY = {"numerics.fd.cells_per_diameter": 8, "initial_gap": 0.02}
+# delta_sl 0.4: the pair's hold delta_sl 2a* = 1.9 mm keeps the 8-cell indicators apart (as HoldingIntegrator's)
+TOY = {"numerics.fd.cells_per_diameter": 8, "initial_gap": 0.02, "contact.delta_sl": 0.4}
 
 
 @pytest.fixture(scope="module")
@@ -126,15 +127,12 @@ def test_the_flow_keeps_a_moving_sphere_off_a_held_one():
 
 
 def test_a_hold_that_lets_the_indicators_overlap_is_refused():
-    """At 8 cells/D the indicators reach D/16 beyond each surface: a pair hold below D/8 is refused
-    before the first step, with the settings to change."""
-    sc = pair_scene("li2011-case3", TOY, gap=0.0095, velocity=-0.1)
-    fd = FictitiousDomainModel(sc, MPI.COMM_WORLD)
-    try:
-        with pytest.raises(scene.SceneError, match="indicators overlap.*cells_per_diameter or contact.delta_sl"):
-            fd.build(HoldingIntegrator(0.0019, 0.5 * sc.sphere.diameter / 8))
-    finally:
-        fd.destroy()
+    """At 8 cells/D the indicators reach D/16 beyond each surface: a pair hold (delta_sl 2a*, here D/10)
+    below D/8 is refused when the model is made, before the run writes anything, with the settings to
+    change."""
+    sc = pair_scene("li2011-case3", {**TOY, "contact.delta_sl": 0.2}, gap=0.0095, velocity=-0.1)
+    with pytest.raises(scene.SceneError, match="indicators overlap.*cells_per_diameter or contact.delta_sl"):
+        FictitiousDomainModel(sc, MPI.COMM_WORLD)
 
 
 def test_a_pair_with_the_brinkman_constraint_is_refused():

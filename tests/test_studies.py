@@ -102,7 +102,7 @@ def test_figure_11_draws_from_the_run_into_the_study(tmp_path, monkeypatch):
 
 def test_study_numbers_that_do_not_parse_are_a_clear_error(capsys):
     assert cli.main(["study", "convergence", "li2011-case1", "--model", "ode", "--levels", "1e-3,x"]) == 2
-    assert "--levels '1e-3,x': expected comma-separated numbers" in capsys.readouterr().err
+    assert "--levels '1e-3,x': expected comma-separated positive numbers" in capsys.readouterr().err
 
 
 def test_record_writes_where_the_user_says_never_into_the_package(tmp_path, monkeypatch, capsys):

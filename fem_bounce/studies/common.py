@@ -160,30 +160,33 @@ class StudyDirectory:
 
     def __init__(self, path: Path, comm):
         self.path, self.comm = Path(path), comm
-        if comm.rank == 0:
-            self.path.mkdir(parents=True, exist_ok=True)
         self._start = time.perf_counter()
+
+    def file(self, name: str) -> Path:
+        """DIR/name, the directory made at the first write: a study refused before it writes leaves nothing."""
+        self.path.mkdir(parents=True, exist_ok=True)
+        return self.path / name
 
     def log(self, message: str) -> None:
         if self.comm.rank != 0:
             return
         line = f"[{time.perf_counter() - self._start:7.0f} s] {message}"
         print(line, file=sys.stderr, flush=True)
-        with open(self.path / "progress.log", "a") as stream:
+        with open(self.file("progress.log"), "a") as stream:
             stream.write(line + "\n")
 
     def write_csv(self, name: str, rows: list[dict]) -> None:
         if self.comm.rank != 0 or not rows:
             return
         columns = list(dict.fromkeys(k for row in rows for k in row))
-        with open(self.path / name, "w", newline="") as stream:
+        with open(self.file(name), "w", newline="") as stream:
             writer = csv.DictWriter(stream, columns)
             writer.writeheader()
             writer.writerows(rows)
 
     def write_json(self, name: str, data) -> None:
         if self.comm.rank == 0:
-            (self.path / name).write_text(json.dumps(data, indent=2, default=float) + "\n")
+            self.file(name).write_text(json.dumps(data, indent=2, default=float) + "\n")
 
 
 def run_and_measure(scene: scenes.Scene, model: str, comm, study: StudyDirectory, label: str) -> dict:

@@ -41,9 +41,14 @@ def legendre_fit(stokes: float, density_ratio: float, dry_restitution: float = 0
     return dry_restitution * math.exp(-LEGENDRE_CONSTANT / st_star) if st_star > 0 else 0.0
 
 
+MAX_POINTS = 1000  # runs per sweep: more is a typo rather than a plan (1000 ode runs take about 10 minutes)
+
+
 def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), overrides: dict | None = None,
         ode_points: int = 24, runner: Runner | None = None) -> list[dict]:
     restitution.check_overrides(overrides)
+    if not 2 <= points <= MAX_POINTS:
+        raise scenes.SceneError(f"--points {points}: allowed 2 to {MAX_POINTS} Stokes numbers per sweep")
     study = StudyDirectory(out, comm)
     runner = runner or Runner(comm)
     restitution.tabulate_bands(restitution.MATERIAL_SETS, runner.map)

@@ -34,7 +34,7 @@ from ...fem.solver import SolverError
 from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
 from ...motion import is_stream, start_velocities, start_velocity
 from ...output import CheckpointError, segment_path
-from ...scene import SceneError
+from ...scene import SceneError, pair_diameter
 from ...sphere import FluidForce
 from . import coupling
 from .domain import Domain, brinkman_rate, domain_for, time_step
@@ -42,7 +42,7 @@ from .fields import FieldWriter
 from .fluid import FlowSolver
 from .immersed import ImmersedSphere
 from .constraint import RigidConstraint
-from .pair import ImmersedPair
+from .pair import ImmersedPair, check_hold
 from .steady import SteadyBrinkmanStokes, SteadyStokes
 
 
@@ -111,6 +111,10 @@ class FictitiousDomainModel(FlowModel):
             raise SceneError("numerics.fd.steady_stokes = true with a pair needs second_sphere.mode = \"fixed\"")
         # which spheres the flow holds at their initial positions (their surfaces may still move)
         self.held = np.array([scene.motion.mode == "fixed", scene.second_sphere.mode == "fixed"])
+        if not self.held.all():  # refused here, before the run writes anything
+            min_gap = 2.0 * max(self.settings.radius_offset * self.domain.fine_size, 0.0)  # ImmersedPair.min_gap
+            check_hold(min_gap, scene.contact.delta_sl * pair_diameter(scene.sphere, scene.second_sphere),
+                       "the pair's hold gap of the contact model")
 
     # -- set-up ---------------------------------------------------------------------------
     def build(self, integrator) -> None:
@@ -150,8 +154,6 @@ class FictitiousDomainModel(FlowModel):
         radii = [sphere.radius for sphere in scene.spheres]
         self.pair = ImmersedPair(self.flow, [a + fd.radius_offset * fine for a in radii], radii,
                                  fd.interface_width * fine, [gap + a for gap, a in zip(scene.initial_gaps, radii)])
-        if not self.held.all():
-            self.pair.check_hold(self.hold_gaps[1], "the pair's hold gap of the contact model")
         velocity = np.array(start_velocities(scene))
         order = self.flow.order
         # the interiors' integrals are the flow's, at rest: a projectile's penalty force then sets its

@@ -27,6 +27,17 @@ from .coupling import PairIntegrals
 from .immersed import ImmersedSphere
 
 
+def check_hold(min_gap: float, pair_hold: float, what: str) -> None:
+    """Refuse a hold gap [m] below min_gap: the flow's spheres could come so close that their
+    indicators overlap.  `what` says where the hold comes from, for the message."""
+    if pair_hold < min_gap:
+        raise SceneError(
+            f"numerics.fd: the two spheres' indicators overlap when their surfaces are closer than "
+            f"{min_gap:.4g} m (radius_offset x fine size each), but the flow places them down to "
+            f"{pair_hold:.4g} m apart ({what}): raise numerics.fd.cells_per_diameter or contact.delta_sl "
+            f"(contact.near_wall = \"correction\" holds the pair at its delta_sl gap)")
+
+
 class ImmersedPair:
     """The two spheres of a pair in `flow` (fluid.FlowSolver): outer radii a_h,i and true radii a_i [m],
     the band width [m] and the centres [m] of their first placement, sphere 1 (lower) first."""
@@ -43,16 +54,6 @@ class ImmersedPair:
     @property
     def volumes(self) -> np.ndarray:
         return np.array([sphere.volume for sphere in self.spheres])
-
-    def check_hold(self, pair_hold: float, what: str) -> None:
-        """Refuse a hold gap [m] below min_gap: the flow's spheres could come so close that their
-        indicators overlap.  `what` says where the hold comes from, for the message."""
-        if pair_hold < self.min_gap:
-            raise SceneError(
-                f"numerics.fd: the two spheres' indicators overlap when their surfaces are closer than "
-                f"{self.min_gap:.4g} m (radius_offset x fine size each), but the flow places them down to "
-                f"{pair_hold:.4g} m apart ({what}): raise numerics.fd.cells_per_diameter or contact.delta_sl "
-                f"(contact.near_wall = \"correction\" holds the pair at its delta_sl gap)")
 
     def check_separation(self, centers) -> None:
         gap = centers[1] - centers[0] - self._contact_distance
