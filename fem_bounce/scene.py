@@ -512,7 +512,9 @@ class Scene:
 
 def _build(cls, data: dict, prefix: str):
     if not isinstance(data, dict):
-        raise SceneError(f"{prefix.rstrip('.')} must be a table")
+        keys = ", ".join(f.name for f in dataclasses.fields(cls))
+        unbounded = " (leave [container] out for an unbounded liquid)" if cls is Container else ""
+        raise SceneError(f"{prefix.rstrip('.')} = {data!r} must be a table of {keys}{unbounded}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
     hints = typing.get_type_hints(cls)
     kwargs = {}

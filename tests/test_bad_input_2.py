@@ -95,6 +95,12 @@ def test_pair_sizes_that_crashed_are_refused(override, tmp_path, monkeypatch, ca
             message="second_sphere.diameter = ")
 
 
+def test_a_container_that_is_not_a_table_names_the_alternative(tmp_path, monkeypatch, capsys):
+    """container = "boxed" said "must be a table" without naming its keys or "unbounded"."""
+    refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", "r", "--set", 'container="boxed"',
+            message="container = 'boxed' must be a table of radius, height (leave [container] out for an unbounded")
+
+
 def test_the_ode_model_says_it_ignores_the_container(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--out", "r", "--set", "run.bounces=1",
