@@ -98,18 +98,15 @@ class AleNumerics:
     min_gap_cells: float = _setting(2.0, 0.5, 100.0)  # a remeshed gap has at least this many triangles across
     hold_delta: float = _setting(0.02, 0.0, 0.5)  # the mesh stops following the sphere at this gap / D
     fixed_solver: str = field(default="steady", metadata={"choices": ("steady", "march")})  # held sphere
-    # "every-step": implicit linearised convection, the step matrix factorised every step; "reuse": convection
-    # extrapolated (EXT2), GMRES preconditioned by the factors of an earlier step's matrix (models/ale/flow.py)
+    # how the step's matrix is solved: "every-step": factorised every step; "reuse": flexible GMRES preconditioned
+    # by the factors of an earlier step's matrix, factorised again when that pays (models/ale/flow.py)
     factorisation: str = field(default="reuse", metadata={"choices": ("reuse", "every-step")})
     # reuse: factorise again when a step's GMRES iterations exceed their average since the last factorisation
     # with a factorisation counted as this many iterations (a renewal rule, fem.solver.ReusedFactorOperator),
     # or when one solve needs more than reuse_iterations
     factorisation_cost: float = _setting(20.0, 0.0, 1000.0)  # measured 18-21 back-solves (benchmarks/ale_speed.py)
     reuse_iterations: int = _setting(30, 1, 100)
-    # reuse: GMRES stops at |b - A x| <= this |b| (V_i, e within 2e-5 of 1e-11's at case 3, 8 cells/D)
+    # reuse: GMRES stops at |b - A x| <= this |b| (V_i, Re_II, e_1 within 1e-5 of every-step's at case 3, 8 cells/D)
     krylov_rtol: float = _setting(1e-7, 1e-14, 1e-4)
-    # reuse: a step whose largest cell Courant number |u* - w| dt / h is above this (or whose mesh holds the
-    # sphere) takes implicit convection and a fresh factorisation
-    explicit_courant: float = _setting(1.5, 0.05, 10.0)
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(100, 0, 10**9)  # 0: no checkpoints

@@ -45,10 +45,10 @@ def test_a_second_run_with_other_numbers_compiles_no_form(compilations):
 
 
 def test_reuse_gives_the_every_step_answer_and_factorises_on_each_new_mesh(monkeypatch):
-    """The explicit convection of "reuse" changes the scheme by a second-order time error: at 6 cells/D
-    the impact speed and the restitution stay within 0.3 % of the every-step path (issue 24's bar for the
-    benchmark; at 8 cells/D they differ by 0.021 % and 0.009 %, benchmarks/ale_speed.py).  The step matrix
-    is factorised at the first step on every new mesh and far less than once a step."""
+    """"reuse" solves the same equations as "every-step" by FGMRES to |b - A x| <= 1e-7 |b|: at 6 cells/D the
+    impact speed and the restitution agree to 1e-4 (measured 5e-6 and 3e-6 at 8 cells/D,
+    benchmarks/ale_speed.py; a scheme change, e.g. extrapolated convection, moves them by 2e-4 to 7e-4).
+    The step matrix is factorised at the first step on every new mesh and far less than once a step."""
     factorised_at = []
     original = solver.ReusedFactorOperator._factorise
 
@@ -68,12 +68,10 @@ def test_reuse_gives_the_every_step_answer_and_factorises_on_each_new_mesh(monke
     monkeypatch.setattr(AleModel, "linearised_force", counting_step)
     every = _run({"numerics.ale.factorisation": "every-step"})
     reuse = _run({"numerics.ale.factorisation": "reuse"})
-    for key, rel in (("impact_speed", 3e-3),):
-        assert reuse["impacts"][0][key] == pytest.approx(every["impacts"][0][key], rel=rel)
-    assert reuse["rebounds"][0]["restitution"] == pytest.approx(every["rebounds"][0]["restitution"], rel=3e-3)
+    assert reuse["impacts"][0]["impact_speed"] == pytest.approx(every["impacts"][0]["impact_speed"], rel=1e-4)
+    assert reuse["rebounds"][0]["restitution"] == pytest.approx(every["rebounds"][0]["restitution"], rel=1e-4)
     report = reuse["ale"]
-    assert reuse["steps"] - report["implicit_steps"] > 0.5 * reuse["steps"]  # most steps explicit
-    assert report["factorisations"] < 0.25 * reuse["steps"]
+    assert report["factorisations"] < 0.25 * reuse["steps"] and report["krylov_iterations"] > 0
     assert report["remesh_count"] >= 1
     for remesh in report["remeshes"]:  # the step after a remesh factorises the new mesh's matrix
         assert remesh["step"] in factorised_at

@@ -9,27 +9,27 @@ the non-conservative ALE form (Formaggia & Nobile 2004, in "Finite Element Metho
 1970's and Beyond"; Foerster, Wall & Ramm 2007 CMAME 196): the time derivative is
 taken along mesh trajectories (the same dof at its old positions) and every integral
 on the current mesh, so a uniform flow is an exact discrete solution however the mesh
-moves.  Gravity is not in the fluid.  Two treatments of convection and of the matrix
-(numerics.ale.factorisation):
+moves.  Convection is linearised about the extrapolated velocity and kept implicit, so the
+step has no convective stability limit.  BDF2 and EXT2 follow Karniadakis, Israeli & Orszag (1991),
+as in the fd model.  Gravity is not in the fluid.
 
-- "every-step": convection linearised about the extrapolated velocity and kept implicit, as above;
-  the matrix changes each step (convection and the moving mesh), so it is assembled and factorised
-  each step, and the step has no convective stability limit.
-- "reuse": convection extrapolated (EXT2 of the whole term, as the fd model does),
+The matrix changes every step (the convecting velocity u* - w, and the mesh moves), so it is
+assembled every step; numerics.ale.factorisation says how it is solved:
 
-      rho (sum_j alpha_j u^{n+1-j}) / dt - mu Lap u^{n+1} + grad p^{n+1} = -rho ((u* - w) . grad) u*,
+- "every-step": factorised every step (MUMPS), two back-solves.
+- "reuse" (the default): flexible GMRES preconditioned by the LU factors of an earlier step's matrix
+  (fem.solver.ReusedFactorOperator), to |b - A x| <= krylov_rtol |b|, factorised again when that
+  pays (a renewal rule counting GMRES iterations against factorisation_cost) and on every new mesh.
+  The unit responses start from the last step's, U_ref's solve from u* moved to U_ref by them, so
+  a step takes a few iterations.  The scheme is the same: the two paths differ by the Krylov
+  tolerance (docs/performance.md).  (Extrapolating convection instead, so that the matrix changes
+  only with the mesh, bought no fewer iterations on case 3 and needed a Courant limit: a held
+  sphere's surface moves through the finest cells, and a stream at Re 100 oscillated at cell Courant
+  numbers 0.75-1.5.)
 
-  so the matrix rho c M + mu K - B - B^T depends only on the mesh and dt and changes only as the mesh
-  moves.  It is still assembled each step (a product with it is exact), but solved by GMRES
-  preconditioned with the LU factors of an earlier step's matrix (fem.solver.ReusedFactorOperator),
-  factorised again only when GMRES needs more than numerics.ale.reuse_iterations iterations, and on
-  every new mesh.  Explicit convection has a CFL limit; near the sphere the relative velocity u - w
-  vanishes on its surface, where the triangles are finest.
-
-BDF2 and EXT2 follow Karniadakis, Israeli & Orszag (1991), as in the fd model.  Every number that
-varies between runs or meshes (rho, mu, dt) enters the forms as a dolfinx Constant, so the compiled
-forms are the same for every scene and mesh of one time order and factorisation (compiled once per
-machine, in the form cache).
+Every number that varies between runs or meshes (rho, mu, dt) enters the forms as a dolfinx
+Constant, so the compiled forms are the same for every scene and mesh of one time order (compiled
+once per machine, in the form cache).
 
 The sphere surface is a no-slip boundary moving with the sphere, u = (0, U).  The flow
 is affine in U, so one factorisation and two back-solves give it for every U:
@@ -61,7 +61,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 
 import numpy as np
 import ufl
@@ -84,8 +83,8 @@ class SphereFlow:
 
     density [kg/m3], viscosity [Pa s], dt [s]; `sides` maps WALL/OUTER/TOP to a kind in
     SIDE_KINDS; `mesh_velocity` is a UFL vector (motion.MeshMotion.velocity); `factorisation` is
-    "every-step" or "reuse" (then `reuse_iterations` and `krylov_rtol` set ReusedFactorOperator's bound
-    and tolerance)."""
+    "every-step" or "reuse" (then `krylov_rtol`, `factorisation_cost` and `reuse_iterations` set
+    ReusedFactorOperator's tolerance, renewal rule and bound)."""
 
     def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
                  mesh_velocity, inflow_speed: float = 0.0, order: int = 2, prefix: str = "ale_flow_",
@@ -127,29 +126,20 @@ class SphereFlow:
         past = [ufl.split(state)[0] for state in self.states]
         extrapolated = sum(beta * u_j for beta, u_j in zip(self.ext, past))
         history = -rho * inverse_dt * sum(alpha * u_j for alpha, u_j in zip(self.bdf[1:], past))
-        a = forms.stokes_operator(u, p, v, q, rho * self.bdf[0] * inverse_dt, mu, r, dx)
+        a = (forms.stokes_operator(u, p, v, q, rho * self.bdf[0] * inverse_dt, mu, r, dx)
+             + rho * forms.convection(extrapolated - mesh_velocity, u, v, r, dx))
         L = forms.source(history, v, r, dx)
-        relative = extrapolated - mesh_velocity
-        cells = fem.FunctionSpace(mesh, ("DG", 0))
-        self.courant = fem.Function(cells)  # |u* - w| dt / h at each cell's midpoint
-        self._courant = fem.Expression(ufl.sqrt(ufl.dot(relative, relative)) / (inverse_dt * ufl.CellDiameter(mesh)),
-                                       cells.element.interpolation_points())
-        # implicit: convection linearised about u*, in the matrix; explicit ("reuse" only): in the right side
-        self.schemes = {"implicit": self._scheme(a + rho * forms.convection(relative, u, v, r, dx), L)}
-        if factorisation == "reuse":
-            self.schemes["explicit"] = self._scheme(a, L - rho * forms.convection(relative, extrapolated, v, r, dx))
-        self.scheme = self.schemes["explicit" if factorisation == "reuse" else "implicit"]
+        self.a, self.L = fem.form(a), fem.form(L)
+        self.force_forms = [fem.form(-2.0 * math.pi * (ufl.action(ufl.action(a, self.solution), phi)
+                                                       - ufl.action(L, phi))) for phi in self.phis]
+        self.force_slope_forms = [[fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, unit), phi))
+                                   for unit in self.units] for phi in self.phis]
         self.surface_force_forms = [fem.form(surface_force(self.solution, self.mu, r, ds(tag))) for tag in self.sphere_tags]
-        self.rhs = create_vector(self.scheme.L)
 
-    def _scheme(self, a, L) -> "_Scheme":
-        """The compiled forms of one treatment of convection: the step's a and L, the variational force
-        -2 pi R(x; phi_k) and its slopes (flow.py's docstring); the matrix is made at the first step."""
-        return _Scheme(a=fem.form(a), L=fem.form(L),
-                       force_forms=[fem.form(-2.0 * math.pi * (ufl.action(ufl.action(a, self.solution), phi)
-                                                               - ufl.action(L, phi))) for phi in self.phis],
-                       slope_forms=[[fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, unit), phi))
-                                     for unit in self.units] for phi in self.phis])
+        self.matrix = assemble_matrix(self.a, bcs=self.bcs)
+        self.matrix.assemble()
+        self.operator: FactorizedOperator | ReusedFactorOperator | None = None
+        self.rhs = create_vector(self.L)
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides) -> None:
@@ -224,87 +214,62 @@ class SphereFlow:
 
     # -- one step ------------------------------------------------------------------------------
     def factorise(self) -> None:
-        """Assemble the step matrix of the current scheme on the mesh as it is now and factorise it: every
-        step for the implicit scheme; for the explicit one ("reuse") on a new mesh and when the last
-        solves needed more than reuse_iterations GMRES iterations."""
+        """Assemble the step's matrix on the mesh as it is now and factorise it ("every-step": every step;
+        "reuse": on a new mesh, and when the renewal rule says so)."""
         start = time.perf_counter()
-        scheme = self.scheme
-        if scheme.matrix is None:
-            scheme.matrix = assemble_matrix(scheme.a, bcs=self.bcs)
-        else:
-            scheme.matrix.zeroEntries()
-            assemble_matrix(scheme.matrix, scheme.a, bcs=self.bcs)
-        scheme.matrix.assemble()
+        A = self.matrix
+        A.zeroEntries()
+        assemble_matrix(A, self.a, bcs=self.bcs)
+        A.assemble()
         assembled = time.perf_counter()
         self.assembly_s += assembled - start
-        if scheme.operator is None:
+        if self.operator is None:
             if self.factorisation == "reuse":
-                name = next(name for name, other in self.schemes.items() if other is scheme)
-                scheme.operator = ReusedFactorOperator(scheme.matrix, f"{self.prefix}reuse_{name}_",
-                                                       rtol=self.krylov_rtol, factorisation_cost=self.factorisation_cost,
-                                                       max_iterations=self.reuse_iterations)
+                self.operator = ReusedFactorOperator(A, self.prefix + "reuse_", rtol=self.krylov_rtol,
+                                                     factorisation_cost=self.factorisation_cost,
+                                                     max_iterations=self.reuse_iterations)
             else:
-                scheme.operator = FactorizedOperator(scheme.matrix, self.prefix)
+                self.operator = FactorizedOperator(A, self.prefix)
                 self._direct_factorisations += 1
         elif self.factorisation == "every-step":
-            scheme.operator.refactor()
+            self.operator.refactor()
             self._direct_factorisations += 1
-        elif scheme.operator.stale:
-            scheme.operator.refactor()
+        elif self.operator.stale:
+            self.operator.refactor()
         self.factorise_s += time.perf_counter() - assembled
 
-    @property
-    def operator(self):
-        """The current scheme's solver (None before its first step)."""
-        return self.scheme.operator
-
-    @property
-    def matrix(self):
-        return self.scheme.matrix
-
     def renew(self) -> None:
-        """Factorise at the next step of each scheme (a checkpoint: a restart, which has no factors, then
-        repeats the run's digits)."""
-        for operator in self._reused():
-            operator.stale = True
-
-    def _reused(self) -> list:
-        return [scheme.operator for scheme in self.schemes.values() if isinstance(scheme.operator, ReusedFactorOperator)]
+        """Factorise at the next step (at a checkpoint: a restart, which has no factors, then repeats the
+        run's digits)."""
+        if isinstance(self.operator, ReusedFactorOperator):
+            self.operator.stale = True
 
     @property
     def factorisations(self) -> int:
-        """Numerical factorisations of the step matrices on this mesh so far."""
-        return self._direct_factorisations + sum(operator.factorisations for operator in self._reused())
+        """Numerical factorisations of the step matrix on this mesh so far."""
+        if isinstance(self.operator, ReusedFactorOperator):
+            return self.operator.factorisations
+        return self._direct_factorisations
 
     @property
     def krylov_iterations(self) -> int:
         """GMRES iterations on this mesh so far ("reuse"; 0 for "every-step")."""
-        return sum(operator.iterations for operator in self._reused())
+        return getattr(self.operator, "iterations", 0)
 
     def _solve(self, with_history: bool, out: fem.Function) -> None:
-        scheme = self.scheme
-        b = lifted_rhs(self.rhs, scheme.L if with_history else None, scheme.a, self.bcs)
+        b = lifted_rhs(self.rhs, self.L if with_history else None, self.a, self.bcs)
         start = time.perf_counter()
-        scheme.operator.solve(b, out.vector)  # explicit: out holds the initial guess (the last step's field)
+        self.operator.solve(b, out.vector)  # "reuse": out holds the initial guess
         self.solve_s += time.perf_counter() - start
         out.x.scatter_forward()
 
-    def max_courant(self) -> float:
-        """The largest cell Courant number |u* - w| dt / h of the coming step (u* extrapolated, at cell
-        midpoints, h the cell diameter)."""
-        self.courant.interpolate(self._courant)
-        local = self.courant.x.array.max() if self.courant.x.array.size else 0.0
-        return self.mesh.comm.allreduce(local, op=MPI.MAX)
-
-    def step(self, reference_velocity, implicit: bool = False, extrapolated_velocity=None):
-        """Factorise (if due), solve for U_ref and for the unit response of each sphere; return
+    def step(self, reference_velocity, extrapolated_velocity=None):
+        """Factorise (if due), solve for the unit response of each sphere and for U_ref; return
         (F(U_ref) [N], dF/dU [N s/m]): floats for one sphere, for a pair F_i and the matrix dF_i/dU_j.
-        `implicit` takes the implicit scheme for this step under "reuse" ("every-step" always does).
         Under "reuse" the Krylov solves start from the last step's unit responses and, for U_ref, from
         the extrapolated field u* moved to the surface velocity U_ref by those responses: u* + sum_k
         (U_ref,k - U*_k) x_unit,k, with U* = `extrapolated_velocity` the spheres' extrapolated velocities
         (the surface values of u*) [m/s]."""
-        self.scheme = self.schemes["implicit" if implicit or "explicit" not in self.schemes else "explicit"]
         self.factorise()
         reused = isinstance(self.operator, ReusedFactorOperator)
         for k, unit in enumerate(self.units):
@@ -321,8 +286,8 @@ class SphereFlow:
         self._solve(True, self.solution)
         if reused:
             self.operator.end_step()
-        forces = np.array([self.assemble(form) for form in self.scheme.force_forms])
-        slopes = np.array([[self.assemble(form) for form in row] for row in self.scheme.slope_forms])
+        forces = np.array([self.assemble(form) for form in self.force_forms])
+        slopes = np.array([[self.assemble(form) for form in row] for row in self.force_slope_forms])
         return self._result(forces), self._result(slopes)
 
     def assemble(self, form) -> float:
@@ -404,24 +369,10 @@ class SphereFlow:
         return self.W.dofmap.index_map.size_global * self.W.dofmap.index_map_bs
 
     def destroy(self) -> None:
-        for scheme in self.schemes.values():
-            if scheme.operator is not None:
-                scheme.operator.destroy()
-            if scheme.matrix is not None:
-                scheme.matrix.destroy()
+        if self.operator is not None:
+            self.operator.destroy()
+        self.matrix.destroy()
         self.rhs.destroy()
-
-
-@dataclass
-class _Scheme:
-    """One treatment of convection's forms, its step matrix and that matrix's solver."""
-
-    a: fem.FormMetaClass
-    L: fem.FormMetaClass
-    force_forms: list
-    slope_forms: list
-    matrix: PETSc.Mat | None = None
-    operator: FactorizedOperator | None = None
 
 
 def surface_force(state: fem.Function, viscosity, r, ds_sphere):

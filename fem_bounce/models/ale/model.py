@@ -8,10 +8,8 @@ One fluid step of length dt (motion.MeshMotion, flow.SphereFlow):
    position and carry the flow over (remesh below), then move the mesh and set its velocity;
 3. assemble the step's matrix on the moved mesh; two solves give the flow for the reference sphere
    velocity U_ref and the response to a unit velocity (numerics.ale.factorisation: "every-step"
-   factorises the matrix, with implicit convection, every step; "reuse", the default, extrapolates
-   convection while the mesh follows the sphere and solves by GMRES preconditioned with the factors
-   of an earlier step, factorising when that pays, and takes the implicit scheme while the mesh holds
-   the sphere or the cell Courant number exceeds numerics.ale.explicit_courant: flow.py);
+   factorises the matrix every step; "reuse", the default, solves by flexible GMRES preconditioned
+   with the factors of an earlier step and factorises when that pays: flow.py);
 4. the variational force is affine in the new sphere velocity U, F(U) = F* - m_a c (U - U_ref)
    with m_a = -(dF/dU) / c: hand F* and m_a to the shared SphereIntegrator, which sub-cycles
    through the contact and blends f_sim with f_thr below delta_sl as every model does;
@@ -143,8 +141,6 @@ class Statistics:
     min_mesh_gap: float = math.inf
     max_unknowns: int = 0
     min_mesh_pair_gap: float = math.inf  # a pair: the smallest gap between the mesh's two spheres [m]
-    implicit_steps: int = 0  # "reuse": steps taken with implicit convection (held, or above explicit_courant)
-    max_explicit_courant: float = 0.0  # "reuse": the largest cell Courant number of an explicit step
     # of the step matrix, over the meshes already left (report() adds the current mesh's)
     factorisations: int = 0
     krylov_iterations: int = 0
@@ -322,9 +318,8 @@ class AleModel(FlowModel):
         self.stats.min_mesh_gap = min(self.stats.min_mesh_gap, gap)
         reference = k.reference_velocity
         start = time.perf_counter()
-        implicit = self._implicit_step(held)
         extrapolated = sum(beta * v for beta, v in zip(self.flow.ext, k.velocities))
-        force, slope = self.flow.step(reference, implicit=implicit, extrapolated_velocity=extrapolated)
+        force, slope = self.flow.step(reference, extrapolated_velocity=extrapolated)
         self.stats.factorisation_s += time.perf_counter() - start
         added_mass = -slope / self.flow.c  # a pair: the matrix M_ij = -(dF_i/dU_j) / c
         if not (np.all(np.isfinite(force)) and np.all(np.isfinite(added_mass))):
@@ -333,25 +328,6 @@ class AleModel(FlowModel):
         self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed)
         self._integrator_start = time.perf_counter()
         return FluidForce(explicit=force, added_mass=added_mass)
-
-    def _implicit_step(self, held: bool) -> bool:
-        """Under factorisation = "reuse", whether this step takes the implicit scheme: when the mesh holds
-        the sphere (its surface then moves through the finest cells, u - w = U there, and its velocity
-        reverses within a step), or when the largest cell Courant number |u* - w| dt / h exceeds
-        numerics.ale.explicit_courant (explicit convection is stable only with the viscous damping of
-        small cell Courant numbers)."""
-        if self.settings.factorisation != "reuse":
-            return True
-        if held:
-            self.stats.implicit_steps += 1
-            return True
-        courant = self.flow.max_courant()
-        self.stats.max_explicit_courant = max(self.stats.max_explicit_courant,
-                                              courant if courant <= self.settings.explicit_courant else 0.0)
-        if courant > self.settings.explicit_courant:
-            self.stats.implicit_steps += 1
-            return True
-        return False
 
     def complete(self, velocity: float, time_now: float) -> None:
         self.stats.integrator_s += time.perf_counter() - self._integrator_start
@@ -496,8 +472,6 @@ class AleModel(FlowModel):
             "factorisations": factorisations,  # of the step matrix (each remesh adds two projections)
             "factorisations_per_step": factorisations / steps,
             "krylov_iterations": stats.krylov_iterations + flow.krylov_iterations,
-            "implicit_steps": stats.implicit_steps if self.settings.factorisation == "reuse" else steps,
-            "max_explicit_courant": stats.max_explicit_courant,
             "remesh_count": len(stats.remeshes),
             "remeshes": [asdict(r) for r in stats.remeshes],
             "hold_delta": self.settings.hold_delta,
