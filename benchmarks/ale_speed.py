@@ -154,8 +154,8 @@ def main() -> None:
                   f"{r['krylov_iterations']} GMRES iterations, "
                   f"{r['compilations']} compilations; V_i {r['V_i']:.5f} m/s, Re_II {r['Re_II']:.3f}, e_1 {r['e_1']:.5f}")
             print(f"{'':10s}  [s] {parts}")
-        diffs = ", ".join(f"{k} {100 * v:+.3f} %" for k, v in result["relative_difference"].items())
-        print(f"reuse against every-step: {diffs}; speed-up {result['speed_up']:.2f}x")
+        diffs = ", ".join(f"{k} {v:+.1e}" for k, v in result["relative_difference"].items())
+        print(f"reuse against every-step, relative: {diffs}; speed-up {result['speed_up']:.2f}x")
         c = costs
         print(f"one assembly {1e3 * c['assembly']:.1f} ms, factorisation {1e3 * c['factorisation']:.1f} ms, back-solve "
               f"{1e3 * c['back_solve']:.2f} ms, matrix product {1e3 * c['matrix_product']:.2f} ms: floor "

@@ -209,20 +209,29 @@ class AleModel(FlowModel):
         tolerance = 1e-9 * self.scene.sphere.diameter
         momenta = []
         volumes = [self.sphere_volume(old_flow), self.sphere_volume(flow)]
-        for level, (old_state, new_state) in enumerate(zip(old_flow.states, flow.states)):
-            old_motion.move_to(k.centers[level])
-            before = old_flow.momentum(old_state)
-            interpolate_from(SerialField(old_state, tolerance), new_state)
-            # the new mesh where its own motion law puts it at that time level (if that is a valid mesh)
-            motion.move_to(k.centers[level] if motion.quality(k.centers[level] - center) > 0.0 else center)
-            interpolated = flow.momentum(new_state)
-            flow.set_boundary_values(k.velocities[level])
-            projection = DivergenceFreeProjection(flow.W, flow.bcs)
-            try:
+        reuse = self.settings.factorisation == "reuse"
+        projection = None
+        try:
+            for level, (old_state, new_state) in enumerate(zip(old_flow.states, flow.states)):
+                old_motion.move_to(k.centers[level])
+                before = old_flow.momentum(old_state)
+                interpolate_from(SerialField(old_state, tolerance), new_state)
+                # the new mesh where its own motion law puts it at that time level (if that is a valid mesh)
+                motion.move_to(k.centers[level] if motion.quality(k.centers[level] - center) > 0.0 else center)
+                interpolated = flow.momentum(new_state)
+                flow.set_boundary_values(k.velocities[level])
+                if projection is not None and reuse:  # the older level: the first level's factors precondition
+                    projection.reassemble()
+                else:
+                    if projection is not None:
+                        projection.destroy()
+                    projection = DivergenceFreeProjection(flow.W, flow.bcs, reuse=reuse,
+                                                          rtol=self.settings.krylov_rtol)
                 projection.project(new_state)
-            finally:
+                momenta.append((before, interpolated, flow.momentum(new_state)))
+        finally:
+            if projection is not None:
                 projection.destroy()
-            momenta.append((before, interpolated, flow.momentum(new_state)))
         motion.move_to(center)
         self._tally(old_flow)
         old_flow.destroy()

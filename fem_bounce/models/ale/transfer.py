@@ -35,7 +35,7 @@ from mpi4py import MPI
 
 from ...fem import forms
 from ...fem.functions import gather_values, scatter_values
-from ...fem.solver import FactorizedOperator
+from ...fem.solver import FactorizedOperator, ReusedFactorOperator
 from ...fem.taylor_hood import lifted_rhs
 
 
@@ -100,9 +100,12 @@ def interpolate_from(source: SerialField, target: fem.Function) -> None:
 
 
 class DivergenceFreeProjection:
-    """The r-weighted L2 projection onto discretely divergence-free fields meeting `bcs`, on the mesh as it is."""
+    """The r-weighted L2 projection onto discretely divergence-free fields meeting `bcs`, on the mesh as it is.
 
-    def __init__(self, W, bcs: list, prefix: str = "ale_projection_"):
+    `reuse`: after the mesh moved, `reassemble` and project with the first factors preconditioning flexible
+    GMRES (fem.solver.ReusedFactorOperator, to |b - A x| <= rtol |b|) instead of factorising again."""
+
+    def __init__(self, W, bcs: list, prefix: str = "ale_projection_", reuse: bool = False, rtol: float = 1e-7):
         mesh = W.mesh
         r = forms.radial_coordinate(mesh)
         dx = ufl.Measure("dx", domain=mesh)
@@ -114,7 +117,18 @@ class DivergenceFreeProjection:
         self.matrix = assemble_matrix(self.a, bcs=bcs)
         self.matrix.assemble()
         self.rhs = create_vector(self.L)
-        self.solver = FactorizedOperator(self.matrix, prefix)
+        self.solver = ReusedFactorOperator(self.matrix, prefix + "reuse_", rtol=rtol) if reuse else \
+            FactorizedOperator(self.matrix, prefix)
+
+    def reassemble(self) -> None:
+        """The matrix on the mesh as it is now (moved); factorised again unless `reuse`."""
+        self.matrix.zeroEntries()
+        assemble_matrix(self.matrix, self.a, bcs=self.bcs)
+        self.matrix.assemble()
+        if isinstance(self.solver, ReusedFactorOperator):
+            self.solver.end_step()  # the next solve starts from the field given, with the old factors
+        else:
+            self.solver.refactor()
 
     def project(self, function: fem.Function) -> None:
         """Replace the velocity of the mixed (u, p) `function` by its projection (its pressure is kept)."""
