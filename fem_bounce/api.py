@@ -38,7 +38,6 @@ from .errors import Error, RunDiverged, RunFailed, RunInterrupted, RunnerError  
 from .output import CheckpointError, OutputError  # noqa: F401
 from .scene import Scene, SceneError
 
-DEFAULT_CACHE = Path("results") / "cache"  # the study cache, relative to the working directory (as the command line)
 
 
 class ModelError(Error, _models.ModelError):
@@ -345,7 +344,7 @@ class Table(list):
         return _data_frame(list(self))
 
 
-def _study_runner(jobs: int, executor: str, comm=None, cache: str | Path = DEFAULT_CACHE):
+def _study_runner(jobs: int, executor: str, comm=None, cache: str | Path | None = None):
     """(the study's communicator, its Runner) from --jobs and --executor.  Under mpi4py.futures only rank 0
     runs the study, so it works on COMM_SELF and leaves COMM_WORLD to the pool."""
     from mpi4py import MPI
@@ -360,7 +359,7 @@ def _study_runner(jobs: int, executor: str, comm=None, cache: str | Path = DEFAU
 @_public
 def restitution(model: str = "ode", *, points: int | None = None, st_range: tuple[float, float] = (1.0, 1000.0),
                 overrides: Mapping[str, Any] | Iterable[str] | None = None, out: str | Path | None = None,
-                jobs: int = 1, executor: str = "local", cache: str | Path = DEFAULT_CACHE, comm=None) -> Table:
+                jobs: int = 1, executor: str = "local", cache: str | Path | None = None, comm=None) -> Table:
     """The coefficient of restitution against impact Stokes number, as `fem-bounce restitution`: the Table 3
     material sets launched at the wall without gravity, `points` Stokes numbers over st_range (default 40
     for ode, 12 otherwise) plus one every factor 1.3 over St 3-30, e and St where the gap passes 0.2 D
@@ -404,8 +403,8 @@ def compare(scene: Scene | str | Path, models: str | Sequence[str] = ("ode", "fd
             *, force: bool = False, progress: bool = False, comm=None, command: str = "") -> Table:
     """Several models on one scene, as `fem-bounce compare`: a row per model (status, wall_time_s, steps,
     unknowns, and per impact impact_speed_K, Re_K, restitution_K, apex_gap_over_D_K) and one for the
-    scene's measurement when it has one.  Each run goes through the study cache (results/cache under the
-    working directory, as the command line).  out=DIR also writes DIR/MODEL run directories,
+    scene's measurement when it has one.  Each run goes through the study cache (fem_bounce.cachedir, as
+    the command line).  out=DIR also writes DIR/MODEL run directories,
     comparison.csv and comparison.png; out=None keeps only the cache."""
     from .studies import compare as study
 

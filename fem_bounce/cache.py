@@ -7,7 +7,7 @@ adding or changing one model leaves the other models' runs valid.  (numerics.py 
 enter through the resolved scene.)  An interrupted
 study resumes where it stopped: finished runs are found, unfinished ones run again.
 
-    run_dir = cached_run(scene, "fd", comm)                 # results/cache/<key>/
+    run_dir = cached_run(scene, "fd", comm)                 # ~/.cache/fem_bounce/runs/<key>/ (cachedir)
 """
 from __future__ import annotations
 
@@ -15,14 +15,16 @@ import functools
 import hashlib
 from pathlib import Path
 
-from . import models
+from . import cachedir, models
 from . import scene as scenes
 from .errors import RunDiverged
 from .models.registry import CORE_SOURCES
 from .output import read_summary
 from .run import simulate
 
-DEFAULT_ROOT = Path("results") / "cache"
+def default_root() -> Path:
+    """The finished runs' folder in fem_bounce's cache ($FEM_BOUNCE_CACHE/runs, fem_bounce.cachedir)."""
+    return cachedir.folder("runs")
 
 
 @functools.cache
@@ -44,9 +46,9 @@ def run_key(scene: scenes.Scene, model: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def run_directory(scene: scenes.Scene, model: str, root: Path = DEFAULT_ROOT) -> Path:
-    """Where the run of `model` on `scene` is (or will be) cached."""
-    return Path(root) / f"{scene.name}-{model}-{run_key(scene, model)}"
+def run_directory(scene: scenes.Scene, model: str, root: Path | None = None) -> Path:
+    """Where the run of `model` on `scene` is (or will be) cached (root: default_root())."""
+    return Path(root or default_root()) / f"{scene.name}-{model}-{run_key(scene, model)}"
 
 
 def finished(run_dir: Path) -> Path | None:
@@ -62,7 +64,7 @@ def finished(run_dir: Path) -> Path | None:
     return None if status.startswith(("interrupted", "failed")) else Path(run_dir)
 
 
-def cached_run(scene: scenes.Scene, model: str, comm, root: Path = DEFAULT_ROOT, progress: bool = False,
+def cached_run(scene: scenes.Scene, model: str, comm, root: Path | None = None, progress: bool = False,
                command: str = "") -> Path:
     """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed."""
     run_dir = run_directory(scene, model, root)

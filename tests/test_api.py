@@ -162,14 +162,15 @@ def test_a_pair_run_lists_its_collisions():
 
 
 def test_compare_returns_the_command_lines_table(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)  # the study cache, results/cache, as the command line
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "cache"))  # the study cache, as the command line's
     scene = fb.load("li2011-case3", TOY)
     table = fb.compare(scene, ["ode"])
     assert [row["model"] for row in table] == ["ode", "measured"]
     run = fb.simulate(scene, "ode")
     assert table[0]["impact_speed_1"] == pytest.approx(run.impacts[0].impact_speed, rel=1e-5)  # 6 digits
     assert table.column("impact_speed_1")[1] == pytest.approx(scene.reference.impact_speed, rel=1e-5)
-    assert sorted(os.listdir(tmp_path)) == ["results"]  # only the cache
+    assert sorted(os.listdir(tmp_path)) == ["cache"]  # only the cache: nothing in the working directory
 
 
 @pytest.mark.mpi

@@ -270,3 +270,29 @@ def test_full_stdout_gives_one_line(tmp_path):
                                "--set", "run.bounces=1"], cwd=tmp_path, stdout=full, stderr=subprocess.PIPE, text=True)
     assert done.returncode == 1 and "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
     assert done.stderr.splitlines()[-1] == "fem-bounce: error: cannot write the output: No space left on device"
+
+
+# -- caches: the user's cache folder, never the working directory or the source tree -------------------------------
+
+
+def test_studies_and_meshes_cache_outside_the_working_directory(tmp_path, monkeypatch, capsys):
+    """restitution, study and compare wrote results/cache/ into the working directory even with --out,
+    and generated meshes went to meshes/cache/ inside the source tree."""
+    from fem_bounce import cachedir
+
+    monkeypatch.chdir(tmp_path / "work" if (tmp_path / "work").mkdir() is None else tmp_path)
+    monkeypatch.delenv("FEM_BOUNCE_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cachedir.folder("runs") == tmp_path / "xdg" / "fem_bounce" / "runs"
+    code, _ = run_cli(capsys, "compare", "li2011-case3", "--models", "ode", "--out", str(tmp_path / "cmp"),
+                      "--set", "run.bounces=1")
+    assert code == 0 and os.listdir(tmp_path / "work") == []
+    assert list((tmp_path / "xdg" / "fem_bounce" / "runs").iterdir())
+
+
+def test_a_cache_that_is_a_file_gives_one_line(tmp_path, monkeypatch, capsys):
+    """FEM_BOUNCE_MESH_CACHE pointing at a file ended in FileExistsError."""
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "file"))
+    refused(capsys, tmp_path, monkeypatch, "compare", "li2011-case3", "--models", "ode", "--out", "c",
+            message="cannot use " + str(tmp_path / "file" / "runs") + " as fem_bounce's cache")

@@ -14,8 +14,8 @@ SPEC = halfplane.HalfPlane(radius=0.05, height=0.08, fine_size=0.002, coarse_siz
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
     folder = MPI.COMM_WORLD.bcast(str(tmp_path), root=0)
-    monkeypatch.setenv("FEM_BOUNCE_MESH_CACHE", folder)
-    return type(tmp_path)(folder)
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", folder)
+    return type(tmp_path)(folder) / "meshes"
 
 
 @pytest.mark.mpi

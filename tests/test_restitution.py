@@ -61,7 +61,8 @@ def test_restitution_rises_with_stokes_number_within_a_set():
 def test_restitution_command_runs_any_model_and_draws_the_figure(tmp_path, monkeypatch):
     from fem_bounce import cli
 
-    monkeypatch.chdir(tmp_path)  # the study cache goes to results/ under the current directory
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "cache"))  # a study cache of its own
     assert cli.main(["restitution", "--model", "ode", "--points", "3", "--st-min", "30", "--st-max", "300",
                      "--out", "sweep"]) == 0
     rows = list(csv.DictReader((tmp_path / "sweep" / "restitution.csv").open()))

@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import cachedir
+
 # physical group tags
 FLUID = 1
 WALL, AXIS, OUTER, TOP, SPHERE, SPHERE_2 = 1, 2, 3, 4, 5, 6
@@ -185,13 +187,8 @@ class HalfPlane:
 
 
 def cache_directory() -> Path:
-    """$FEM_BOUNCE_MESH_CACHE, else meshes/cache in a source checkout, else ~/.cache/fem_bounce/meshes."""
-    if os.environ.get("FEM_BOUNCE_MESH_CACHE"):
-        return Path(os.environ["FEM_BOUNCE_MESH_CACHE"])
-    checkout = Path(__file__).resolve().parents[2] / "meshes"
-    if checkout.is_dir() and os.access(checkout, os.W_OK):
-        return checkout / "cache"
-    return Path.home() / ".cache" / "fem_bounce" / "meshes"
+    """The generated meshes' folder in fem_bounce's cache (fem_bounce.cachedir: $FEM_BOUNCE_CACHE/meshes)."""
+    return cachedir.folder("meshes")
 
 
 def _build_model(gmsh, spec: HalfPlane) -> None:

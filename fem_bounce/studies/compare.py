@@ -32,17 +32,18 @@ def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = Fa
                command: str = "") -> list[Path]:
     """Each model's run (through the cache) copied to out_dir/NAME; returns those directories,
     diverged runs included (their summary.json says so and the comparison shows it)."""
-    from ..cache import cached_run
+    from ..cache import cached_run, default_root
     from ..plots import draw_run
     from ..run import on_root
 
     for name in names:
         models.get(name)  # an unknown or missing model fails before anything runs
     out_dir = Path(out_dir)
+    cache = on_root(comm, default_root)  # a cache that cannot be made refuses the comparison before out_dir
     on_root(comm, lambda: output.prepare_directory(out_dir, force=force))  # a refusal stops every rank
     runs = []
     for name in names:
-        finished = cached_run(scene, name, comm, progress=progress, command=command)
+        finished = cached_run(scene, name, comm, root=comm.bcast(cache, root=0), progress=progress, command=command)
         run_dir = out_dir / name
         if comm.rank == 0:
             # a copy inside the comparison, not a run directory of its own (no marker: --force replaces it)

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Iterator
 
 from .. import scene as scenes
-from ..cache import DEFAULT_ROOT, cached_run, finished, run_directory
+from ..cache import cached_run, default_root, finished, run_directory
 from ..errors import RunFailed, RunInterrupted, RunnerError
 from ..mpi_pool import run_one, start_worker, under_mpi_futures
 from ..run import Interrupts, signal_name
@@ -39,7 +39,7 @@ POLL_SECONDS = 0.2  # how often the study looks for a signal while its workers r
 class Runner:
     """Runs (scene, model) pairs through the cache and yields (index, run directory) as each finishes."""
 
-    def __init__(self, comm, jobs: int = 1, executor: str = "local", root: Path = DEFAULT_ROOT):
+    def __init__(self, comm, jobs: int = 1, executor: str = "local", root: Path | None = None):
         if executor not in EXECUTORS:
             raise RunnerError(f"--executor {executor!r}: choose one of {', '.join(EXECUTORS)}")
         if not isinstance(jobs, int) or jobs < 1:
@@ -56,7 +56,8 @@ class Runner:
             raise RunnerError(f"--jobs {jobs} starts its own processes: run it without mpirun, or spread the runs "
                               "over MPI ranks with `mpirun -n K python -m mpi4py.futures -m fem_bounce ... "
                               "--executor mpi`")
-        self.comm, self.jobs, self.executor, self.root = comm, jobs, executor, Path(root).absolute()
+        self.comm, self.jobs, self.executor = comm, jobs, executor
+        self.root = Path(root or default_root()).absolute()
         self._executor: cf.Executor | None = None  # the worker pool, started at first use, kept until close()
 
     def __enter__(self) -> "Runner":
