@@ -40,24 +40,16 @@ from .scene import Scene, SceneError
 
 
 
-class ModelError(Error, _models.ModelError):
-    """An unknown model, or one whose libraries are not installed; or a model that cannot do what the scene
-    asks (a pair, a restart).  The API raises this kind of the package's models.ModelError."""
+ModelError = _models.ModelError
 
 
 def _public(function):
-    """The package's models.ModelError raised as fem_bounce.ModelError, so `except fem_bounce.Error`
-    catches every error a public function raises on purpose; and the caller's matplotlib backend kept."""
+    """The caller's matplotlib backend kept across a public function."""
 
     @functools.wraps(function)
     def wrapper(*args, **kwargs):
-        try:
-            with _backend_kept():
-                return function(*args, **kwargs)
-        except _models.ModelError as err:
-            if isinstance(err, Error):
-                raise
-            raise ModelError(str(err)) from None
+        with _backend_kept():
+            return function(*args, **kwargs)
 
     return wrapper
 

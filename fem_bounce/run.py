@@ -465,8 +465,11 @@ class Controller:
             hint = (f"for a light sphere use numerics.{name}.coupling = \"implicit\"; otherwise "
                     if hasattr(settings, "coupling") else "")
             speed = ", ".join(f"{v:.3g}" for v in np.atleast_1d(integrator.velocity))
+            key = models.info(name).time_step_key
+            cause = (f"unstable ({hint}lower {key})" if key else  # the ode model's steps adapt: the inputs are the cause
+                     "the scene's numbers are beyond what the force formulas can represent")
             return (f"the coupled step broke down ({type(err).__name__}: {err}) near t = {integrator.time:.6g} s "
-                    f"with the sphere at {speed} m/s: unstable ({hint}lower numerics.{name}.cfl)")
+                    f"with the sphere at {speed} m/s: {cause}")
         return str(err)
 
     def _where(self) -> str:

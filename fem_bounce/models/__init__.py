@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import importlib
 
+from ..errors import Error
 from .registry import BEST_FIRST, MODELS, ModelInfo
 
 
-class ModelError(ValueError):
-    pass
+class ModelError(Error, ValueError):
+    """An unknown model, or one whose libraries are not installed; or a model that cannot do what the
+    scene asks (a pair, a restart)."""
 
 
 def info(name: str) -> ModelInfo:
