@@ -296,3 +296,16 @@ def test_a_cache_that_is_a_file_gives_one_line(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "file"))
     refused(capsys, tmp_path, monkeypatch, "compare", "li2011-case3", "--models", "ode", "--out", "c",
             message="cannot use " + str(tmp_path / "file" / "runs") + " as fem_bounce's cache")
+
+
+@pytest.mark.parametrize("bounces", ["0", "1000"])
+def test_nothing_left_to_do_ends_the_run(bounces, tmp_path, monkeypatch, capsys):
+    """run.end_time = 1e6 with no bounce limit (or 1000): the sphere rested on the wall and the run stepped on,
+    about 1 GB of trajectory an hour; it now ends with the reason."""
+    monkeypatch.chdir(tmp_path)
+    start = time.monotonic()
+    status, _ = run_cli(capsys, "run", "li2011-case3", *ODE, "--out", "r", "--set", "run.end_time=1e6",
+                        "--set", f"run.bounces={bounces}")
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert status == 0 and summary["stop_reason"].startswith("the sphere came to rest on the wall")
+    assert time.monotonic() - start < 120 and (tmp_path / "r" / "trajectory.csv").stat().st_size < 5e6
