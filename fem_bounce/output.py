@@ -148,6 +148,9 @@ def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> 
     try:
         if path.exists() and not path.is_dir():
             raise OutputError(f"{path} exists and is not a directory; choose another --out")
+        if path.is_symlink() and not path.exists():
+            raise OutputError(f"{path} is a symbolic link to {os.readlink(path)}, which does not exist; make that "
+                              "directory or choose another --out")
         if (outer := _enclosing_run(path)) is not None:
             raise OutputError(f"{path} is inside the run directory {outer}: a run directory cannot hold another; "
                               "choose another --out")

@@ -182,11 +182,13 @@ def test_no_run_inside_a_run_and_force_keeps_nested_runs(tmp_path, monkeypatch, 
 @pytest.mark.parametrize("out,message", [
     ("a" * 300, "File name too long"),
     ("loop", "is a loop of symbolic links"),
+    ("dangling", "is a symbolic link to nowhere, which does not exist"),
 ])
 def test_out_paths_the_filesystem_refuses_give_one_line(out, message, tmp_path, monkeypatch, capsys):
     """OSError 36 and RuntimeError tracebacks."""
     (tmp_path / "loop").symlink_to(tmp_path / "loop2")
     (tmp_path / "loop2").symlink_to(tmp_path / "loop")
+    (tmp_path / "dangling").symlink_to("nowhere")  # said "File exists"
     refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", out, message=message)
 
 
