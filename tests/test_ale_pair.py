@@ -198,9 +198,12 @@ def test_a_free_projectile_hits_a_free_target_through_the_command_line_with_a_va
     assert collision["rebounded"] and 0.0 < collision["restitution"] < 1.0 + 0.05
     assert ale["remesh_count"] >= 1 and ale["held_steps"] >= 1
     assert ale["min_mesh_pair_delta"] == pytest.approx(0.2)  # contact.delta_sl: the flow's pair gap held there
-    for remesh in ale["remeshes"]:  # momentum kept up to the two polygonal spheres' volume ratio
+    # momentum kept up to the two polygonal spheres' volume ratio, exactly for an exactly divergence-free old
+    # field (1e-7: tests/test_ale.py, every-step); the default "reuse" solves the flow to krylov_rtol = 1e-5
+    # (measured 5e-7 here); a transfer error would show at 1e-3 and more
+    for remesh in ale["remeshes"]:
         ratio = remesh["sphere_volume"] / remesh["sphere_volume_old"]
-        assert remesh["momentum_projected"] == pytest.approx(remesh["momentum_old"] * ratio, rel=1e-7)
+        assert remesh["momentum_projected"] == pytest.approx(remesh["momentum_old"] * ratio, rel=1e-5)
     # the added-mass matrix is reciprocal (M_12 = M_21 for equal spheres) and each sphere carries about
     # half its displaced mass and a viscous part; the target is pushed by the projectile's flow (M_12 < 0)
     added = np.array(ale["added_mass_over_displaced"])

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 from petsc4py import PETSc
 
 
@@ -155,8 +156,11 @@ class FactorizedOperator:
 class ReusedFactorOperator(FactorizedOperator):
     """Solves with the current A (changed in place between solves, same sparsity) by GMRES
     preconditioned (flexible GMRES, on the right: the residual is the true one) by the LU factors of A as it was at
-    the last factorisation.  A solve is converged when |b - A x| <= rtol |b|, starting from the
-    solution vector's values (an initial guess).
+    the last factorisation.  A solve is converged when |b - A x| <= rtol |b_free|, starting from the
+    solution vector's values (an initial guess); b_free is b without the rows `fixed_rows` (this rank's
+    local indices of Dirichlet rows: identity rows whose values, velocities of order 1, would otherwise
+    set the scale for the finite-element rows, whose entries carry cell areas and are many orders
+    smaller).  A guess meeting the Dirichlet values leaves no residual in those rows.
 
     When to factorise again is a renewal problem: with f the cost of a factorisation and i_1, i_2, ...
     the iterations of the steps since (each about one back-solve), the cost per step (f + sum i_j) / n
@@ -169,13 +173,14 @@ class ReusedFactorOperator(FactorizedOperator):
     `factorisations` counts the numerical factorisations, `iterations` the Krylov iterations
     (each one back-solve with the factors and one product with A)."""
 
-    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-7, factorisation_cost: float = 20.0,
-                 max_iterations: int = 30, limit: int = 100):
+    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-5, factorisation_cost: float = 20.0,
+                 max_iterations: int = 30, limit: int = 100, fixed_rows=None):
         # flexible GMRES: right-preconditioned (the residual it tests is the true one) and keeps the
         # preconditioned directions, so the solution needs no extra back-solve at the end as GMRES's does
         _default_option(f"{prefix}ksp_type", "fgmres")
         _default_option(f"{prefix}ksp_gmres_restart", limit)
         self.rtol, self.factorisation_cost, self.max_iterations, self.limit = rtol, factorisation_cost, max_iterations, limit
+        self.fixed_rows = None if fixed_rows is None else np.asarray(fixed_rows, dtype=np.int64)
         self.factorisations = 0
         self.iterations = 0
         self.last_iterations = 0
@@ -203,8 +208,8 @@ class ReusedFactorOperator(FactorizedOperator):
             # start from 0, so that a run restarted after a checkpoint (the model factorises there,
             # fem_bounce.models.ale) repeats the digits
             x.set(0.0)
-        norm = b.norm()
-        # |r| <= rtol |b| whatever the initial guess (PETSc's rtol is relative to the first residual)
+        norm = self._free_norm(b)
+        # |r| <= rtol |b_free| whatever the initial guess (PETSc's rtol is relative to the first residual)
         self.ksp.setTolerances(rtol=1e-300, atol=max(self.rtol * norm, 1e-300), max_it=self.limit)
         _counted_solve(self, b, x)
         if self.ksp.getConvergedReason() < 0:  # the factors are too stale to precondition: factorise now
@@ -218,6 +223,13 @@ class ReusedFactorOperator(FactorizedOperator):
         self.iterations += self.last_iterations
         self._step_iterations += self.last_iterations
         self.stale = self.stale or self.last_iterations > self.max_iterations
+
+    def _free_norm(self, b: PETSc.Vec) -> float:
+        if self.fixed_rows is None:
+            return b.norm()
+        values = b.array_r
+        local = float(values @ values - values[self.fixed_rows] @ values[self.fixed_rows])
+        return max(b.getComm().tompi4py().allreduce(local), 0.0) ** 0.5
 
     def end_step(self) -> None:
         """The solves of one step are done: decide whether the next step factorises (the rule above)."""

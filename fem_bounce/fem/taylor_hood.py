@@ -69,3 +69,9 @@ def taylor_hood_space(mesh) -> fem.FunctionSpace:
     cell = mesh.ufl_cell()
     return fem.FunctionSpace(mesh, ufl.MixedElement([ufl.VectorElement("Lagrange", cell, 2),
                                                      ufl.FiniteElement("Lagrange", cell, 1)]))
+
+
+def owned_dirichlet_rows(bcs) -> np.ndarray:
+    """This rank's owned local indices of the rows the Dirichlet conditions `bcs` fix (sorted, unique)."""
+    rows = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in bcs]
+    return np.unique(np.concatenate(rows)) if rows else np.zeros(0, dtype=np.int64)

@@ -36,7 +36,7 @@ from mpi4py import MPI
 from ...fem import forms
 from ...fem.functions import gather_values, scatter_values
 from ...fem.solver import FactorizedOperator, ReusedFactorOperator
-from ...fem.taylor_hood import lifted_rhs
+from ...fem.taylor_hood import lifted_rhs, owned_dirichlet_rows
 
 
 def _gather_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -105,7 +105,7 @@ class DivergenceFreeProjection:
     `reuse`: after the mesh moved, `reassemble` and project with the first factors preconditioning flexible
     GMRES (fem.solver.ReusedFactorOperator, to |b - A x| <= rtol |b|) instead of factorising again."""
 
-    def __init__(self, W, bcs: list, prefix: str = "ale_projection_", reuse: bool = False, rtol: float = 1e-7):
+    def __init__(self, W, bcs: list, prefix: str = "ale_projection_", reuse: bool = False, rtol: float = 1e-5):
         mesh = W.mesh
         r = forms.radial_coordinate(mesh)
         dx = ufl.Measure("dx", domain=mesh)
@@ -117,7 +117,8 @@ class DivergenceFreeProjection:
         self.matrix = assemble_matrix(self.a, bcs=bcs)
         self.matrix.assemble()
         self.rhs = create_vector(self.L)
-        self.solver = ReusedFactorOperator(self.matrix, prefix + "reuse_", rtol=rtol) if reuse else \
+        self.solver = ReusedFactorOperator(self.matrix, prefix + "reuse_", rtol=rtol,
+                                           fixed_rows=owned_dirichlet_rows(bcs)) if reuse else \
             FactorizedOperator(self.matrix, prefix)
 
     def reassemble(self) -> None:
