@@ -122,3 +122,15 @@ def test_reused_factors_solve_a_changed_matrix_to_the_tolerance_and_mark_themsel
     finally:
         operator.destroy()
         A.destroy()
+
+
+@pytest.mark.parametrize("key,value,message", [
+    ("numerics.ale.factorisation", "sometimes", "numerics.ale.factorisation = 'sometimes' is not one of 'reuse', 'every-step'"),
+    ("numerics.ale.krylov_rtol", 0.5, "numerics.ale.krylov_rtol = 0.5 is out of range: allowed in [1e-14, 0.001]"),
+    ("numerics.ale.factorisation_cost", -1.0, "numerics.ale.factorisation_cost = -1.0 is out of range"),
+    ("numerics.ale.reuse_iterations", 0, "numerics.ale.reuse_iterations = 0 is out of range"),
+])
+def test_bad_solver_settings_name_the_field(key, value, message):
+    with pytest.raises(scenes.SceneError) as err:
+        scenes.load("li2011-case3", {key: value})
+    assert message in str(err.value) and "\n" not in str(err.value)
