@@ -2,6 +2,7 @@
 
     python benchmarks/ale_speed.py                  # serial
     mpirun -n 2 python benchmarks/ale_speed.py      # two ranks
+    python benchmarks/ale_speed.py --compilations   # forms compiled from an empty cache, then by a second run
 
 Runs Li case 3 (8 cells/D, surface_refinement 3) to the apex after the second impact (run.bounces = 2)
 with numerics.ale.factorisation = "every-step" (one MUMPS factorisation a step) and = "reuse" (flexible
@@ -15,7 +16,10 @@ with the matrix timed on the first mesh, and the time a step would take with one
 back-solves.  The machine's load average is recorded: timings compare only within one run.
 
 The runs go through fem_bounce.cli.run_logged, as `fem-bounce run` makes them: on a cold form cache the
-compiler's log goes to each run's run.log, not the terminal.  Results are merged into
+compiler's log goes to each run's run.log, not the terminal.  --compilations runs, with an empty form cache (XDG_CACHE_HOME in a new temporary folder), case 3 at
+4 cells/D to its first apex, then at 5 cells/D with another density and step: the form compiler's
+compilations and seconds in each (the second should compile nothing: every number is a Constant).
+Results are merged into
 benchmarks/history/ale_speed.json (key: date and ranks).
 """
 from __future__ import annotations
@@ -25,6 +29,8 @@ import json
 import os
 import platform
 import subprocess
+import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -125,11 +131,44 @@ def floor(comm) -> dict:
         flow.destroy()
 
 
+def compilations(out: Path) -> list[dict]:
+    """Two toy runs in this process (started with an empty form cache): compilations and seconds of each."""
+    runs = []
+    for k, changes in enumerate(({"numerics.ale.cells_per_diameter": 4},
+                                 {"numerics.ale.cells_per_diameter": 5, "liquid.density": 1100.0,
+                                  "numerics.ale.cfl": 0.45})):
+        with CompileClock() as clock:
+            summary = run_logged(load({**changes, "run.bounces": 1}), "ale", MPI.COMM_WORLD, out / f"compile-{k}",
+                                 force=True, progress=False, plots=False)
+        runs.append({"changes": changes, "compilations": clock.count, "compile_s": clock.seconds,
+                     "remeshes": summary["ale"]["remesh_count"]})
+    return runs
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path("runs/ale-speed"))
+    parser.add_argument("--compilations", action="store_true",
+                        help="count the form compilations of two runs from an empty cache (a child process)")
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
+    if args.child:  # started by --compilations with an empty XDG_CACHE_HOME
+        print(json.dumps(compilations(args.out)))
+        return
+    if args.compilations:
+        with tempfile.TemporaryDirectory() as cache:
+            done = subprocess.run([sys.executable, __file__, "--child", "--out", str(args.out)], capture_output=True,
+                                  text=True, env={**os.environ, "XDG_CACHE_HOME": cache}, check=True)
+        runs = json.loads(done.stdout.strip().splitlines()[-1])
+        for r in runs:
+            print(f"{r['changes']}: {r['compilations']} compilations, {r['compile_s']:.1f} s, {r['remeshes']} remeshes")
+        stored = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                                cwd=HERE).stdout.strip()
+        stored[f"{time.strftime('%Y-%m-%dT%H:%M:%S')}-compilations"] = {"commit": commit, "runs": runs}
+        RESULTS.write_text(json.dumps(stored, indent=1) + "\n")
+        return
     load_before = os.getloadavg()
     with CompileClock() as warm:  # fill the form cache (both schemes, the projections) on a short run
         run_logged(load({"numerics.ale.factorisation": "reuse", "run.bounces": 1, "numerics.ale.cells_per_diameter": 4}),
