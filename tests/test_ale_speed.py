@@ -134,3 +134,35 @@ def test_bad_solver_settings_name_the_field(key, value, message):
     with pytest.raises(scenes.SceneError) as err:
         scenes.load("li2011-case3", {key: value})
     assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_tolerance_ignores_the_dirichlet_rows():
+    """Row 0 an identity row holding 1e6 (as a Dirichlet row holds a velocity), the other rows of order 1e-6
+    (as finite-element rows carry cell areas): the residual of the other rows must fall to rtol times their
+    own size, which a tolerance on the whole |b| (1e-8 * 1e6) would never ask."""
+    n = 50
+    A = _laplacian(n, 0.1)
+    A.zeroRowsColumns([0], diag=1.0)
+    operator = solver.ReusedFactorOperator(A, "test_reuse_fixed_", rtol=1e-8, fixed_rows=[0])
+    try:
+        changed = A.duplicate(copy=True)
+        changed.shift(0.05)  # the factors are now stale
+        changed.zeroRowsColumns([0], diag=1.0)
+        changed.copy(A, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        b, x = A.createVecs()
+        b.setArray(np.r_[1e6, 1e-6 * np.cos(np.arange(n - 1))])
+        x.set(0.0)
+        operator.solve(b, x)  # fresh factors: one iteration from 0
+        operator.end_step()
+        x.set(0.0)
+        x.setValue(0, 1e6)  # a guess meeting the Dirichlet value
+        operator.solve(b, x)
+        residual = b.duplicate()
+        A.mult(x, residual)
+        residual.aypx(-1.0, b)
+        assert operator.last_iterations >= 2
+        assert np.linalg.norm(residual.array[1:]) <= 1e-8 * np.linalg.norm(b.array[1:]) * (1 + 1e-6)
+        changed.destroy()
+    finally:
+        operator.destroy()
+        A.destroy()

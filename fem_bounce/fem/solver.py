@@ -154,8 +154,8 @@ class FactorizedOperator:
 
 
 class ReusedFactorOperator(FactorizedOperator):
-    """Solves with the current A (changed in place between solves, same sparsity) by GMRES
-    preconditioned (flexible GMRES, on the right: the residual is the true one) by the LU factors of A as it was at
+    """Solves with the current A (changed in place between solves, same sparsity) by flexible GMRES
+    preconditioned on the right (the residual it tests is the true one) by the LU factors of A as it was at
     the last factorisation.  A solve is converged when |b - A x| <= rtol |b_free|, starting from the
     solution vector's values (an initial guess); b_free is b without the rows `fixed_rows` (this rank's
     local indices of Dirichlet rows: identity rows whose values, velocities of order 1, would otherwise
@@ -181,6 +181,7 @@ class ReusedFactorOperator(FactorizedOperator):
         _default_option(f"{prefix}ksp_gmres_restart", limit)
         self.rtol, self.factorisation_cost, self.max_iterations, self.limit = rtol, factorisation_cost, max_iterations, limit
         self.fixed_rows = None if fixed_rows is None else np.asarray(fixed_rows, dtype=np.int64)
+        self._free = None  # the mask of the other rows, made at the first solve
         self.factorisations = 0
         self.iterations = 0
         self.last_iterations = 0
@@ -225,11 +226,15 @@ class ReusedFactorOperator(FactorizedOperator):
         self.stale = self.stale or self.last_iterations > self.max_iterations
 
     def _free_norm(self, b: PETSc.Vec) -> float:
+        """|b| over the rows other than `fixed_rows` (all ranks)."""
         if self.fixed_rows is None:
             return b.norm()
         values = b.array_r
-        local = float(values @ values - values[self.fixed_rows] @ values[self.fixed_rows])
-        return max(b.getComm().tompi4py().allreduce(local), 0.0) ** 0.5
+        if self._free is None or self._free.size != values.size:
+            self._free = np.ones(values.size, dtype=bool)
+            self._free[self.fixed_rows] = False
+        free = values[self._free]
+        return b.getComm().tompi4py().allreduce(float(free @ free)) ** 0.5
 
     def end_step(self) -> None:
         """The solves of one step are done: decide whether the next step factorises (the rule above)."""
