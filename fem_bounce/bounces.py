@@ -22,8 +22,12 @@ class Impact:
     contact_speed: float  # speed when the gap fell to the contact gap [m/s]
     Re: float  # from impact_speed
     St: float  # from impact_speed
-    min_gap: float  # [m]; below 0 inside a Hertz contact (the overlap beyond the contact gap)
-    contact_gap: float = 0.0  # where the contact began: h_c (lubricated-hertz) or delta_ss D (li2011) [m]
+    min_gap: float  # [m]; below 0 inside a Hertz contact (the overlap beyond the contact gap); ehd: the
+    #                 film's smallest thickness anywhere over the collision (> 0)
+    contact_gap: float = 0.0  # where the contact began: h_c (lubricated-hertz), delta_ss D (li2011), h0 (ehd) [m]
+    film_time: float | None = None  # ehd: the film collision's duration t_c, h0 back to h0 (or to rest) [s]
+    film_restitution: float | None = None  # ehd: V_out / V_in of the film collision at h0 (0: no rebound)
+    film_outcome: str | None = None  # ehd: "rebound", "stopped" or "held" (fem_bounce.ehd.FilmResult.outcome)
 
 
 @dataclass
@@ -126,6 +130,49 @@ class BounceRecord:
         elif self._phase == "rebound" and self._left_contact:
             self._end_rebound(t, h)
 
+    def film_collision(self, t: float, h0: float, speed: float, result) -> tuple[float, float, float]:
+        """contact.model = "ehd": the film collision (fem_bounce.ehd.FilmResult, lengths in h0, times in
+        h0 / speed) of a sphere that reached the handover gap `h0` [m] at time `t` [s] approaching at
+        `speed` [m/s].  Its path goes into the step log (the 2 ms means see it), the impact is recorded at
+        the film's turning point, and the rebound starts at h0 with e * speed; without a rebound the sphere
+        rests.  Returns (time, gap, velocity) [s, m, m/s] where the integrator continues."""
+        time_unit = h0 / speed
+        end = result.end_time
+        keep = result.time < end
+        times = t + result.time[keep] * time_unit
+        for tk, xk, vk in zip(times[1:], result.separation[keep][1:], result.velocity[keep][1:]):
+            self.log(float(tk), float(xk) * h0, float(vk) * speed)
+        rebound = result.outcome == "rebound"
+        t_end = t + end * time_unit
+        if rebound:
+            h_end, v_end = h0, result.restitution * speed
+        else:
+            h_end, v_end = float(result.separation[-1]) * h0, 0.0
+        turn = np.flatnonzero(result.velocity >= 0.0)
+        t_turn = t + float(result.time[turn[0]] if turn.size else end) * time_unit
+        self._log_t.append(t_end), self._log_h.append(h_end), self._log_v.append(v_end)
+        self._entered_contact = True
+        self._contact_speed = speed
+        impact_speed = self._mean_speed_before(t_turn)
+        reynolds, stokes = self.numbers(impact_speed)
+        self.impacts.append(Impact(
+            time=t_turn, impact_speed=impact_speed, peak_speed=max(self._peak_speed, speed), contact_speed=speed,
+            Re=reynolds, St=stokes, min_gap=float(result.min_gap) * h0, contact_gap=h0, film_time=end * time_unit,
+            film_restitution=float(result.restitution) if rebound else 0.0, film_outcome=result.outcome))
+        self._phase, self._rebound_speed = "rebound", v_end
+        self._left_contact = rebound
+        if self.stop_after_impacts and len(self.impacts) >= self.stop_after_impacts:
+            self.stop_at = t_turn
+        if not rebound:
+            self.resting = True
+            self.stop_at = t_end
+        return t_end, h_end, v_end
+
+    @property
+    def phase(self) -> str:
+        """"approach" (towards the next impact) or "rebound" (after an impact, until the apex)."""
+        return self._phase
+
     @property
     def engaged_now(self) -> float | None:
         """What the contact in progress fixed when it began (ContactLaw.engage), None outside a contact."""
@@ -177,7 +224,9 @@ class BounceRecord:
             if rebound.apex_gap is None:
                 continue
             t1 = min(impact.time + IMPACT_WINDOW, self._log_t[-1])
-            speed = max((self._gap_at(t1) - impact.min_gap) / max(t1 - impact.time, 1e-300), 0.0)
+            # a film collision's min_gap is the film's thickness, not the separation at the turning point
+            start = impact.min_gap if impact.film_time is None else self._gap_at(impact.time)
+            speed = max((self._gap_at(t1) - start) / max(t1 - impact.time, 1e-300), 0.0)
             rebound.rebound_speed = speed
             rebound.rebounded = bool(rebound.apex_gap > min_apex)
             rebound.restitution = speed / impact.impact_speed if rebound.rebounded else 0.0

@@ -25,6 +25,13 @@ between the undeformed surfaces; `ContactLaw` is written once for both.
   by the Schiller-Naumann factor (contact.near_wall and contact.inertial_factor "auto").  With W_o fixed
   the force depends on position only: it stores and returns energy; all dissipation is the liquid's.
 
+- `contact.model = "ehd"` (one sphere and a wall): lubricated-hertz's liquid force (Brenner's lubrication)
+  down to the handover gap h0 = contact.ehd_handover, where no Hertz contact has begun (h0 is at least
+  ten elastohydrodynamic gaps); there the elastohydrodynamic film collision of Davis, Serayssol & Hinch
+  (1986) (fem_bounce.ehd) takes the sphere from (h0, V_in) to (h0, e V_in) in the film's collision time,
+  or to rest (`ContactLaw.collide`, the jump in sphere.SphereIntegrator).  No contact force acts in the
+  integrator: the film is the contact.
+
 Near-wall liquid force of a free sphere in a resolved flow, `contact.near_wall` (`ContactModel`):
 "correction" (lubricated-hertz's default): the flow's sphere is held at the gap delta_sl D while the real
 sphere goes closer, and what the held flow cannot see is added (Costa et al. 2015, with the resolved
@@ -40,6 +47,7 @@ from __future__ import annotations
 import functools
 import math
 
+from . import ehd
 from .scene import Scene
 from .theory import TheoryForces
 
@@ -149,6 +157,10 @@ class ContactLaw:
         self.dry_restitution = contact.dry_restitution
         self.delta_ss = contact.delta_ss
         self.hertz = self.model == "lubricated-hertz"
+        self.ehd = self.model == "ehd"  # the film collision at the handover gap (module docstring)
+        self.handover = contact.ehd_handover
+        cavitation = getattr(contact, "ehd_cavitation", "off")
+        self.cavitation = None if cavitation == "off" else float(cavitation)
         self.stiffness = hertz_stiffness(radius, e_star)
         self.damping = tsuji_damping(self.dry_restitution) * math.sqrt(mass * self.stiffness) if self.hertz else 0.0
         # the smallest admissible gap: the spring's own position for li2011, Hertz's small strain here
@@ -156,7 +168,10 @@ class ContactLaw:
         self.rebound_apex = REBOUND_MIN_APEX * length
 
     def _gap_at(self, speed: float) -> float:
-        """h_c [m] at the approach speed `speed` [m/s]: max(roughness, x_d) or delta_ss D (li2011)."""
+        """h_c [m] at the approach speed `speed` [m/s]: max(roughness, x_d) or delta_ss D (li2011), or the
+        handover gap h0 (ehd)."""
+        if self.ehd:
+            return self.handover
         if not self.hertz:
             return self.delta_ss * self.length
         return self.gap_factor * max(self.roughness,
@@ -170,12 +185,14 @@ class ContactLaw:
 
     def engage(self, speed: float) -> float:
         """What one contact keeps from the speed where it began: W_o [N] (li2011) or h_c [m]."""
-        if self.hertz:
+        if self.hertz or self.ehd:
             return self._gap_at(speed)
         return hertz_peak_force(self.radius, self.mass, self.e_star, speed)
 
     def force(self, gap: float, rate: float, engaged: float) -> float:
         """The contact force pushing the surfaces apart [N] at the gap `gap` [m] closing at -`rate` [m/s]."""
+        if self.ehd:
+            return 0.0  # the film collision is a jump of the state (sphere.py), not a force
         if not self.hertz:
             return self.dry_restitution * engaged * elastic_shape(gap / (self.delta_ss * self.length))
         overlap = engaged - gap
@@ -189,6 +206,14 @@ class ContactLaw:
         if engaged is None or not self.hertz or gap >= engaged:
             return gap, 1.0
         return engaged, min(max(gap / engaged, 0.0), 1.0)
+
+    def collide(self, speed: float, mass: float) -> "ehd.FilmResult":
+        """The film collision (contact.model = "ehd") of a sphere arriving at the handover gap h0 at `speed`
+        [m/s] (> 0, towards the wall) with the inertia `mass` [kg] (the sphere's mass and its added mass at
+        h0), the liquid's viscosity, E* and contact.ehd_cavitation (fem_bounce.ehd.collide; dimensionless
+        result, lengths in h0, times in h0 / speed)."""
+        return ehd.collide(self.radius, mass, self.e_star, self.viscosity, speed, self.handover,
+                           cavitation_pressure=self.cavitation)
 
     def resting(self, gap: float, rate: float, engaged: float, mass: float, weight: float) -> bool:
         """Whether a sphere of `mass` [kg] pressed by the net `weight` [N] into this contact can no longer

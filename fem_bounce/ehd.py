@@ -226,6 +226,7 @@ class FilmResult:
     smallest_gap: np.ndarray = field(repr=False)  # min_R H
     radius: np.ndarray = field(repr=False)
     snapshots: list = field(default_factory=list, repr=False)  # (T, P, H) at snapshot_times
+    end_time: float = 0.0  # when the outcome was reached: the return to X = 1 (interpolated) for a rebound
 
 
 class FilmCollision:
@@ -368,7 +369,7 @@ class FilmCollision:
         record = {k: [] for k in ("t", "x", "v", "f", "h0", "hmin")}
         min_gap, max_pressure, min_pressure = float(gap.min()), float(z[:n].max()), float(z[:n].min())
         overlap_start = overlap_end = None
-        rebounded, outcome, restitution = False, "time", 0.0
+        rebounded, outcome, restitution, end_time = False, "time", 0.0, None
         snapshots, pending = [], sorted(snapshot_times)
 
         def keep(tt, zz, hh):
@@ -448,6 +449,7 @@ class FilmCollision:
                 if rebounded and x >= 1.0:
                     frac = (1.0 - xs[-2]) / (x - xs[-2])
                     restitution = record["v"][-2] + frac * (v - record["v"][-2])
+                    end_time = record["t"][-2] + frac * (t - record["t"][-2])
                     outcome = "rebound"
                     break
                 if rebounded and v <= 0.0:
@@ -461,7 +463,7 @@ class FilmCollision:
         return FilmResult(self.epsilon, self.stokes, restitution, outcome, steps, min_gap, max_pressure, min_pressure,
                           contact,
                           arrays["t"], arrays["x"], arrays["v"], arrays["f"], arrays["h0"], arrays["hmin"],
-                          self.grid.nodes, snapshots)
+                          self.grid.nodes, snapshots, t if end_time is None else end_time)
 
     def _newton(self, guess, history, coefficients, dt, iterations: int = 12):
         """Simplified Newton: the Jacobian factorised at the first iterate (and again if it stalls)."""

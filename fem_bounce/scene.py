@@ -46,6 +46,14 @@ LIQUID_DENSITY_NOTE = ("the densest liquid, mercury, is 1.35e4 kg/m3; down to 1e
                        "which the flow's kinematic viscosity overflows the solvers")
 VISCOSITY_NOTE = ("pitch is ~1e8 Pa s; above it the sphere's viscous relaxation time m / (6 pi mu a) falls below "
                   "the integrator's smallest step and a run stops advancing")
+# contact.model = "ehd": the gap where the film collision takes over (docs/ehd.md), and its bounds
+EHD_HANDOVER = 20e-6
+EHD_HANDOVER_NOTE = ("the film collision's handover gap h0: thin against the sphere's radius (below 0.1 a, and "
+                     "below contact.delta_sl D, for Reynolds' film) and at least 10 elastohydrodynamic gaps x_d "
+                     "at the estimated impact speed (the surfaces still rigid at h0: DSH's epsilon below 0.003)")
+# the most tension a liquid film has been reported to hold is of the order of -30 MPa (water in
+# Briggs' (1950) spinning tube); the bound only keeps the number physical
+EHD_CAVITATION_MIN = -1e8
 _PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f.][^/\\\x00-\x1f]{0,99}")
 
 
@@ -199,9 +207,13 @@ class Contact:
       sphere, Scene.near_wall_law).  The ODE
       model uses f_thr everywhere under either.
     inertial_factor: "auto" is "additive" (lubricated-hertz) or "schiller-naumann" (li2011): theory.py.
-    delta_ss: the paper's elastic layer, li2011 only."""
+    delta_ss: the paper's elastic layer, li2011 only.
+    "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
+      ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)
+      (fem_bounce.ehd, docs/ehd.md) takes the sphere to its rebound at the same gap, or to rest;
+      ehd_cavitation: the lowest (gauge) pressure the film holds on rebound [Pa, <= 0], or "off"."""
 
-    model: str = _choice("lubricated-hertz", "li2011")
+    model: str = _choice("lubricated-hertz", "li2011", "ehd")
     near_wall: str = _choice("auto", "correction", "blend")
     delta_sl: float = _between(0.0, 0.5, 0.2, open_low=True,
                                note="the gap, in diameters, below which the contact model supplies the near-wall force")
@@ -218,6 +230,8 @@ class Contact:
     history_c1: float = _between(0.1, 100.0, 2.0, note="Mei & Adrian's (1992) constant is 2; the history kernel's "
                                  "exponential fit (theory.history_modes) is built and checked for 0.1-100")
     history_c2: float = _between(0.0, 10.0, 0.105)
+    ehd_handover: float = _positive(EHD_HANDOVER, unit="m", note=EHD_HANDOVER_NOTE)
+    ehd_cavitation: str | float = "off"
 
     @property
     def paper(self) -> bool:
@@ -438,6 +452,8 @@ class Scene:
         if second is not None and self.near_wall_law != "correction":
             raise SceneError(f"contact.near_wall = {c.near_wall!r} is not implemented for a pair of spheres: use "
                              '"correction"')
+        if c.model == "ehd":
+            self._check_ehd()
         if c.delta_ss >= c.delta_sl:
             raise SceneError(
                 f"contact.delta_ss = {c.delta_ss:g} must be smaller than contact.delta_sl = {c.delta_sl:g}"
@@ -471,6 +487,36 @@ class Scene:
                 stacklevel=2,
             )
         return self
+
+    def _check_ehd(self) -> None:
+        """contact.model = "ehd": one sphere and a wall, a handover gap where the film is thin and still
+        rigid, and a cavitation pressure that is "off" or a tension."""
+        c = self.contact
+        if self.second_sphere is not None:
+            raise SceneError('contact.model = "ehd" is not implemented for a pair of spheres (second_sphere): the film '
+                             'collision is integrated for one sphere and a wall only; use "lubricated-hertz"')
+        from .contact import elastohydrodynamic_gap, reduced_modulus  # contact imports this module
+
+        radius = self.sphere.radius
+        high = min(0.1 * radius, c.delta_sl * self.sphere.diameter)
+        low = 0.0
+        if self.wall.present:
+            e_star = reduced_modulus(self.sphere.youngs_modulus, self.sphere.poisson_ratio,
+                                     self.wall.youngs_modulus, self.wall.poisson_ratio)
+            speed = max(self.estimated_impact_speed(), abs(self.initial_velocity))
+            low = 10.0 * elastohydrodynamic_gap(radius, e_star, self.liquid.viscosity, speed)
+        if not low < c.ehd_handover < high:
+            raise SceneError(f"contact.ehd_handover = {c.ehd_handover!r} m is out of range: allowed in ({low:.3g}, "
+                             f"{high:.3g}) m for this scene ({EHD_HANDOVER_NOTE})")
+        cav = c.ehd_cavitation
+        if isinstance(cav, str):
+            if cav != "off":
+                raise SceneError(f"contact.ehd_cavitation = {cav!r} is not \"off\" nor a pressure: allowed \"off\" or "
+                                 f"a number in [{EHD_CAVITATION_MIN:g}, 0] Pa (gauge: the film's most negative pressure)")
+        elif not (math.isfinite(cav) and EHD_CAVITATION_MIN <= cav <= 0.0):
+            raise SceneError(f"contact.ehd_cavitation = {cav!r} Pa is out of range: allowed \"off\" or a number in "
+                             f"[{EHD_CAVITATION_MIN:g}, 0] Pa (gauge: e.g. -101325 for a film that cavitates at zero "
+                             "absolute pressure)")
 
     def _check_start_outside_contact(self) -> None:
         """Each contact starts open: the gap above the paper's elastic layer delta_ss (li2011) or above the
