@@ -199,8 +199,8 @@ def test_a_free_projectile_hits_a_free_target_through_the_command_line_with_a_va
     assert ale["remesh_count"] >= 1 and ale["held_steps"] >= 1
     assert ale["min_mesh_pair_delta"] == pytest.approx(0.2)  # contact.delta_sl: the flow's pair gap held there
     # momentum kept up to the two polygonal spheres' volume ratio, exactly for an exactly divergence-free old
-    # field (1e-7: tests/test_ale.py, every-step); the default "reuse" solves the flow to krylov_rtol = 1e-5
-    # (measured 5e-7 here); a transfer error would show at 1e-3 and more
+    # field (1e-7: tests/test_ale.py, every-step); the default "reuse" solves the flow to krylov_rtol = 1e-7
+    # (5e-7 measured here at krylov_rtol = 1e-5); a transfer error would show at 1e-3 and more
     for remesh in ale["remeshes"]:
         ratio = remesh["sphere_volume"] / remesh["sphere_volume_old"]
         assert remesh["momentum_projected"] == pytest.approx(remesh["momentum_old"] * ratio, rel=1e-5)

@@ -45,7 +45,7 @@ def test_a_second_run_with_other_numbers_compiles_no_form(compilations):
 
 
 def test_reuse_gives_the_every_step_answer_and_factorises_on_each_new_mesh(monkeypatch):
-    """"reuse" solves the same equations as "every-step" by FGMRES to |b - A x| <= 1e-7 |b|: at 6 cells/D the
+    """"reuse" solves the same equations as "every-step" by FGMRES to |b - A x| <= 1e-7 |b_free|: at 6 cells/D the
     impact speed and the restitution agree to 1e-4 (measured 5e-6 and 3e-6 at 8 cells/D,
     benchmarks/ale_speed.py; a scheme change, e.g. extrapolated convection, moves them by 2e-4 to 7e-4).
     The step matrix is factorised at the first step on every new mesh and far less than once a step."""

@@ -173,7 +173,7 @@ class ReusedFactorOperator(FactorizedOperator):
     `factorisations` counts the numerical factorisations, `iterations` the Krylov iterations
     (each one back-solve with the factors and one product with A)."""
 
-    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-5, factorisation_cost: float = 20.0,
+    def __init__(self, A: PETSc.Mat, prefix: str, rtol: float = 1e-7, factorisation_cost: float = 20.0,
                  max_iterations: int = 30, limit: int = 100, fixed_rows=None):
         # flexible GMRES: right-preconditioned (the residual it tests is the true one) and keeps the
         # preconditioned directions, so the solution needs no extra back-solve at the end as GMRES's does

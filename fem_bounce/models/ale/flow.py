@@ -90,7 +90,7 @@ class SphereFlow:
     def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
                  mesh_velocity, inflow_speed: float = 0.0, order: int = 2, prefix: str = "ale_flow_",
                  sphere_tags: tuple[int, ...] = (SPHERE,), factorisation: str = "every-step",
-                 reuse_iterations: int = 30, krylov_rtol: float = 1e-5, factorisation_cost: float = 20.0):
+                 reuse_iterations: int = 30, krylov_rtol: float = 1e-7, factorisation_cost: float = 20.0):
         for kind in sides.values():
             if kind not in SIDE_KINDS:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")

@@ -105,7 +105,7 @@ class DivergenceFreeProjection:
     `reuse`: after the mesh moved, `reassemble` and project with the first factors preconditioning flexible
     GMRES (fem.solver.ReusedFactorOperator, to |b - A x| <= rtol |b|) instead of factorising again."""
 
-    def __init__(self, W, bcs: list, prefix: str = "ale_projection_", reuse: bool = False, rtol: float = 1e-5):
+    def __init__(self, W, bcs: list, prefix: str = "ale_projection_", reuse: bool = False, rtol: float = 1e-7):
         mesh = W.mesh
         r = forms.radial_coordinate(mesh)
         dx = ufl.Measure("dx", domain=mesh)
