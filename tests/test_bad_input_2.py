@@ -88,6 +88,32 @@ def test_values_that_broke_a_run_are_refused(override, message, tmp_path, monkey
             message=message)
 
 
+def test_start_inside_contact_names_the_numbers(tmp_path, monkeypatch, capsys):
+    """initial_gap = 1e-300 said it "must exceed contact.delta_ss * sphere.diameter" without the numbers."""
+    refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", "r", "--set", "initial_gap=1e-300",
+            message="initial_gap = 1e-300 m is out of range: allowed > sphere.roughness + wall.roughness = 4e-08 m")
+
+
+@pytest.mark.parametrize("overrides,cause", [
+    (["contact.model=li2011", "contact.dry_restitution=0"], "the paper's spring e_d W_o F(delta/delta_ss) stores too "
+                                                             "little energy over delta_ss to stop it"),
+    (["contact.model=li2011", "contact.dry_restitution=0.01"], "raise contact.delta_ss or use contact.model = "
+                                                                '"lubricated-hertz"'),
+    (["contact.model=li2011", "contact.delta_ss=1e-300"], "stores too little energy over delta_ss"),
+    (["sphere.youngs_modulus=1"], "the solids are too soft for this impact (sphere.youngs_modulus, "
+                                  "wall.youngs_modulus)"),
+])
+def test_a_contact_that_cannot_stop_the_sphere_is_named(overrides, cause, tmp_path, monkeypatch, capsys):
+    """These always diverged with "the sphere reached the wall" and no word of the cause."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["run", "li2011-case3", *ODE, "--out", "r", "--set", "run.bounces=1"]
+    for text in overrides:
+        argv += ["--set", text]
+    status, lines = run_cli(capsys, *argv)
+    assert status == 1
+    assert_one_line(lines, "diverged: the sphere went through the wall", cause)
+
+
 @pytest.mark.parametrize("override", ["second_sphere.diameter=1e300", "second_sphere.diameter=1e-300"])
 def test_pair_sizes_that_crashed_are_refused(override, tmp_path, monkeypatch, capsys):
     """OverflowError and LinAlgError (leaving r/ behind)."""
