@@ -20,7 +20,7 @@ from mpi4py import MPI
 
 from fem_bounce import reference, scene
 from fem_bounce.errors import RunDiverged
-from fem_bounce.run import simulate
+from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
 
 
 def run_case(case: int, model: str, out: Path, overrides: dict, force: bool, comm) -> dict:
