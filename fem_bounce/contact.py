@@ -207,13 +207,14 @@ class ContactLaw:
             return gap, 1.0
         return engaged, min(max(gap / engaged, 0.0), 1.0)
 
-    def collide(self, speed: float, mass: float) -> "ehd.FilmResult":
+    def collide(self, speed: float, mass: float, force: float = 0.0) -> "ehd.FilmResult":
         """The film collision (contact.model = "ehd") of a sphere arriving at the handover gap h0 at `speed`
         [m/s] (> 0, towards the wall) with the inertia `mass` [kg] (the sphere's mass and its added mass at
-        h0), the liquid's viscosity, E* and contact.ehd_cavitation (fem_bounce.ehd.collide; dimensionless
-        result, lengths in h0, times in h0 / speed)."""
+        h0), the constant `force` [N] besides the film's (positive away from the wall: minus the net
+        weight), the liquid's viscosity, E* and contact.ehd_cavitation (fem_bounce.ehd.collide;
+        dimensionless result, lengths in h0, times in h0 / speed)."""
         return ehd.collide(self.radius, mass, self.e_star, self.viscosity, speed, self.handover,
-                           cavitation_pressure=self.cavitation)
+                           cavitation_pressure=self.cavitation, external_force=force)
 
     def resting(self, gap: float, rate: float, engaged: float, mass: float, weight: float) -> bool:
         """Whether a sphere of `mass` [kg] pressed by the net `weight` [N] into this contact can no longer

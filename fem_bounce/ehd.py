@@ -233,11 +233,14 @@ class FilmCollision:
     """The film collision in DSH's groups `epsilon` and `stokes` (module docstring).
 
     `prescribed_speed`: instead of a free sphere, the surfaces approach at the constant speed V0 (the
-    rigid-limit check of Reynolds' force); `cavitation_pressure`: the lowest pressure the film holds,
+    rigid-limit check of Reynolds' force); `external_force`: a constant force on the sphere besides the
+    film's, in mu V0 a^2 / h0, positive away from the wall (a net weight inside a run: negative);
+    `cavitation_pressure`: the lowest pressure the film holds,
     in mu V0 a / h0^2 (None: no limit)."""
 
     def __init__(self, epsilon: float, stokes: float, settings: FilmSettings = FilmSettings(),
-                 cavitation_pressure: float | None = None, prescribed_speed: bool = False):
+                 cavitation_pressure: float | None = None, prescribed_speed: bool = False,
+                 external_force: float = 0.0):
         if not (epsilon >= 0.0 and math.isfinite(epsilon)):
             raise FilmError(f"epsilon = {epsilon!r} is out of range: allowed >= 0 and finite")
         if not (stokes > 0.0 and math.isfinite(stokes)):
@@ -248,6 +251,9 @@ class FilmCollision:
         self.epsilon, self.stokes, self.settings = epsilon, stokes, settings
         self.cavitation = cavitation_pressure
         self.prescribed = prescribed_speed
+        if not math.isfinite(external_force):
+            raise FilmError(f"external_force = {external_force!r} is out of range: allowed finite")
+        self.external = external_force
         s = settings
         scale = max(hertz_depth_scaled(stokes, epsilon), epsilon**0.4, 2e-3)
         inner = min(s.inner_factor * math.sqrt(scale), 0.5 * s.outer_radius)
@@ -312,7 +318,7 @@ class FilmCollision:
         if self.prescribed:
             res[n + 1] = velocity + 1.0
         else:
-            res[n + 1] = (a0 * velocity + a1 * v1 + a2 * v2) / dt - self.force(pressure) / (6.0 * math.pi * self.stokes)
+            res[n + 1] = (a0 * velocity + a1 * v1 + a2 * v2) / dt - (self.force(pressure) + self.external) / (6.0 * math.pi * self.stokes)
         if not jacobian:
             return res, gap, film
         jac = np.zeros((n + 2, n + 2))
@@ -511,11 +517,13 @@ def _cross(t0, x0, t1, x1):
 
 
 def collide(radius: float, mass: float, e_star: float, viscosity: float, speed: float, handover_gap: float,
-            settings: FilmSettings = FilmSettings(), cavitation_pressure: float | None = None) -> FilmResult:
+            settings: FilmSettings = FilmSettings(), cavitation_pressure: float | None = None,
+            external_force: float = 0.0) -> FilmResult:
     """The film collision of a sphere of reduced `radius` [m] and `mass` [kg] arriving at `speed` [m/s]
     (> 0, towards the wall) at the gap `handover_gap` h0 [m] through a liquid of `viscosity` [Pa s] with
-    the solids' reduced modulus `e_star` [Pa]; `cavitation_pressure` [Pa, gauge, <= 0] or None.  The
-    result is dimensionless (units in FilmResult); e = result.restitution."""
+    the solids' reduced modulus `e_star` [Pa]; `cavitation_pressure` [Pa, gauge, <= 0] or None;
+    `external_force` [N] a constant force on the sphere besides the film's, positive away from the wall
+    (the net weight inside a run, negative).  The result is dimensionless (units in FilmResult); e = result.restitution."""
     for name, value in (("radius", radius), ("mass", mass), ("e_star", e_star), ("viscosity", viscosity),
                         ("speed", speed), ("handover_gap", handover_gap)):
         if not (value > 0.0 and math.isfinite(value)):
@@ -527,4 +535,5 @@ def collide(radius: float, mass: float, e_star: float, viscosity: float, speed: 
     stokes = film_stokes(mass, radius, viscosity, speed)
     pressure_scale = viscosity * speed * radius / handover_gap**2
     cavitation = None if cavitation_pressure is None else cavitation_pressure / pressure_scale
-    return FilmCollision(epsilon, stokes, settings, cavitation).run()
+    force_scale = viscosity * speed * radius**2 / handover_gap
+    return FilmCollision(epsilon, stokes, settings, cavitation, external_force=external_force / force_scale).run()
