@@ -126,3 +126,24 @@ def test_the_cavitation_switch_reaches_the_film_model():
     law = contact.ContactModel(case3(**{"contact.ehd_cavitation": -101325})).law
     assert law.cavitation == -101325.0 and law.ehd and law.force(1e-6, -0.1, 0.0) == 0.0
     assert law.boundary(0.4) == pytest.approx(20e-6)
+
+
+def test_a_checkpoint_after_a_film_collision_restarts_to_the_same_bounces(run):
+    """The state after a jump (time, gap, velocity, history states, the record's phase) is all a restart needs."""
+    t_after = run.jumps[0][1] + 0.01
+    first = SphereIntegrator(case3())
+    second = SphereIntegrator(case3())
+    try:
+        first.advance(t_after)
+        second.load_state_dict(first.state_dict())
+        end = run.scene.run.end_time
+        first.advance(end)
+        second.advance(end)
+        assert len(second.impacts) == len(first.impacts) == len(run.impacts)
+        for a, b in zip(first.impacts, second.impacts):
+            assert b.film_restitution == pytest.approx(a.film_restitution, rel=1e-6)
+            assert b.time == pytest.approx(a.time, rel=1e-6)
+        assert second.stop_reason == first.stop_reason
+    finally:
+        first.destroy()
+        second.destroy()
