@@ -38,6 +38,8 @@ from petsc4py import PETSc
 
 from .bounces import IMPACT_WINDOW, BounceRecord, Impact, Rebound  # noqa: F401 -- the integrator's records
 from .contact import ContactModel
+from .ehd import FilmError
+from .errors import RunDiverged
 from .motion import prescribed_velocity, start_velocity
 from .scene import Scene
 
@@ -279,7 +281,12 @@ class SphereIntegrator(AdvancingTS):
         self._film_pending = None
         h0, speed = self.law.handover, -v
         mass = self.sphere_mass + self.theory.added_mass(h0)[0]
-        result = self.law.collide(speed, mass, force=-self.weight)
+        try:
+            result = self.law.collide(speed, mass, force=-self.weight)
+        except FilmError as err:
+            raise RunDiverged(f"the film collision (contact.model = \"ehd\") at t = {t:.6g} s, arriving at {speed:.3g} "
+                              f"m/s at h0 = {h0 * 1e6:.3g} um, could not be solved: {err}; another "
+                              "contact.ehd_handover or contact.model = \"lubricated-hertz\" may run") from None
         t_end, h_end, v_end = self.bounces.film_collision(t, h0, speed, result)
         state = self.y.array.copy()
         if len(state) > 2:

@@ -147,3 +147,19 @@ def test_a_checkpoint_after_a_film_collision_restarts_to_the_same_bounces(run):
     finally:
         first.destroy()
         second.destroy()
+
+
+def test_a_film_collision_that_cannot_be_solved_ends_the_run_as_diverged(monkeypatch):
+    from fem_bounce import errors
+
+    integrator = SphereIntegrator(case3())
+
+    def fails(speed, mass, force=0.0):
+        raise ehd.FilmError("Newton did not converge")
+    monkeypatch.setattr(integrator.law, "collide", fails)
+    try:
+        with pytest.raises(errors.RunDiverged, match=r"the film collision \(contact\.model = \"ehd\"\) at t = .*"
+                                                      r"Newton did not converge"):
+            integrator.advance(integrator.scene.run.end_time)
+    finally:
+        integrator.destroy()
