@@ -318,7 +318,8 @@ class FilmCollision:
         if self.prescribed:
             res[n + 1] = velocity + 1.0
         else:
-            res[n + 1] = (a0 * velocity + a1 * v1 + a2 * v2) / dt - (self.force(pressure) + self.external) / (6.0 * math.pi * self.stokes)
+            res[n + 1] = ((a0 * velocity + a1 * v1 + a2 * v2) / dt
+                          - (self.force(pressure) + self.external) / (6.0 * math.pi * self.stokes))
         if not jacobian:
             return res, gap, film
         jac = np.zeros((n + 2, n + 2))
@@ -528,7 +529,8 @@ def collide(radius: float, mass: float, e_star: float, viscosity: float, speed: 
     (> 0, towards the wall) at the gap `handover_gap` h0 [m] through a liquid of `viscosity` [Pa s] with
     the solids' reduced modulus `e_star` [Pa]; `cavitation_pressure` [Pa, gauge, <= 0] or None;
     `external_force` [N] a constant force on the sphere besides the film's, positive away from the wall
-    (the net weight inside a run, negative).  The result is dimensionless (units in FilmResult); e = result.restitution."""
+    (the net weight inside a run, negative).  The result is dimensionless (units in FilmResult);
+    e = result.restitution."""
     for name, value in (("radius", radius), ("mass", mass), ("e_star", e_star), ("viscosity", viscosity),
                         ("speed", speed), ("handover_gap", handover_gap)):
         if not (value > 0.0 and math.isfinite(value)):

@@ -269,7 +269,8 @@ class SphereIntegrator(AdvancingTS):
         (the liquid outside the film moves with the sphere; C_M is held at its h0 value over the few
         microns of the collision), pressed by the film and the net weight; the outer drag and the history
         force are left out during it (the Stokes drag's impulse over t_c is 0.02-0.2 % of the sphere's
-        momentum on case 3; the weight's 0.3-22 %, so it is kept).  The integration resumes at t + t_c at h0 moving away at e V_in, or stops at rest.
+        momentum on case 3; the weight's 0.3-22 %, so it is kept).  The integration resumes at t + t_c at
+        h0 moving away at e V_in, or stops at rest.
 
         The history force's states z_i (z_i' = dV/dt - z_i / T_i) are carried through the collision as
         if the velocity had changed uniformly over t_c: z_i <- z_i e^(-t_c/T_i) + dV (T_i / t_c)
