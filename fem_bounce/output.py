@@ -134,8 +134,9 @@ def _enclosing_run(path: Path) -> Path | None:
 
 
 def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> Path:
-    """Create a fresh run directory, its marker first.  An existing non-empty directory is refused
-    unless `force` and it is a run directory (then it is replaced); `resume` keeps it as it is."""
+    """Create a fresh run directory, its marker first, locked for this process (lock_directory).  An
+    existing non-empty directory is refused unless `force` and it is a run directory that no other run
+    holds and that holds no other run (then its contents are replaced); `resume` keeps it as it is."""
     path = Path(path)
     try:
         why = _protected(path)
@@ -170,9 +171,13 @@ def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> 
                 raise OutputError(f"{path} holds another run directory, {inner}: --force never deletes a run; move "
                                   "it out or choose another --out")
             lock_directory(path)
-            for entry in path.iterdir():
-                if entry.name != MARKER:
-                    shutil.rmtree(entry) if entry.is_dir() and not entry.is_symlink() else entry.unlink()
+            for entry in path.iterdir():  # all but the locked marker
+                if entry.name == MARKER:
+                    continue
+                if entry.is_dir() and not entry.is_symlink():
+                    shutil.rmtree(entry)
+                else:
+                    entry.unlink()
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
