@@ -208,7 +208,7 @@ def reference_study(args) -> None:
     record("reference", rows, "\n".join(lines) + "\n")
 
 
-TABLE2_RUNS = ("ode", "fd", "ib", "ale8", "ale8s3")  # benchmarks/table2.py's records, benchmarks/history/table2-NAME.json
+TABLE2_RUNS = ("ode", "fd", "ib", "ale")  # benchmarks/table2.py's records with the issue-23 contact, history/table2-NAME.json
 
 
 def models_against(by_name: dict, cases: list[int], finest: int, surface: float, mesh_cfl: float) -> list[str]:
