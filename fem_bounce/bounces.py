@@ -150,7 +150,7 @@ class BounceRecord:
             h_end, v_end = float(result.separation[-1]) * h0, 0.0
         turn = np.flatnonzero(result.velocity >= 0.0)
         t_turn = t + float(result.time[turn[0]] if turn.size else end) * time_unit
-        self._log_t.append(t_end), self._log_h.append(h_end), self._log_v.append(v_end)
+        self.log(t_end, h_end, v_end, initial=True)  # the resumed state; the peak speeds are set below
         self._entered_contact = True
         self._contact_speed = speed
         impact_speed = self._mean_speed_before(t_turn)
