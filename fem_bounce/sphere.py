@@ -79,6 +79,8 @@ class AdvancingTS:
     it sets `fluid`, honours `done`, reports the initial row once (`_post_step_initial`) and refuses a
     state that is no longer finite."""
 
+    _film_pending: tuple[float, float] | None = None  # ehd: (t, V) where the gap reached h0 (SphereIntegrator)
+
     def advance(self, t_end: float, fluid: FluidForce | None = None) -> None:
         """Integrate to t_end (or until the bounce limit), with f_sim linearised as `fluid`.  A solve ended
         by a film collision (contact.model = "ehd", `_film_jump`) resumes after the jump, which may carry
@@ -92,7 +94,7 @@ class AdvancingTS:
         while True:
             self.ts.setMaxTime(t_end)
             self.ts.solve(self.y)
-            if getattr(self, "_film_pending", None) is None:
+            if self._film_pending is None:
                 break
             self._film_jump()
             if self.done or self.time >= t_end:
@@ -126,7 +128,6 @@ class SphereIntegrator(AdvancingTS):
         # without gravity nothing brings back a sphere the film has stopped: below this speed it has stalled
         self._stall_speed = STALL_FRACTION * scene.launch_speed if scene.gravity == 0.0 else 0.0
         self.steps = 0
-        self._film_pending: tuple[float, float] | None = None  # ehd: (t, V) where the gap reached h0
         self._build_ts()
 
     # -- the implicit system ------------------------------------------------------------
