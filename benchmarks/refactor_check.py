@@ -10,7 +10,7 @@ run, up to 1e-12 in the ale trajectory through MUMPS), so bit-for-bit equality i
 change moves numbers by far more than 1e-10.  The trajectory's sha256 is printed when it differs, for
 information only: it changes with the last of the 10 digits written.
 
-About 2 minutes serial on the 2-core development machine.  Runs land in results/refactor_check/.
+About 4 minutes serial on the 2-core development machine.  Runs land in results/refactor_check/.
 """
 from __future__ import annotations
 
@@ -36,6 +36,12 @@ CASES = {
     "ib-drag": ("sphere-drag-re100", "ib", {"numerics.ib.cells_per_diameter": 8, "run.end_time": 0.3}),
     "ale-case3": ("li2011-case3", "ale", {"numerics.ale.cells_per_diameter": 6, "run.bounces": 1}),
     "ale-brenner": ("brenner-approach", "ale", {"numerics.ale.cells_per_diameter": 6}),
+    "ode-ehd": ("li2011-case3", "ode", {"contact.model": "ehd", "run.bounces": 1}),
+    "ode-pair": ("yang-hunt2006-pair", "ode", {}),
+    "ode-pair-wall": ("pair-settling-wall", "ode", {}),
+    "fd-pair": ("yang-hunt2006-pair", "fd", {"numerics.fd.cells_per_diameter": 12, "numerics.fd.constraint": "penalty",
+                                              "numerics.fd.checkpoint_every": 0}),
+    "ale-pair": ("yang-hunt2006-pair", "ale", {"numerics.ale.cells_per_diameter": 6}),
 }
 ROOT = Path("results") / "refactor_check"
 
