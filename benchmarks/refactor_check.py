@@ -57,6 +57,7 @@ def fingerprint(name: str) -> dict:
     digest = hashlib.sha256((out / "trajectory.csv").read_bytes()).hexdigest()[:16]
     return {"status": summary["status"], "steps": summary["steps"], "final": summary["final"],
             "impacts": summary["impacts"], "rebounds": summary["rebounds"], "trajectory_sha256": digest,
+            "collisions": summary.get("collisions", []),
             "rows": len((out / "trajectory.csv").read_text().splitlines()) - 1}
 
 
