@@ -20,7 +20,6 @@ from pathlib import Path
 
 import numpy as np
 
-FIELD_NAMES = ("velocity", "pressure", "vorticity")
 XINCLUDE = "http://www.w3.org/2001/XInclude"
 
 

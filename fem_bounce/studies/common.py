@@ -189,11 +189,6 @@ class StudyDirectory:
             self.file(name).write_text(json.dumps(data, indent=2, default=float) + "\n")
 
 
-def run_and_measure(scene: scenes.Scene, model: str, comm, study: StudyDirectory, label: str) -> dict:
-    """One run through the cache on `comm`, and what it measured."""
-    return measure_all([(scene, model, label)], study, Runner(comm))[0]
-
-
 def measure_all(tasks: list[tuple[scenes.Scene, str, str]], study: StudyDirectory,
                 runner: Runner | None = None) -> list[dict]:
     """Each (scene, model, label) run through the cache, spread by `runner` (one after the other on the
