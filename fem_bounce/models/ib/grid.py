@@ -106,21 +106,13 @@ class StaggeredGrid:
 
     # -- sizes and index maps ------------------------------------------------------------
     @property
-    def shape_u(self) -> tuple[int, int]:
-        """Interior radial-velocity unknowns: i = 1..Nr-1 (axis and outer side excluded)."""
-        return (self.nr - 1, self.nz)
-
-    @property
-    def shape_w(self) -> tuple[int, int]:
-        """Interior axial-velocity unknowns: j = 1..Nz-1 (bottom and top excluded)."""
-        return (self.nr, self.nz - 1)
-
-    @property
     def n_u(self) -> int:
+        """Interior radial-velocity unknowns: i = 1..Nr-1 (axis and outer side excluded), every j."""
         return (self.nr - 1) * self.nz
 
     @property
     def n_w(self) -> int:
+        """Interior axial-velocity unknowns: j = 1..Nz-1 (bottom and top excluded), every i."""
         return self.nr * (self.nz - 1)
 
     @property
