@@ -3,6 +3,7 @@ rebounds, final state, step count and a hash of trajectory.csv (rows to 10 digit
 
     python benchmarks/refactor_check.py > before.json     # on the old code
     python benchmarks/refactor_check.py --compare before.json   # on the new code: lists what moved
+    python benchmarks/refactor_check.py --size 0d4af21          # the package's size then and now (no runs)
 
 --compare prints each run's largest relative difference and lists the numbers that moved by more than
 --rtol (1e-10 by default).  Two machines of the same kind differ by round-off (2e-15 relative in the ode
@@ -15,9 +16,11 @@ About 4 minutes serial on the 2-core development machine.  Runs land in results/
 from __future__ import annotations
 
 import argparse
+import ast
 import hashlib
 import json
 import math
+import subprocess
 import sys
 from pathlib import Path
 
@@ -102,13 +105,53 @@ def compare(before: dict, found: dict, rtol: float) -> list[str]:
     return report
 
 
+# What a branch on a special case looks like: an if, elif, while, conditional expression or comprehension
+# filter whose condition names one of these (issue 25 counts them).
+SPECIAL_CASES = {"pair": {"pair"}, "second_sphere": {"second_sphere"}, "mode": {"mode", "modes"}}
+
+
+def _conditions(tree: ast.AST):
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.If, ast.IfExp, ast.While)):
+            yield node.test
+        elif isinstance(node, ast.comprehension):
+            yield from node.ifs
+
+
+def size(revision: str | None) -> dict:
+    """Lines and modules of fem_bounce/ and its branches on special cases, in the working tree (None) or at a
+    git revision."""
+    listing = ["git", "ls-tree", "-r", "--name-only", revision, "fem_bounce"] if revision else \
+        ["git", "ls-files", "fem_bounce"]
+    files = subprocess.run(listing, capture_output=True, text=True, check=True)
+    found = {"lines": 0, "modules": 0, **{f"branches_on_{name}": 0 for name in SPECIAL_CASES}}
+    for path in (p for p in files.stdout.split() if p.endswith(".py")):
+        text = (subprocess.run(["git", "show", f"{revision}:{path}"], capture_output=True, text=True, check=True).stdout
+                if revision else Path(path).read_text())
+        found["lines"] += len(text.splitlines())
+        found["modules"] += 1
+        for test in _conditions(ast.parse(text)):
+            names = {n.id for n in ast.walk(test) if isinstance(n, ast.Name)} | \
+                    {n.attr for n in ast.walk(test) if isinstance(n, ast.Attribute)}
+            for name, spelled in SPECIAL_CASES.items():
+                found[f"branches_on_{name}"] += bool(names & spelled)
+    return found
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--compare", type=Path, help="a JSON this script printed before")
     parser.add_argument("--rtol", type=float, default=1e-10,
                         help="relative difference a number may move by with --compare (default 1e-10)")
     parser.add_argument("--only", help="comma-separated case names")
+    parser.add_argument("--size", metavar="REV", help="no runs: the package's lines, modules and branches on "
+                        "pair / second_sphere / mode at git revision REV and in the working tree")
     args = parser.parse_args()
+    if args.size:
+        before, now = size(args.size), size(None)
+        for key in before:
+            print(f"{key}: {before[key]} at {args.size}, {now[key]} now")
+        return 0
     names = args.only.split(",") if args.only else list(CASES)
     found = {name: fingerprint(name) for name in names}
     if args.compare is None:
