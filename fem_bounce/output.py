@@ -73,7 +73,7 @@ def _reason(err: OSError) -> str:
 # -- whole files ------------------------------------------------------------------------------
 
 
-def sync_file(path: Path) -> None:
+def _sync_file(path: Path) -> None:
     """fsync a file (or a directory: the renames inside it)."""
     fd = os.open(path, os.O_RDONLY)
     try:
@@ -85,14 +85,14 @@ def sync_file(path: Path) -> None:
 def _sync_directory(path: Path) -> None:
     """Make a rename inside `path` durable (where the file system supports it)."""
     with contextlib.suppress(OSError):
-        sync_file(path)
+        _sync_file(path)
 
 
 def _partial(path: Path) -> Path:
     return path.with_name(f".{path.name}.partial")
 
 
-def atomic_write_text(path: Path, text: str) -> None:
+def _atomic_write_text(path: Path, text: str) -> None:
     """Write `text` to `path` whole or not at all (write beside, fsync, rename).  Space reserved for
     it beforehand (RunDirectory.reserve) is written into, so the write succeeds on a disk that filled since."""
     path = Path(path)
@@ -116,7 +116,7 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 
 def write_scene(path: Path, scene) -> None:
-    atomic_write_text(path, scenes.dumps(scene))
+    _atomic_write_text(path, scenes.dumps(scene))
 
 
 # -- the run directory ------------------------------------------------------------------------
@@ -146,10 +146,6 @@ def _protected(path: Path) -> str | None:
 
 def is_run_directory(path: Path) -> bool:
     return (Path(path) / MARKER).is_file()
-
-
-def _enclosing_run(path: Path) -> Path | None:
-    return next((parent for parent in path.resolve().parents if is_run_directory(parent)), None)
 
 
 # A flock belongs to an open file of this process: one per directory, whichever RunDirectory holds it.
@@ -241,7 +237,7 @@ class RunDirectory:
         self._settle(found)
         try:
             os.truncate(trajectory, offset)
-            sync_file(trajectory)
+            _sync_file(trajectory)
         except OSError as err:
             raise OutputError(f"cannot write {trajectory}: {_reason(err)}") from None
         self.checkpoint, self._continued_rows = found, rows
@@ -263,7 +259,8 @@ class RunDirectory:
             if path.is_symlink() and not path.exists():
                 raise OutputError(f"{path} is a symbolic link to {os.readlink(path)}, which does not exist; make "
                                   "that directory or choose another --out")
-            if (outer := _enclosing_run(path)) is not None:
+            outer = next((parent for parent in path.resolve().parents if is_run_directory(parent)), None)
+            if outer is not None:
                 raise OutputError(f"{path} is inside the run directory {outer}: a run directory cannot hold "
                                   "another; choose another --out")
         except OSError as err:
@@ -330,7 +327,7 @@ class RunDirectory:
             partial.mkdir(parents=True)
             np.savez(partial / data_file, **arrays)
             for data in partial.iterdir():
-                sync_file(data)
+                _sync_file(data)
             for name, text in (("state.json", json.dumps(state, indent=1)), ("model.txt", model_name + "\n")):
                 with open(partial / name, "w") as stream:
                     stream.write(text)
@@ -353,7 +350,7 @@ class RunDirectory:
 
     def commit_summary(self, data: dict) -> None:
         """DIR/summary.json, into the room reserve() kept; a killed run never leaves half a summary."""
-        atomic_write_text(self.path / "summary.json", json.dumps(data, indent=2) + "\n")
+        _atomic_write_text(self.path / "summary.json", json.dumps(data, indent=2) + "\n")
 
     def release(self) -> None:
         """Give back the room reserve() kept (if the summary did not use it) and this process's lock."""
@@ -674,7 +671,7 @@ def _plain(value):
     return value.tolist() if hasattr(value, "tolist") and getattr(value, "ndim", 0) else value
 
 
-def versions() -> dict:
+def _versions() -> dict:
     found = {"fem_bounce": __version__, "python": platform.python_version()}
     for module in ("numpy", "scipy", "petsc4py", "dolfinx", "gmsh", "mpi4py"):
         mod = sys.modules.get(module)
@@ -700,7 +697,7 @@ def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: 
         "sizes": sizes or {},
         "final": {"time": integrator.time, "gap": _plain(integrator.gap), "velocity": _plain(integrator.velocity)},
         **({"collisions": integrator.collisions()} if scene.pair else {}),
-        "versions": versions(),
+        "versions": _versions(),
         "command": command,
         "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
         **(extra or {}),
