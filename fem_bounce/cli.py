@@ -244,7 +244,7 @@ def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | Non
 
 def _restart_model(run_dir: Path, requested: str | None) -> str:
     """The model that wrote DIR's checkpoint (it continues the run)."""
-    model = output.find_checkpoint(run_dir).model
+    model = output.RunDirectory(run_dir).newest_checkpoint().model
     if model not in models.registry.restarting():
         raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
                                 f"checkpoints (only {', '.join(models.registry.restarting())} can --restart): it is not a checkpoint "

@@ -8,7 +8,8 @@
     DIR/checkpoint/       the last checkpoint of a model that writes them: model.txt, state.json, data
     DIR/*.png             drawn from those files by fem_bounce.plots
 
-Only rank 0 writes.  Nothing is lost by accident:
+Only rank 0 writes, through one RunDirectory per run (prepare or resume, reserve, commit, release),
+which alone opens the marker, the checkpoint and the trajectory's restart.  Nothing is lost by accident:
 
 - a directory is never reused silently: an existing non-empty one needs `force=True`, and even then
   only a run directory (one holding the marker) is replaced; the current directory, the home directory,
@@ -35,10 +36,11 @@ import platform
 import shutil
 import sys
 import time
+import tomllib
+import warnings
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from . import __version__
 from . import scene as scenes
@@ -68,7 +70,56 @@ def _reason(err: OSError) -> str:
     return err.strerror or str(err)
 
 
-# -- run directories -------------------------------------------------------------------------
+# -- whole files ------------------------------------------------------------------------------
+
+
+def _sync_file(path: Path) -> None:
+    """fsync a file (or a directory: the renames inside it)."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _sync_directory(path: Path) -> None:
+    """Make a rename inside `path` durable (where the file system supports it)."""
+    with contextlib.suppress(OSError):
+        _sync_file(path)
+
+
+def _partial(path: Path) -> Path:
+    return path.with_name(f".{path.name}.partial")
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    """Write `text` to `path` whole or not at all (write beside, fsync, rename).  Space reserved for
+    it beforehand (RunDirectory.reserve) is written into, so the write succeeds on a disk that filled since."""
+    path = Path(path)
+    partial, data = _partial(path), text.encode()
+    try:
+        fd = os.open(partial, os.O_WRONLY | os.O_CREAT, 0o644)  # no O_TRUNC: keep reserved blocks
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+            os.ftruncate(fd, len(data))
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(partial, path)
+    except OSError as err:
+        with contextlib.suppress(OSError):
+            partial.unlink()
+        raise OutputError(f"cannot write {path}: {_reason(err)}") from None
+    _sync_directory(path.parent)
+
+
+def write_scene(path: Path, scene) -> None:
+    _atomic_write_text(path, scenes.dumps(scene))
+
+
+# -- the run directory ------------------------------------------------------------------------
 
 
 def _protected(path: Path) -> str | None:
@@ -97,92 +148,275 @@ def is_run_directory(path: Path) -> bool:
     return (Path(path) / MARKER).is_file()
 
 
+# A flock belongs to an open file of this process: one per directory, whichever RunDirectory holds it.
 _LOCKS: dict[Path, int] = {}  # run directory (resolved) -> its marker, held open and locked by this process
 
-
-def lock_directory(path: Path) -> None:
-    """Lock DIR's marker (creating it) for this process until release_directory: another process that
-    tries is refused.  The marker is never replaced while locked (a new file would not carry the lock)."""
-    key = Path(path).resolve()
-    if key in _LOCKS:
-        return
-    try:
-        fd = os.open(key / MARKER, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError as err:
-        raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        os.close(fd)
-        raise OutputError(f"{path} is in use by another fem-bounce run; wait for it to end or choose another "
-                          "--out") from None
-    _LOCKS[key] = fd
-    if os.fstat(fd).st_size == 0:
-        os.write(fd, MARKER_TEXT.encode())
-        os.fsync(fd)
+SUMMARY_RESERVE_BYTES = 1 << 16  # a summary is 3-10 kB, more with many impacts or remeshes
+RESTART_MAY_CHANGE = ("run.end_time", "run.bounces", "description")  # how long to run, not what is run
 
 
-def release_directory(path: Path) -> None:
-    """Give up this process's lock on DIR (see lock_directory)."""
-    fd = _LOCKS.pop(Path(path).resolve(), None)
-    if fd is not None:
-        os.close(fd)
+class RunDirectory:
+    """DIR as one run uses it: rank 0 calls these methods, in this order:
+
+        run_dir = RunDirectory(path)
+        run_dir.prepare(force, scene)  or  resumed = run_dir.resume(scene, model_name, checkpoint_files)
+        run_dir.reserve()                                    # room for the summary, while there is some
+        writer = run_dir.trajectory(interval, columns)       # continues where the resumed checkpoint did
+        run_dir.commit_checkpoint(model_name, state, data_file, arrays)   # as often as the model asks
+        run_dir.commit_summary(data)
+        run_dir.release()                                    # the reserved room and the lock
+
+    Nothing else opens the marker, the checkpoint or the trajectory's restart.  `checkpoint` is the
+    newest whole checkpoint this object knows on the disk (the resumed one, then each committed one)."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self.checkpoint: Checkpoint | None = None
+        self._continued_rows: int | None = None  # the trajectory's rows a restart continues
+
+    # -- prepare and resume --
+    def prepare(self, force: bool = False, scene=None) -> None:
+        """Create a fresh run directory, its marker first, locked for this process, and write `scene`
+        to DIR/scene.toml.  An existing non-empty directory is refused unless `force` and it is a run
+        directory that no other run holds and that holds no other run (then its contents are replaced)."""
+        path = self.path
+        self._check_place()
+        try:
+            if path.is_dir() and any(path.iterdir()):
+                if not force:
+                    raise OutputError(f"{path} exists and is not empty; pass --force to replace it, or choose --out")
+                if not is_run_directory(path):
+                    raise OutputError(f"{path} is not a fem-bounce run directory (it has no {MARKER}): --force "
+                                      "replaces only run directories; choose another --out")
+                inner = next((marker.parent for marker in path.glob(f"*/**/{MARKER}")), None)
+                if inner is not None:
+                    raise OutputError(f"{path} holds another run directory, {inner}: --force never deletes a run; "
+                                      "move it out or choose another --out")
+                self._lock()
+                for entry in path.iterdir():  # all but the locked marker
+                    if entry.name == MARKER:
+                        continue
+                    if entry.is_dir() and not entry.is_symlink():
+                        shutil.rmtree(entry)
+                    else:
+                        entry.unlink()
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
+        self._lock()
+        if scene is not None:
+            write_scene(path / "scene.toml", scene)
+
+    def resume(self, scene, model_name: str, checkpoint_files: tuple = ()) -> Checkpoint:
+        """Lock DIR and check that it can continue `scene` with `model_name`: a whole checkpoint of that
+        model (holding `checkpoint_files`), written for the same scene (up to RESTART_MAY_CHANGE), and
+        the trajectory rows it continues.  Only then make that checkpoint DIR/checkpoint again and cut
+        the trajectory back to its rows; returns it (the run's state to restore)."""
+        path = self.path
+        self._check_place()
+        if not is_run_directory(path):
+            raise OutputError(f"{path} is not a run directory" + ("" if path.is_dir() else ": it does not exist"))
+        self._lock()  # no second run continues it at the same time
+        found = self.newest_checkpoint(checkpoint_files)
+        if found.model != model_name:
+            raise CheckpointError(f"the checkpoint in {path} was written by the {found.model!r} model, "
+                                  f"not {model_name}")
+        record = found.run
+        if not isinstance(record, dict) or not isinstance(record.get("trajectory_rows"), int):
+            raise CheckpointError(f"the checkpoint in {path} is unreadable: it holds no run record "
+                                  "(written by an older version?); start a new run")
+        changes = _scene_changes(record["scene"], scene)
+        if changes:
+            raise CheckpointError(
+                f"{path}/scene.toml no longer matches its checkpoint ({'; '.join(changes)}): restore it, or start "
+                f"a new run (a restart may change only {', '.join(RESTART_MAY_CHANGE[:2])})")
+        trajectory, rows = path / "trajectory.csv", record["trajectory_rows"]
+        offset = _trajectory_offset(trajectory, rows)
+        for skipped in found.skipped:
+            warnings.warn(f"{skipped}; continuing from the older copy ({found.folder.name})", stacklevel=2)
+        self._settle(found)
+        try:
+            os.truncate(trajectory, offset)
+            _sync_file(trajectory)
+        except OSError as err:
+            raise OutputError(f"cannot write {trajectory}: {_reason(err)}") from None
+        self.checkpoint, self._continued_rows = found, rows
+        return found
+
+    def _check_place(self) -> None:
+        path = self.path
+        try:
+            why = _protected(path)
+        except RuntimeError:  # Path.resolve met a loop of symbolic links
+            raise OutputError(f"{path} is a loop of symbolic links; choose another --out") from None
+        except OSError as err:  # a name too long for the filesystem, ...
+            raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
+        if why is not None:
+            raise OutputError(f"{path} is {why}: it cannot be a run directory; choose another --out")
+        try:
+            if path.exists() and not path.is_dir():
+                raise OutputError(f"{path} exists and is not a directory; choose another --out")
+            if path.is_symlink() and not path.exists():
+                raise OutputError(f"{path} is a symbolic link to {os.readlink(path)}, which does not exist; make "
+                                  "that directory or choose another --out")
+            outer = next((parent for parent in path.resolve().parents if is_run_directory(parent)), None)
+            if outer is not None:
+                raise OutputError(f"{path} is inside the run directory {outer}: a run directory cannot hold "
+                                  "another; choose another --out")
+        except OSError as err:
+            raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
+
+    def _lock(self) -> None:
+        """Lock DIR's marker (creating it) for this process until release(): another process that tries
+        is refused.  The marker is never replaced while locked (a new file would not carry the lock)."""
+        key = self.path.resolve()
+        if key in _LOCKS:
+            return
+        try:
+            fd = os.open(key / MARKER, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as err:
+            raise OutputError(f"cannot use {self.path} as a run directory: {_reason(err)}") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise OutputError(f"{self.path} is in use by another fem-bounce run; wait for it to end or choose "
+                              "another --out") from None
+        _LOCKS[key] = fd
+        if os.fstat(fd).st_size == 0:
+            os.write(fd, MARKER_TEXT.encode())
+            os.fsync(fd)
+
+    # -- reserve, write, commit, release --
+    def reserve(self, size: int = SUMMARY_RESERVE_BYTES) -> None:
+        """Allocate the blocks of the summary's atomic write now, while there is room [bytes]: the
+        summary of a run that filled the disk is still written."""
+        summary = _partial(self.path / "summary.json")
+        try:
+            fd = os.open(summary, os.O_WRONLY | os.O_CREAT, 0o644)
+            try:
+                os.posix_fallocate(fd, 0, size)
+            finally:
+                os.close(fd)
+        except OSError as err:
+            with contextlib.suppress(OSError):
+                summary.unlink()
+            raise OutputError(f"cannot reserve {size // 1024} kB for {self.path / 'summary.json'}: "
+                              f"{_reason(err)}") from None
+
+    def trajectory(self, interval: float, columns: tuple) -> TrajectoryWriter:
+        """The writer of DIR/trajectory.csv: a new file, or after resume() the old one, continued."""
+        return TrajectoryWriter(self.path / "trajectory.csv", interval, continue_from=self._continued_rows,
+                                columns=columns)
+
+    def commit_checkpoint(self, model_name: str, state: dict, data_file: str, arrays: dict) -> None:
+        """Write a checkpoint: the model's `arrays` into `data_file` (.npz) of a new folder, then
+        state.json and model.txt follow (each fsynced), and the folder is swapped in.  On an error the
+        previous checkpoint is kept and OutputError says why."""
+        import numpy as np
+
+        run_dir = self.path
+        record = state.get("integrator", {}).get("run") if isinstance(state.get("integrator"), dict) else None
+        if record and record.get("trajectory_error"):  # the rows it would claim are not on the disk
+            raise OutputError(f"{record['trajectory_error']}; no checkpoint written")
+        final = run_dir / CHECKPOINT
+        partial, old = run_dir / "checkpoint.partial", run_dir / "checkpoint.old"
+        try:
+            if partial.exists():
+                shutil.rmtree(partial)
+            partial.mkdir(parents=True)
+            np.savez(partial / data_file, **arrays)
+            for data in partial.iterdir():
+                _sync_file(data)
+            for name, text in (("state.json", json.dumps(state, indent=1)), ("model.txt", model_name + "\n")):
+                with open(partial / name, "w") as stream:
+                    stream.write(text)
+                    stream.flush()
+                    os.fsync(stream.fileno())
+            _sync_directory(partial)
+            if final.exists():
+                final.replace(old)
+            partial.replace(final)
+            self.checkpoint = Checkpoint(final, model_name, state)
+            _sync_directory(run_dir)
+            if old.exists():
+                shutil.rmtree(old)
+        except OSError as err:
+            with contextlib.suppress(OSError):
+                if partial.exists():
+                    shutil.rmtree(partial)
+            kept = "the previous checkpoint is kept" if (final.exists() or old.exists()) else "no checkpoint is kept"
+            raise OutputError(f"cannot write the checkpoint in {run_dir}: {_reason(err)} ({kept})") from None
+
+    def commit_summary(self, data: dict) -> None:
+        """DIR/summary.json, into the room reserve() kept; a killed run never leaves half a summary."""
+        _atomic_write_text(self.path / "summary.json", json.dumps(data, indent=2) + "\n")
+
+    def release(self) -> None:
+        """Give back the room reserve() kept (if the summary did not use it) and this process's lock."""
+        with contextlib.suppress(OSError):
+            _partial(self.path / "summary.json").unlink()
+        fd = _LOCKS.pop(self.path.resolve(), None)
+        if fd is not None:
+            os.close(fd)
+
+    # -- the checkpoint on the disk --
+    def newest_checkpoint(self, required: tuple = ()) -> Checkpoint:
+        """The newest whole, readable checkpoint in DIR (`required`: data files it must hold);
+        CheckpointError if there is none."""
+        run_dir = self.path
+        whole = [run_dir / name for name in _NEWEST_FIRST if (run_dir / name / "model.txt").is_file()]
+        if not whole:
+            found = "it does not exist" if not run_dir.exists() else "it has no checkpoint to restart from"
+            raise CheckpointError(f"cannot restart {run_dir}: {found}")
+        errors = []
+        for folder in whole:
+            try:
+                found = _read_checkpoint_folder(folder)
+                missing = [name for name in required if not (folder / name).is_file()]
+                if missing:
+                    raise CheckpointError(f"the checkpoint in {run_dir} is unreadable: {folder.name}/{missing[0]}: "
+                                          "No such file or directory")
+                found.skipped = [str(e) for e in errors]
+                return found
+            except CheckpointError as err:
+                errors.append(err)
+        raise errors[0]
+
+    def _settle(self, chosen: Checkpoint) -> None:
+        """Make `chosen` DIR/checkpoint again and remove the other copies, so that the next checkpoint
+        starts from the usual layout."""
+        run_dir, final = self.path, self.path / CHECKPOINT
+        try:
+            if chosen.folder != final:
+                if final.exists():  # older than the chosen copy, or unreadable
+                    shutil.rmtree(final)
+                chosen.folder.replace(final)
+                chosen.folder = final
+            for name in _NEWEST_FIRST:
+                if name != CHECKPOINT and (run_dir / name).exists():
+                    shutil.rmtree(run_dir / name)
+            _sync_directory(run_dir)
+        except OSError as err:
+            raise OutputError(f"cannot restore the checkpoint in {run_dir}: {_reason(err)}") from None
 
 
-def _enclosing_run(path: Path) -> Path | None:
-    return next((parent for parent in path.resolve().parents if is_run_directory(parent)), None)
+def _flatten(data: dict, prefix: str = "") -> dict:
+    flat = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            flat.update(_flatten(value, f"{prefix}{key}."))
+        else:
+            flat[f"{prefix}{key}"] = value
+    return flat
 
 
-def prepare_directory(path: Path, force: bool = False, resume: bool = False) -> Path:
-    """Create a fresh run directory, its marker first, locked for this process (lock_directory).  An
-    existing non-empty directory is refused unless `force` and it is a run directory that no other run
-    holds and that holds no other run (then its contents are replaced); `resume` keeps it as it is."""
-    path = Path(path)
-    try:
-        why = _protected(path)
-    except RuntimeError:  # Path.resolve met a loop of symbolic links
-        raise OutputError(f"{path} is a loop of symbolic links; choose another --out") from None
-    except OSError as err:  # a name too long for the filesystem, ...
-        raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
-    if why is not None:
-        raise OutputError(f"{path} is {why}: it cannot be a run directory; choose another --out")
-    try:
-        if path.exists() and not path.is_dir():
-            raise OutputError(f"{path} exists and is not a directory; choose another --out")
-        if path.is_symlink() and not path.exists():
-            raise OutputError(f"{path} is a symbolic link to {os.readlink(path)}, which does not exist; make that "
-                              "directory or choose another --out")
-        if (outer := _enclosing_run(path)) is not None:
-            raise OutputError(f"{path} is inside the run directory {outer}: a run directory cannot hold another; "
-                              "choose another --out")
-        if resume:
-            if not is_run_directory(path):
-                raise OutputError(f"{path} is not a run directory" + ("" if path.is_dir() else ": it does not exist"))
-            lock_directory(path)
-            return path
-        if path.is_dir() and any(path.iterdir()):
-            if not force:
-                raise OutputError(f"{path} exists and is not empty; pass --force to replace it, or choose --out")
-            if not is_run_directory(path):
-                raise OutputError(f"{path} is not a fem-bounce run directory (it has no {MARKER}): --force "
-                                  "replaces only run directories; choose another --out")
-            inner = next((marker.parent for marker in path.glob(f"*/**/{MARKER}")), None)
-            if inner is not None:
-                raise OutputError(f"{path} holds another run directory, {inner}: --force never deletes a run; move "
-                                  "it out or choose another --out")
-            lock_directory(path)
-            for entry in path.iterdir():  # all but the locked marker
-                if entry.name == MARKER:
-                    continue
-                if entry.is_dir() and not entry.is_symlink():
-                    shutil.rmtree(entry)
-                else:
-                    entry.unlink()
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
-    lock_directory(path)
-    return path
+def _scene_changes(saved_text: str, scene) -> list[str]:
+    """What differs between a checkpoint's scene and `scene`, beyond RESTART_MAY_CHANGE."""
+    saved, now = _flatten(tomllib.loads(saved_text)), _flatten(tomllib.loads(scenes.dumps(scene)))
+    return [f"{key} {saved.get(key, 'unset')!r} -> {now.get(key, 'unset')!r}"
+            for key in sorted(saved.keys() | now.keys())
+            if saved.get(key) != now.get(key) and key not in RESTART_MAY_CHANGE]
 
 
 def unused_directory(base: Path) -> Path:
@@ -203,82 +437,74 @@ def segment_path(out_dir: Path) -> Path:
     return Path(out_dir) / f"fields-{k:03d}.xdmf"
 
 
-# -- whole files ------------------------------------------------------------------------------
+# -- checkpoints --------------------------------------------------------------------------------
+#
+# DIR/checkpoint/ holds a model's last checkpoint: its data file, state.json and, written last,
+# model.txt (the model's name), so a folder holding model.txt is whole.  A new checkpoint is
+# written to checkpoint.partial, then checkpoint is renamed to checkpoint.old, checkpoint.partial
+# to checkpoint, and checkpoint.old is removed: a kill at any moment leaves at least one whole
+# folder, and the newest whole one is what a restart uses.  Every model's state.json carries the
+# shared sphere integrator's state under "integrator", and in it the run's record under "run".
+# RunDirectory writes, finds and settles them; a Checkpoint is one that was read.
+
+CHECKPOINT = "checkpoint"
+_NEWEST_FIRST = ("checkpoint.partial", "checkpoint", "checkpoint.old")
 
 
-def sync_file(path: Path) -> None:
-    """fsync a file (or a directory: the renames inside it)."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+@dataclass
+class Checkpoint:
+    folder: Path
+    model: str
+    state: dict
+    skipped: list = dataclasses.field(default_factory=list)  # newer copies that were unreadable, and why
 
+    @property
+    def run(self) -> dict | None:
+        """The run's record (scene, trajectory rows, wall time) saved with the integrator's state."""
+        integrator = self.state.get("integrator")
+        return integrator.get("run") if isinstance(integrator, dict) else None
 
-def _sync_directory(path: Path) -> None:
-    """Make a rename inside `path` durable (where the file system supports it)."""
-    with contextlib.suppress(OSError):
-        sync_file(path)
+    @property
+    def wall_time_s(self) -> list[float]:
+        """The wall time of each earlier segment of the run, up to this checkpoint [s]."""
+        return list((self.run or {}).get("wall_time_s", []))
 
+    def arrays(self, data_file: str) -> dict:
+        """The model's arrays saved in `data_file` (.npz) of this checkpoint."""
+        import numpy as np
 
-def _partial(path: Path) -> Path:
-    return path.with_name(f".{path.name}.partial")
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write `text` to `path` whole or not at all (write beside, fsync, rename).  Space reserved for
-    it beforehand (reserve_space) is written into, so the write succeeds on a disk that filled since."""
-    path = Path(path)
-    partial, data = _partial(path), text.encode()
-    try:
-        fd = os.open(partial, os.O_WRONLY | os.O_CREAT, 0o644)  # no O_TRUNC: keep reserved blocks
         try:
-            view = memoryview(data)
-            while view:
-                view = view[os.write(fd, view):]
-            os.ftruncate(fd, len(data))
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(partial, path)
-    except OSError as err:
-        with contextlib.suppress(OSError):
-            partial.unlink()
-        raise OutputError(f"cannot write {path}: {_reason(err)}") from None
-    _sync_directory(path.parent)
+            with np.load(self.folder / data_file) as archive:
+                return {name: archive[name] for name in archive.files}
+        except (OSError, ValueError) as err:
+            raise CheckpointError(f"the checkpoint in {self.folder.parent} is unreadable: {data_file}: {err}") from None
 
 
-SUMMARY_RESERVE_BYTES = 1 << 16  # a summary is 3-10 kB, more with many impacts or remeshes
+def _read_checkpoint_folder(folder: Path) -> Checkpoint:
+    def unreadable(name: str, reason: str) -> CheckpointError:
+        return CheckpointError(f"the checkpoint in {folder.parent} is unreadable: {folder.name}/{name}: {reason}")
 
-
-def reserve_space(path: Path, size: int = SUMMARY_RESERVE_BYTES) -> None:
-    """Allocate the blocks of `path`'s next atomic write now, while there is room: the summary of a run
-    that filled the disk is still written."""
-    partial = _partial(Path(path))
     try:
-        fd = os.open(partial, os.O_WRONLY | os.O_CREAT, 0o644)
-        try:
-            os.posix_fallocate(fd, 0, size)
-        finally:
-            os.close(fd)
+        model = (folder / "model.txt").read_text().strip()
+    except (OSError, UnicodeDecodeError) as err:
+        raise unreadable("model.txt", getattr(err, "strerror", None) or str(err)) from None
+    try:
+        state = json.loads((folder / "state.json").read_text())
     except OSError as err:
-        with contextlib.suppress(OSError):
-            partial.unlink()
-        raise OutputError(f"cannot reserve {size // 1024} kB for {path}: {_reason(err)}") from None
-
-
-def write_summary(path: Path, data: dict) -> None:
-    atomic_write_text(path, json.dumps(data, indent=2) + "\n")  # a killed run never leaves half a summary
-
-
-def write_scene(path: Path, scene) -> None:
-    atomic_write_text(path, scenes.dumps(scene))
-
-
-def release_space(path: Path) -> None:
-    """Give back what reserve_space took, when the write it was for will not happen."""
-    with contextlib.suppress(OSError):
-        _partial(Path(path)).unlink()
+        raise unreadable("state.json", _reason(err)) from None
+    except ValueError as err:  # JSONDecodeError, UnicodeDecodeError
+        raise unreadable("state.json", f"not valid JSON ({err})") from None
+    if not isinstance(state, dict):
+        raise unreadable("state.json", "holds no state")
+    for data in sorted(folder.glob("*.npz")):
+        try:
+            with zipfile.ZipFile(data) as archive:
+                damaged = archive.testzip()
+        except (OSError, zipfile.BadZipFile, EOFError) as err:
+            raise unreadable(data.name, getattr(err, "strerror", None) or str(err)) from None
+        if damaged is not None:
+            raise unreadable(data.name, f"{damaged} is damaged")
+    return Checkpoint(folder, model, state)
 
 
 # -- the trajectory ---------------------------------------------------------------------------
@@ -295,13 +521,13 @@ class TrajectoryWriter:
     which records `rows`) and at close().  A write that fails cuts the file back to its last whole
     row, stops writing and keeps the error in `failure`, for the run to stop on every rank alike;
     sync() and close() raise it.  `rows` counts the data rows written (the header not included);
-    `continue_from` opens an existing file already cut back to that many rows (a restart)."""
+    `continue_from` opens an existing file already cut back to that many rows (RunDirectory.resume)."""
 
     BUFFER_BYTES = 1 << 16
 
-    def __init__(self, path: Path | None, interval: float = 0.0, continue_from: int | None = None,
+    def __init__(self, path: Path, interval: float = 0.0, continue_from: int | None = None,
                  columns: tuple = TRAJECTORY_COLUMNS):
-        self.path = None if path is None else Path(path)
+        self.path = Path(path)
         self.columns = columns
         self.interval = interval
         self.rows = 0 if continue_from is None else continue_from
@@ -310,8 +536,6 @@ class TrajectoryWriter:
         self._pending: list[str] = []
         self._pending_bytes = 0
         self._fd: int | None = None
-        if self.path is None:
-            return
         try:
             if continue_from is None:
                 self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)  # read: to cut a half row
@@ -396,7 +620,7 @@ def _cut_after_last_newline(fd: int) -> None:
     os.ftruncate(fd, 0)
 
 
-def trajectory_offset(path: Path, rows: int) -> int:
+def _trajectory_offset(path: Path, rows: int) -> int:
     """The byte offset just after data row `rows` of a trajectory file (the header is not a data row);
     OutputError if the file is missing or holds fewer whole rows."""
     path = Path(path)
@@ -417,149 +641,6 @@ def trajectory_offset(path: Path, rows: int) -> int:
         raise OutputError(f"{path} holds {max(count, 0)} whole rows, but the checkpoint continues a trajectory of "
                           f"{rows} rows: rows were lost (was it edited?); restore it, or start a new run")
     return offset
-
-
-def cut_trajectory(path: Path, rows: int) -> None:
-    """Cut a trajectory file back to its header and first `rows` rows, for a restart to append to."""
-    offset = trajectory_offset(path, rows)
-    try:
-        os.truncate(path, offset)
-        sync_file(path)
-    except OSError as err:
-        raise OutputError(f"cannot write {path}: {_reason(err)}") from None
-
-
-# -- checkpoints --------------------------------------------------------------------------------
-#
-# DIR/checkpoint/ holds a model's last checkpoint: its data files, state.json and, written last,
-# model.txt (the model's name), so a folder holding model.txt is whole.  A new checkpoint is
-# written to checkpoint.partial, then checkpoint is renamed to checkpoint.old, checkpoint.partial
-# to checkpoint, and checkpoint.old is removed: a kill at any moment leaves at least one whole
-# folder, and the newest whole one is what a restart uses.  Every model's state.json carries the
-# shared sphere integrator's state under "integrator", and in it the run's record under "run".
-
-CHECKPOINT = "checkpoint"
-_NEWEST_FIRST = ("checkpoint.partial", "checkpoint", "checkpoint.old")
-
-
-@dataclass
-class Checkpoint:
-    folder: Path
-    model: str
-    state: dict
-    skipped: list = dataclasses.field(default_factory=list)  # newer copies that were unreadable, and why
-
-    @property
-    def run(self) -> dict | None:
-        """The run's record (scene, trajectory rows, wall time) saved with the integrator's state."""
-        integrator = self.state.get("integrator")
-        return integrator.get("run") if isinstance(integrator, dict) else None
-
-
-def _read_checkpoint_folder(folder: Path) -> Checkpoint:
-    def unreadable(name: str, reason: str) -> CheckpointError:
-        return CheckpointError(f"the checkpoint in {folder.parent} is unreadable: {folder.name}/{name}: {reason}")
-
-    try:
-        model = (folder / "model.txt").read_text().strip()
-    except (OSError, UnicodeDecodeError) as err:
-        raise unreadable("model.txt", getattr(err, "strerror", None) or str(err)) from None
-    try:
-        state = json.loads((folder / "state.json").read_text())
-    except OSError as err:
-        raise unreadable("state.json", _reason(err)) from None
-    except ValueError as err:  # JSONDecodeError, UnicodeDecodeError
-        raise unreadable("state.json", f"not valid JSON ({err})") from None
-    if not isinstance(state, dict):
-        raise unreadable("state.json", "holds no state")
-    for data in sorted(folder.glob("*.npz")):
-        try:
-            with zipfile.ZipFile(data) as archive:
-                damaged = archive.testzip()
-        except (OSError, zipfile.BadZipFile, EOFError) as err:
-            raise unreadable(data.name, getattr(err, "strerror", None) or str(err)) from None
-        if damaged is not None:
-            raise unreadable(data.name, f"{damaged} is damaged")
-    return Checkpoint(folder, model, state)
-
-
-def find_checkpoint(run_dir: Path, required: tuple = ()) -> Checkpoint:
-    """The newest whole, readable checkpoint of a run directory (`required`: data files it must hold);
-    CheckpointError if there is none."""
-    run_dir = Path(run_dir)
-    whole = [run_dir / name for name in _NEWEST_FIRST if (run_dir / name / "model.txt").is_file()]
-    if not whole:
-        found = "it does not exist" if not run_dir.exists() else "it has no checkpoint to restart from"
-        raise CheckpointError(f"cannot restart {run_dir}: {found}")
-    errors = []
-    for folder in whole:
-        try:
-            found = _read_checkpoint_folder(folder)
-            missing = [name for name in required if not (folder / name).is_file()]
-            if missing:
-                raise CheckpointError(f"the checkpoint in {run_dir} is unreadable: {folder.name}/{missing[0]}: "
-                                      "No such file or directory")
-            found.skipped = [str(e) for e in errors]
-            return found
-        except CheckpointError as err:
-            errors.append(err)
-    raise errors[0]
-
-
-def settle_checkpoint(run_dir: Path, chosen: Checkpoint) -> None:
-    """Make `chosen` the run's DIR/checkpoint again and remove the other copies (a restart does this
-    once it has checked everything, so its next checkpoint starts from the usual layout)."""
-    run_dir = Path(run_dir)
-    final = run_dir / CHECKPOINT
-    try:
-        if chosen.folder != final:
-            if final.exists():  # older than the chosen copy, or unreadable
-                shutil.rmtree(final)
-            chosen.folder.replace(final)
-            chosen.folder = final
-        for name in _NEWEST_FIRST:
-            if name != CHECKPOINT and (run_dir / name).exists():
-                shutil.rmtree(run_dir / name)
-        _sync_directory(run_dir)
-    except OSError as err:
-        raise OutputError(f"cannot restore the checkpoint in {run_dir}: {_reason(err)}") from None
-
-
-def commit_checkpoint(run_dir: Path, model: str, write: Callable[[Path], None], state: dict) -> None:
-    """Write a checkpoint: `write(folder)` puts the model's data files into the new folder, then
-    state.json and model.txt follow (each fsynced), and the folder is swapped in.  On an error the
-    previous checkpoint is kept and OutputError says why."""
-    run_dir = Path(run_dir)
-    record = state.get("integrator", {}).get("run") if isinstance(state.get("integrator"), dict) else None
-    if record and record.get("trajectory_error"):  # the rows it would claim are not on the disk
-        raise OutputError(f"{record['trajectory_error']}; no checkpoint written")
-    final = run_dir / CHECKPOINT
-    partial, old = run_dir / "checkpoint.partial", run_dir / "checkpoint.old"
-    try:
-        if partial.exists():
-            shutil.rmtree(partial)
-        partial.mkdir(parents=True)
-        write(partial)
-        for data in partial.iterdir():
-            sync_file(data)
-        for name, text in (("state.json", json.dumps(state, indent=1)), ("model.txt", model + "\n")):
-            with open(partial / name, "w") as stream:
-                stream.write(text)
-                stream.flush()
-                os.fsync(stream.fileno())
-        _sync_directory(partial)
-        if final.exists():
-            final.replace(old)
-        partial.replace(final)
-        _sync_directory(run_dir)
-        if old.exists():
-            shutil.rmtree(old)
-    except OSError as err:
-        with contextlib.suppress(OSError):
-            if partial.exists():
-                shutil.rmtree(partial)
-        kept = "the previous checkpoint is kept" if (final.exists() or old.exists()) else "no checkpoint is kept"
-        raise OutputError(f"cannot write the checkpoint in {run_dir}: {_reason(err)} ({kept})") from None
 
 
 # -- reading a run directory (plots, studies, comparisons and tests read through these) ------------
@@ -590,7 +671,7 @@ def _plain(value):
     return value.tolist() if hasattr(value, "tolist") and getattr(value, "ndim", 0) else value
 
 
-def versions() -> dict:
+def _versions() -> dict:
     found = {"fem_bounce": __version__, "python": platform.python_version()}
     for module in ("numpy", "scipy", "petsc4py", "dolfinx", "gmsh", "mpi4py"):
         mod = sys.modules.get(module)
@@ -616,40 +697,8 @@ def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: 
         "sizes": sizes or {},
         "final": {"time": integrator.time, "gap": _plain(integrator.gap), "velocity": _plain(integrator.velocity)},
         **({"collisions": integrator.collisions()} if scene.pair else {}),
-        "versions": versions(),
+        "versions": _versions(),
         "command": command,
         "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
         **(extra or {}),
     }
-
-
-class Progress:
-    """One status line on stderr (rank 0): model time, steps, gap, speed and the remaining wall time."""
-
-    def __init__(self, end_time: float, diameter: float, enabled: bool = True, every: float = 1.0):
-        self.end_time, self.diameter, self.enabled, self.every = end_time, diameter, enabled, every
-        self.start = time.perf_counter()
-        self._last = -float("inf")
-        self._tty = sys.stderr.isatty()
-
-    def __call__(self, t: float, steps: int, gap: float, velocity: float, force: bool = False) -> None:
-        now = time.perf_counter()
-        if not self.enabled or (now - self._last < (0.2 if self._tty else self.every) and not force):
-            return
-        self._last = now
-        elapsed = now - self.start
-        fraction = min(max(t / self.end_time, 0.0), 1.0)
-        left = f"~{elapsed * (1.0 - fraction) / fraction:4.0f} s left" if fraction > 0.01 else ""
-        width = 24
-        bar = "#" * int(width * fraction) + "-" * (width - int(width * fraction))
-        if getattr(gap, "ndim", 0):  # a pair: sphere 1's gap to z = 0 and the pair gap, both velocities
-            where = (f"gap_1/D {gap[0] / self.diameter:7.4f}  pair gap/D "
-                     f"{(gap[1] - gap[0] - self.diameter) / self.diameter:8.5f}  V {velocity[0]:+.4f}, {velocity[1]:+.4f} m/s")
-        else:
-            where = f"gap/D {gap / self.diameter:7.4f}  V {velocity:+.4f} m/s"
-        line = f"[{bar}] t = {t:.4f}/{self.end_time:g} s  step {steps}  {where}  {elapsed:5.0f} s elapsed {left}"
-        print(("\r" + line) if self._tty else line, end="" if self._tty else "\n", file=sys.stderr, flush=True)
-
-    def close(self) -> None:
-        if self.enabled and self._tty:
-            print(file=sys.stderr)

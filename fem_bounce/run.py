@@ -31,7 +31,6 @@ import pickle
 import signal
 import sys
 import time
-import tomllib
 import warnings
 from pathlib import Path
 
@@ -44,6 +43,7 @@ from .contact import ContactModel
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel, Predictor
 from .pair import PairIntegrator
+from .progress import Monitor, ProgressBar
 from .sphere import PenetrationError, SphereIntegrator
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
@@ -51,7 +51,6 @@ ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error 
 # The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh
 # grows without telling anything new: a sphere reaches its terminal speed within ~10-20 D of its release.
 RESOLVED_MAX_GAP = 100.0
-RESTART_MAY_CHANGE = ("run.end_time", "run.bounces", "description")  # how long to run, not what is run
 
 
 class StopNow(KeyboardInterrupt):
@@ -162,7 +161,7 @@ class _RunRecord:
             try:
                 rows = self.writer.sync()
             except output.OutputError as err:
-                error = str(err)  # output.commit_checkpoint refuses to commit then
+                error = str(err)  # RunDirectory.commit_checkpoint refuses to commit then
         return {"scene": self.scene_text, "model": self.model, "trajectory_rows": rows, "trajectory_error": error,
                 "wall_time_s": self.previous_wall + [self.elapsed()]}
 
@@ -256,31 +255,6 @@ class _PairSafeguards:
                 f"the time step is unstable ({hint})")
 
 
-class _Monitor:
-    """What a model calls after each step as `progress`: draws the progress line and ends the run, on
-    every rank together, when a signal has arrived or rank 0 could not write the trajectory."""
-
-    def __init__(self, bar: output.Progress, comm, interrupts: Interrupts | None,
-                 writer: output.TrajectoryWriter | None):
-        self.bar, self.comm, self.interrupts, self.writer = bar, comm, interrupts, writer
-        self.steps = 0
-
-    def __call__(self, t: float, steps: int, gap: float, velocity: float, force: bool = False) -> None:
-        self.steps = steps
-        self.bar(t, steps, gap, velocity, force=force)
-        flags = np.array([self.interrupts.signum if self.interrupts is not None else 0,
-                          int(self.writer is not None and self.writer.failure is not None)])
-        if self.comm.size > 1:
-            from mpi4py import MPI
-
-            self.comm.Allreduce(MPI.IN_PLACE, flags, op=MPI.MAX)
-        if flags[1]:
-            raise RunFailed(str(self.writer.failure) if self.writer is not None and self.writer.failure
-                            else "rank 0 could not write the trajectory")
-        if flags[0]:
-            raise RunInterrupted(f"interrupted by {signal_name(int(flags[0]))} at t = {t:.6g} s", int(flags[0]))
-
-
 # -- before the run: warnings and restarts ---------------------------------------------------------
 
 
@@ -307,62 +281,16 @@ def _warnings(scene, model: str, comm, guards: _Safeguards) -> list[str]:
     return found
 
 
-def _flatten(data: dict, prefix: str = "") -> dict:
-    flat = {}
-    for key, value in data.items():
-        if isinstance(value, dict):
-            flat.update(_flatten(value, f"{prefix}{key}."))
-        else:
-            flat[f"{prefix}{key}"] = value
-    return flat
-
-
-def _scene_changes(saved_text: str, scene) -> list[str]:
-    saved, now = _flatten(tomllib.loads(saved_text)), _flatten(tomllib.loads(scenes.dumps(scene)))
-    return [f"{key} {saved.get(key, 'unset')!r} -> {now.get(key, 'unset')!r}"
-            for key in sorted(saved.keys() | now.keys())
-            if saved.get(key) != now.get(key) and key not in RESTART_MAY_CHANGE]
-
-
-def _resume(out_dir: Path, scene, model: str) -> dict:
-    """Check that DIR can continue (rank 0): a whole checkpoint of this model, the same scene, the
-    trajectory it continues; only then make its checkpoint DIR/checkpoint and cut the trajectory back."""
-    output.prepare_directory(out_dir, resume=True)  # locked: no second run continues it at the same time
-    found = output.find_checkpoint(out_dir, required=models.info(model).checkpoint_files)
-    if found.model != model:
-        raise output.CheckpointError(f"the checkpoint in {out_dir} was written by the {found.model!r} model, "
-                                     f"not {model}")
-    record = found.run
-    if not isinstance(record, dict) or not isinstance(record.get("trajectory_rows"), int):
-        raise output.CheckpointError(f"the checkpoint in {out_dir} is unreadable: it holds no run record "
-                                     "(written by an older version?); start a new run")
-    changes = _scene_changes(record["scene"], scene)
-    if changes:
-        raise output.CheckpointError(
-            f"{out_dir}/scene.toml no longer matches its checkpoint ({'; '.join(changes)}): restore it, or start "
-            f"a new run (a restart may change only {', '.join(RESTART_MAY_CHANGE[:2])})")
-    trajectory = Path(out_dir) / "trajectory.csv"
-    output.trajectory_offset(trajectory, record["trajectory_rows"])
-    for skipped in found.skipped:
-        warnings.warn(f"{skipped}; continuing from the older copy ({found.folder.name})", stacklevel=2)
-    output.settle_checkpoint(out_dir, found)
-    output.cut_trajectory(trajectory, record["trajectory_rows"])
-    return {"trajectory_rows": record["trajectory_rows"], "wall_time_s": list(record.get("wall_time_s", []))}
-
-
-def _interruption_note(out_dir: Path | None, model: str) -> str:
+def _interruption_note(run_dir: output.RunDirectory, model: str) -> str:
     """What the user can do after an interruption (rank 0)."""
-    if out_dir is None:
-        return ""
     entry = models.info(model)
     if not entry.restarts:
         return f"; the {model} model writes no checkpoints: run it again"
-    try:
-        state = output.find_checkpoint(out_dir).state
-    except output.CheckpointError:
+    if run_dir.checkpoint is None:
         return f"; no checkpoint was written yet ({entry.checkpoint_every_key}), so it cannot be continued"
+    state = run_dir.checkpoint.state
     return (f"; continue from its last checkpoint (step {state.get('step')}, t = {state.get('time', 0.0):.6g} s) "
-            f"with: fem-bounce run --restart {out_dir}")
+            f"with: fem-bounce run --restart {run_dir.path}")
 
 
 # -- the time loop ---------------------------------------------------------------------------------
@@ -387,28 +315,31 @@ class Controller:
     is done (bounce limit, safeguards), and turns the model's failures into one RunDiverged that says
     where the run can be continued from.  The trajectory rows are an observer of the integrator."""
 
-    def __init__(self, model: FlowModel, integrator: SphereIntegrator, monitor=None, out_dir: Path | None = None):
+    def __init__(self, model: FlowModel, integrator: SphereIntegrator, monitor=None,
+                 run_dir: output.RunDirectory | None = None):
         """`monitor(t, steps, gap, velocity, force=False)` is called after every step (the run's progress
-        line and stop requests); without `out_dir` nothing is written."""
+        line and stop requests); without `run_dir` nothing is written."""
         self.model, self.integrator, self.comm = model, integrator, model.comm
         self.monitor = monitor or (lambda *args, **kwargs: None)
-        self.out_dir = out_dir
+        self.run_dir = run_dir
         self.entry = models.info(model.name)
         self.last_checkpoint: tuple[int, float] | None = None
-        self.checkpoints = out_dir is not None and bool(model.checkpoint_every)
+        self.checkpoints = run_dir is not None and bool(model.checkpoint_every)
 
-    def run(self, restart: bool = False) -> dict:
-        model, integrator, out_dir = self.model, self.integrator, self.out_dir
+    def run(self, resumed: output.Checkpoint | None = None) -> dict:
+        """The run from its start, or from `resumed` (a restart: the checkpoint RunDirectory.resume chose)."""
+        model, integrator, run_dir = self.model, self.integrator, self.run_dir
+        restart = resumed is not None
         end = model.scene.run.end_time
         try:
             model.build(integrator)
             self.predictor = Predictor(model.initial_velocities())
             if restart:
-                self._restore()
+                self._restore(resumed)
             first_step = model.step
             observers = [self._progress]
-            if out_dir is not None:
-                model.open_outputs(out_dir, restart)
+            if run_dir is not None:
+                model.open_outputs(run_dir.path, restart)
                 if model.fields_every:
                     if not restart:
                         model.write_fields(integrator.time)
@@ -429,7 +360,7 @@ class Controller:
                         observer(model.step)
             model.loop_seconds = time.perf_counter() - start
             model.steps_this_run = model.step - first_step
-            if (out_dir is not None and model.fields_every and model.fields_at_end
+            if (run_dir is not None and model.fields_every and model.fields_at_end
                     and (model.steady or model.step % model.fields_every)):
                 model.write_fields(integrator.time)
             steps = integrator.steps if model.observe_integrator_steps else model.step
@@ -438,7 +369,7 @@ class Controller:
         except (PenetrationError, ArithmeticError, PETSc.Error, *model.divergences) as err:
             raise RunDiverged(f"{self._explain(err)} ({self._where()})") from err
         finally:
-            if out_dir is not None:
+            if run_dir is not None:
                 model.close_outputs()
             model.destroy()
 
@@ -487,25 +418,16 @@ class Controller:
                  "velocities": [np.asarray(v).tolist() for v in self.predictor.velocities],  # a pair's: arrays
                  "flow": flow, "integrator": integrator.state_dict()}
 
-        def commit() -> None:
-            data, = self.entry.checkpoint_files
-            output.commit_checkpoint(self.out_dir, model.name, lambda folder: np.savez(folder / data, **arrays), state)
-
-        on_root(comm, commit)
+        data, = self.entry.checkpoint_files
+        on_root(comm, lambda: self.run_dir.commit_checkpoint(model.name, state, data, arrays))
         self.last_checkpoint = (model.step, integrator.time)
 
-    def _restore(self) -> None:
-        """Continue from DIR/checkpoint (the run module has checked it and cut the trajectory back)."""
-        found = output.find_checkpoint(self.out_dir, required=self.entry.checkpoint_files)
+    def _restore(self, resumed: output.Checkpoint) -> None:
+        """Continue from `resumed` (RunDirectory.resume has checked it and cut the trajectory back)."""
         data, = self.entry.checkpoint_files
-        try:
-            with np.load(found.folder / data) as archive:
-                arrays = {name: archive[name] for name in archive.files}
-        except (OSError, ValueError) as err:
-            raise output.CheckpointError(f"the checkpoint in {self.out_dir} is unreadable: {data}: {err}") from None
-        state = found.state
+        arrays, state = resumed.arrays(data), resumed.state
         if not isinstance(state.get("flow"), dict) or "velocities" not in state:
-            raise output.CheckpointError(f"the checkpoint in {self.out_dir} is unreadable: it was written by an "
+            raise output.CheckpointError(f"the checkpoint in {self.run_dir.path} is unreadable: it was written by an "
                                          "older version; start a new run")
         failure = None
         try:
@@ -514,7 +436,7 @@ class Controller:
             failure = str(err)
         failures = [f for f in self.comm.allgather(failure) if f]
         if failures:
-            raise output.CheckpointError(f"the checkpoint in {self.out_dir} cannot continue this run: {failures[0]}")
+            raise output.CheckpointError(f"the checkpoint in {self.run_dir.path} cannot continue this run: {failures[0]}")
         self.model.step = state["step"]
         self.predictor.velocities = [np.asarray(v) if isinstance(v, list) else v for v in state["velocities"]]
         self.integrator.load_state_dict(state["integrator"])
@@ -560,41 +482,42 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     if root:
         for message in _warnings(scene, model, comm, guards):
             warnings.warn(message, stacklevel=2)
-    resumed = {"trajectory_rows": None, "wall_time_s": []}
-    if out_dir is not None and restart:
-        resumed = comm.bcast(on_root(comm, lambda: _resume(out_dir, scene, model)), root=0)
-    elif out_dir is not None:
-        on_root(comm, lambda: (output.prepare_directory(out_dir, force=force),
-                                output.write_scene(out_dir / "scene.toml", scene)))
-    if out_dir is not None:
-        on_root(comm, lambda: output.reserve_space(out_dir / "summary.json"))
+    resumed = None  # the checkpoint a restart continues from (rank 0 checks it; every rank restores it)
+    run_dir = None if out_dir is None else output.RunDirectory(out_dir)
+    if run_dir is not None and restart:
+        files = models.info(model).checkpoint_files
+        resumed = comm.bcast(on_root(comm, lambda: run_dir.resume(scene, model, files)), root=0)
+    elif run_dir is not None:
+        on_root(comm, lambda: run_dir.prepare(force, scene))
+    if run_dir is not None:
+        on_root(comm, run_dir.reserve)
     interval_key = models.info(model).trajectory_interval_key
     interval = models.info(model).setting(scene, interval_key) if interval_key else 0.0
     writer = None
-    if out_dir is not None:
+    if run_dir is not None:
         columns = output.PAIR_TRAJECTORY_COLUMNS if scene.pair else output.TRAJECTORY_COLUMNS
-        writer = on_root(comm, lambda: output.TrajectoryWriter(out_dir / "trajectory.csv", interval,
-                                                                 continue_from=resumed["trajectory_rows"],
-                                                                 columns=columns))
-    record = _RunRecord(scene, model, writer, resumed["wall_time_s"])
+        writer = on_root(comm, lambda: run_dir.trajectory(interval, columns))
+    earlier_wall = resumed.wall_time_s if resumed is not None else []  # [s], one per earlier segment
+    record = _RunRecord(scene, model, writer, earlier_wall)
     integrator.record = record
     if writer is not None:
         integrator.observers.append(writer)
     integrator.observers.append(guards)
-    bar = output.Progress(scene.run.end_time, scene.sphere.diameter, enabled=progress and root)
-    monitor = _Monitor(bar, comm, interrupts, writer)
+    bar = ProgressBar(scene.run.end_time, scene.sphere.diameter, enabled=progress and root)
+    monitor = Monitor(bar, comm, interrupts, writer)
 
     status, message, signum = "completed", "", 0
     result: dict = {}
     try:
-        result = Controller(flow, integrator, monitor, out_dir).run(restart)
+        result = Controller(flow, integrator, monitor, run_dir).run(resumed)
     except output.CheckpointError:
         # the restart could not load its checkpoint: no summary for a run that never continued
         bar.close()
         if writer is not None:
             with contextlib.suppress(output.OutputError):
                 writer.close()
-        on_root(comm, lambda: output.release_space(out_dir / "summary.json"))
+        if run_dir is not None:
+            on_root(comm, run_dir.release)
         raise
     except (PenetrationError, FloatingPointError, RunDiverged) as err:
         status, message = f"diverged: {err}", str(err)
@@ -628,19 +551,19 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     integrator.finish()
     wall = record.elapsed()
     extra = {**(result.get("extra") or {}), "stop_reason": stop_reason}
-    if resumed["wall_time_s"]:
-        extra["wall_time_segments_s"] = resumed["wall_time_s"] + [wall]
-    data = output.summary(scene, model, integrator, sum(resumed["wall_time_s"]) + wall,
+    if earlier_wall:
+        extra["wall_time_segments_s"] = earlier_wall + [wall]
+    data = output.summary(scene, model, integrator, sum(earlier_wall) + wall,
                           result.get("steps", monitor.steps or integrator.steps), comm.size, command, status=status,
                           sizes=result.get("sizes"), extra=extra)
     integrator.destroy()
     unwritten = ""
-    if out_dir is not None:
+    if run_dir is not None:
         def write_outputs() -> str:
-            output.write_summary(out_dir / "summary.json", data)
+            run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 _draw(out_dir)  # not after an interruption (mpirun kills 1 s after its SIGTERM) nor a failure
-            return _interruption_note(out_dir, model) if status == "interrupted" else ""
+            return _interruption_note(run_dir, model) if status == "interrupted" else ""
 
         try:
             message += on_root(comm, write_outputs) or ""  # rank 0's note; only rank 0 prints it
@@ -648,7 +571,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
             if status == "completed":
                 raise RunFailed(str(err)) from None
             unwritten = f" ({err})"
-        on_root(comm, lambda: output.release_directory(out_dir))
+        on_root(comm, run_dir.release)
     if status == "completed":
         return data
     if status == "interrupted":

@@ -170,6 +170,7 @@ def test_the_pair_force_is_affine_in_both_velocities_and_its_resistance_is_recip
     flow.destroy()
 
 
+# FREE_PAIR killed and restarted: tests/test_restart.py
 FREE_PAIR = ["yang-hunt2006-pair", "--model", "ale", "--quiet", "--set", "numerics.ale.cells_per_diameter=6",
              "--set", "numerics.ale.checkpoint_every=12"]  # a checkpoint after the remesh at step 10 of 17
 
@@ -213,27 +214,3 @@ def test_a_free_projectile_hits_a_free_target_through_the_command_line_with_a_va
     assert 0.5 < added[0, 0] < 1.5 and 0.5 < added[1, 1] < 1.5
     final = summary["final"]
     assert final["velocity"][0] < final["velocity"][1] < 0.0  # the target now leads, the projectile trails
-
-
-@pytest.mark.slow
-def test_a_pair_run_stopped_after_a_checkpoint_restarts_to_the_same_run(free_pair, tmp_path):
-    """Ctrl-C after the checkpoint at step 12 (the mesh was remade at step 10: the restart meshes both
-    holes again), then --restart: the trajectory and summary of the uninterrupted run."""
-    import json
-    import signal
-
-    from test_bad_input import spawn, wait_for
-
-    from fem_bounce import cli
-
-    out = tmp_path / "stopped"
-    process = spawn(["run", *FREE_PAIR, "--out", str(out)], cwd=tmp_path)
-    wait_for(lambda: (out / "checkpoint" / "model.txt").is_file(), process)
-    process.send_signal(signal.SIGINT)
-    process.communicate(timeout=120)
-    assert process.returncode == 130
-    assert cli.main(["run", "--restart", str(out), "--quiet"]) == 0
-    # every row once, to the last digit (the pair's rows have their own columns: output.PAIR_TRAJECTORY_COLUMNS)
-    assert (out / "trajectory.csv").read_text() == (free_pair / "trajectory.csv").read_text()
-    a, b = (json.loads((path / "summary.json").read_text()) for path in (free_pair, out))
-    assert b["final"] == a["final"] and b["collisions"] == a["collisions"]

@@ -37,7 +37,8 @@ def test_run_writes_the_contracted_files(shared_tmp):
 def test_library_output_goes_to_run_log_not_the_terminal(tmp_path, capsys):
     """On a cold form cache ffcx's unclosed C files (ResourceWarning) and the compiler's INFO lines came out
     as fem-bounce warnings between the run's own lines, so a test's one expected line became three."""
-    run_dir = output.prepare_directory(tmp_path / "run")
+    run_dir = tmp_path / "run"
+    output.RunDirectory(run_dir).prepare()
     root = logging.getLogger()
     with warnings.catch_warnings(), cli._library_output():
         warnings.simplefilter("always")

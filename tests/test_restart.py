@@ -1,6 +1,8 @@
-"""Restarts that survive a real kill, for every model that writes checkpoints: a run in a subprocess is
-SIGKILLed after a checkpoint (or stopped with Ctrl-C), continued with --restart, and its summary and
-trajectory (no row lost or doubled) compared with an uninterrupted run's.  Toy sizes, seconds each."""
+"""Restarts that survive a real kill, for every model that writes checkpoints, with one sphere and (for
+the models that run them) a pair: a run in a subprocess is SIGKILLed after a checkpoint (or stopped with
+Ctrl-C), continued with --restart, and its summary and trajectory (no row lost or doubled) compared with
+an uninterrupted run's.  Toy sizes, seconds each (the ale pair ~20 s a run).  The ode model writes no
+checkpoints: an interrupted ode run says to run it again (tests/test_bad_input.py)."""
 import json
 import signal
 
@@ -8,31 +10,39 @@ import pytest
 
 from fem_bounce import cli, fields
 from fem_bounce.models.registry import MODELS
+from test_ale_pair import FREE_PAIR
 from test_bad_input import assert_one_line, assert_same_trajectory, messages, spawn, wait_for
 
-TOY = {
-    "fd": ["--set", "numerics.fd.cells_per_diameter=6", "--set", "run.end_time=0.03",
+CASES = {  # a toy run of each model that writes checkpoints, alone and in a pair
+    "fd": ["li2011-case3", "--model", "fd", "--set", "numerics.fd.cells_per_diameter=6", "--set", "run.end_time=0.03",
            "--set", "numerics.fd.checkpoint_every=10"],
-    "ib": ["--set", "numerics.ib.cells_per_diameter=10", "--set", "run.end_time=0.06",
+    "ib": ["li2011-case3", "--model", "ib", "--set", "numerics.ib.cells_per_diameter=10", "--set", "run.end_time=0.06",
            "--set", "numerics.ib.checkpoint_every=10", "--set", "numerics.ib.output_every=7"],
     # no field snapshots: dolfinx's XDMF/HDF5 file of a SIGKILLed segment can be left unreadable (the ib
     # model's own writer flushes every snapshot; fd and ale fields across a restart: test_fd_model.py)
-    "ale": ["--set", "numerics.ale.cells_per_diameter=6", "--set", "run.end_time=0.08",
-            "--set", "numerics.ale.checkpoint_every=35"],  # after its remesh at step 31 of 49
+    "ale": ["li2011-case3", "--model", "ale", "--set", "numerics.ale.cells_per_diameter=6",
+            "--set", "run.end_time=0.08", "--set", "numerics.ale.checkpoint_every=35"],  # after its remesh at step 31 of 49
+    # 12 cells/D: the coarsest that keeps the two spheres' indicators apart at the pair's hold gap; 64 steps
+    "fd-pair": ["yang-hunt2006-pair", "--model", "fd", "--set", "numerics.fd.cells_per_diameter=12",
+                "--set", "run.end_time=0.03", "--set", "numerics.fd.checkpoint_every=20"],
+    "ale-pair": FREE_PAIR,  # through the collision; its checkpoint after the remesh (tests/test_ale_pair.py)
 }
 
 
-def arguments(model: str) -> list[str]:
-    return ["li2011-case3", "--model", model, "--quiet", *TOY[model]]
+def arguments(case: str) -> list[str]:
+    return [*CASES[case], "--quiet"]
 
 
-def test_every_model_that_writes_checkpoints_is_tested_here():
-    assert sorted(TOY) == sorted(name for name, entry in MODELS.items() if entry.restarts)
+def test_every_model_that_writes_checkpoints_is_tested_here_alone_and_in_a_pair():
+    restarting = [name for name, entry in MODELS.items() if entry.restarts]
+    expected = {**{name: name for name in restarting},
+                **{f"{name}-pair": name for name in restarting if MODELS[name].pairs}}
+    assert {case: argv[argv.index("--model") + 1] for case, argv in CASES.items()} == expected
 
 
-@pytest.fixture(scope="module", params=sorted(TOY))
+@pytest.fixture(scope="module", params=sorted(CASES))
 def straight(request, tmp_path_factory):
-    """An uninterrupted toy run of each model: the reference every restart is compared with."""
+    """An uninterrupted toy run of each case: the reference every restart is compared with."""
     out = tmp_path_factory.mktemp(request.param) / "straight"
     assert cli.main(["run", *arguments(request.param), "--out", str(out)]) == 0
     return request.param, out
@@ -45,22 +55,25 @@ def assert_same_run(reference, continued) -> None:
     assert b["final"]["gap"] == pytest.approx(a["final"]["gap"], rel=1e-10)
     assert b["final"]["velocity"] == pytest.approx(a["final"]["velocity"], rel=1e-9, abs=1e-12)
     assert [i["impact_speed"] for i in b["impacts"]] == pytest.approx([i["impact_speed"] for i in a["impacts"]])
+    assert len(b.get("collisions", [])) == len(a.get("collisions", []))  # a pair's, with the wall or each other
+    for collision, again in zip(a.get("collisions", []), b.get("collisions", [])):
+        assert again == pytest.approx(collision, rel=1e-9, abs=1e-12)
     if list(reference.glob("fields*.xdmf")):  # the field snapshots continue as one series, none doubled
         times = [snapshot.time for snapshot in fields.read_snapshots(continued)]
         assert times == pytest.approx([snapshot.time for snapshot in fields.read_snapshots(reference)])
 
 
-def started_past_a_checkpoint(model: str, out, cwd):
-    """A `fem-bounce run` of the model's toy scene into `out`, returned once it has written a checkpoint."""
-    process = spawn(["run", *arguments(model), "--out", str(out)], cwd=cwd)
+def started_past_a_checkpoint(case: str, out, cwd):
+    """A `fem-bounce run` of the case's toy scene into `out`, returned once it has written a checkpoint."""
+    process = spawn(["run", *arguments(case), "--out", str(out)], cwd=cwd)
     wait_for(lambda: (out / "checkpoint" / "model.txt").is_file(), process)
     return process
 
 
 def test_sigkill_after_a_checkpoint_then_restart_gives_the_uninterrupted_run(straight, tmp_path, capsys):
-    model, reference = straight
+    case, reference = straight
     killed = tmp_path / "killed"
-    process = started_past_a_checkpoint(model, killed, tmp_path)
+    process = started_past_a_checkpoint(case, killed, tmp_path)
     process.send_signal(signal.SIGKILL)
     process.communicate()
     assert not (killed / "summary.json").exists(), "the run finished before it was killed"
@@ -73,9 +86,9 @@ def test_sigkill_after_a_checkpoint_then_restart_gives_the_uninterrupted_run(str
 
 
 def test_ctrl_c_leaves_a_run_directory_that_restarts(straight, tmp_path, capsys):
-    model, reference = straight
+    case, reference = straight
     out = tmp_path / "run"
-    process = started_past_a_checkpoint(model, out, tmp_path)
+    process = started_past_a_checkpoint(case, out, tmp_path)
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130

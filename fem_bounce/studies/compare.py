@@ -40,7 +40,7 @@ def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = Fa
         models.get(name)  # an unknown or missing model fails before anything runs
     out_dir = Path(out_dir)
     cache = on_root(comm, default_root)  # a cache that cannot be made refuses the comparison before out_dir
-    on_root(comm, lambda: output.prepare_directory(out_dir, force=force))  # a refusal stops every rank
+    on_root(comm, lambda: output.RunDirectory(out_dir).prepare(force))  # a refusal stops every rank
     runs = []
     for name in names:
         finished = cached_run(scene, name, comm, root=comm.bcast(cache, root=0), progress=progress, command=command)

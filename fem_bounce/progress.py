@@ -1,0 +1,80 @@
+"""What a run shows while it runs, and how it is asked to stop between two steps.
+
+    bar = ProgressBar(end_time=0.2, diameter=0.012, enabled=comm.rank == 0)
+    monitor = Monitor(bar, comm, interrupts, writer)   # a model calls monitor(t, steps, gap, velocity)
+
+The bar is one status line on stderr (rank 0); the monitor draws it after every step and ends the run
+on every rank together when a signal has arrived (run.Interrupts) or rank 0 could not write the
+trajectory (output.TrajectoryWriter.failure).
+"""
+from __future__ import annotations
+
+import signal
+import sys
+import time
+
+import numpy as np
+
+from .errors import RunFailed, RunInterrupted
+
+
+class ProgressBar:
+    """One status line on stderr (rank 0): model time, steps, gap, speed and the remaining wall time."""
+
+    def __init__(self, end_time: float, diameter: float, enabled: bool = True, every: float = 1.0):
+        """end_time and diameter [s, m] scale the bar and the gap; `every` [s of wall time] thins the
+        lines written to a log (a terminal's line is redrawn every 0.2 s)."""
+        self.end_time, self.diameter, self.enabled, self.every = end_time, diameter, enabled, every
+        self.start = time.perf_counter()
+        self._last = -float("inf")
+        self._tty = sys.stderr.isatty()
+
+    def __call__(self, t: float, steps: int, gap, velocity, force: bool = False) -> None:
+        """t [s]; gap [m] and velocity [m/s] of the sphere, or arrays (sphere 1, sphere 2) for a pair."""
+        now = time.perf_counter()
+        if not self.enabled or (now - self._last < (0.2 if self._tty else self.every) and not force):
+            return
+        self._last = now
+        elapsed = now - self.start
+        fraction = min(max(t / self.end_time, 0.0), 1.0)
+        left = f"~{elapsed * (1.0 - fraction) / fraction:4.0f} s left" if fraction > 0.01 else ""
+        width = 24
+        bar = "#" * int(width * fraction) + "-" * (width - int(width * fraction))
+        if getattr(gap, "ndim", 0):  # a pair: sphere 1's gap to z = 0 and the pair gap, both velocities
+            where = (f"gap_1/D {gap[0] / self.diameter:7.4f}  pair gap/D "
+                     f"{(gap[1] - gap[0] - self.diameter) / self.diameter:8.5f}  V {velocity[0]:+.4f}, {velocity[1]:+.4f} m/s")
+        else:
+            where = f"gap/D {gap / self.diameter:7.4f}  V {velocity:+.4f} m/s"
+        line = f"[{bar}] t = {t:.4f}/{self.end_time:g} s  step {steps}  {where}  {elapsed:5.0f} s elapsed {left}"
+        print(("\r" + line) if self._tty else line, end="" if self._tty else "\n", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self.enabled and self._tty:
+            print(file=sys.stderr)
+
+
+class Monitor:
+    """What a model calls after each step as `progress`: draws the progress line and ends the run, on
+    every rank together, when a signal has arrived or rank 0 could not write the trajectory."""
+
+    def __init__(self, bar: ProgressBar, comm, interrupts, writer):
+        """`interrupts`: a run.Interrupts (its `signum` is set by SIGINT/SIGTERM) or None; `writer`: rank 0's
+        output.TrajectoryWriter (None elsewhere and when the run writes nothing)."""
+        self.bar, self.comm, self.interrupts, self.writer = bar, comm, interrupts, writer
+        self.steps = 0
+
+    def __call__(self, t: float, steps: int, gap, velocity, force: bool = False) -> None:
+        self.steps = steps
+        self.bar(t, steps, gap, velocity, force=force)
+        flags = np.array([self.interrupts.signum if self.interrupts is not None else 0,
+                          int(self.writer is not None and self.writer.failure is not None)])
+        if self.comm.size > 1:
+            from mpi4py import MPI
+
+            self.comm.Allreduce(MPI.IN_PLACE, flags, op=MPI.MAX)
+        if flags[1]:
+            raise RunFailed(str(self.writer.failure) if self.writer is not None and self.writer.failure
+                            else "rank 0 could not write the trajectory")
+        if flags[0]:
+            signum = int(flags[0])
+            raise RunInterrupted(f"interrupted by {signal.Signals(signum).name} at t = {t:.6g} s", signum)
