@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import subprocess
 import time
 from pathlib import Path
 
@@ -38,6 +39,14 @@ FIGURES = {"off": ROOT / "docs" / "figures" / "ehd_case3_film.png",
 CAVITATION = {"off": None, "-101325 Pa": -101325.0}
 INSTANTS = ("approach", "maximum load", "overlap ends", "largest tension", "separation")
 SIGNIFICANT = 6  # digits kept in the record
+
+
+def _commit() -> str:
+    """The commit the script runs at (a + when the work tree differs from it)."""
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
+                           text=True).stdout
+    return head.strip() + ("+" if dirty.strip() else "")
 
 
 def _rounded(values) -> list:
@@ -88,7 +97,8 @@ def instants(result: ehd.FilmResult) -> dict:
 
 def compute() -> dict:
     started = time.perf_counter()
-    record = {"command": "PYTHONPATH=. python benchmarks/ehd_collision.py", "scene": "li2011-case3",
+    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "commit": _commit(),
+              "command": "PYTHONPATH=. python benchmarks/ehd_collision.py", "scene": "li2011-case3",
               "instants": "T at the first accepted step at or after: approach (X = 0.1 h0 inbound), maximum load, "
                           "overlap ends (X = 0 outbound), largest tension (min force), separation (X = 0.1 h0 "
                           "outbound)", "cavitation": {}}
