@@ -43,9 +43,10 @@ SIGNIFICANT = 6  # digits kept in the record
 
 def _commit() -> str:
     """The commit the script runs at (a + when the work tree differs from it)."""
-    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
+                          check=False).stdout
     dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
-                           text=True).stdout
+                           text=True, check=False).stdout
     return head.strip() + ("+" if dirty.strip() else "")
 
 
@@ -102,7 +103,7 @@ def compute() -> dict:
               "instants": "T at the first accepted step at or after: approach (X = 0.1 h0 inbound), maximum load, "
                           "overlap ends (X = 0 outbound), largest tension (min force), separation (X = 0.1 h0 "
                           "outbound)", "cavitation": {}}
-    for name in CAVITATION:
+    for name, p_cav in CAVITATION.items():
         args, scene = first_collision(name)
         run_restitution = args.pop("restitution")
         h0, speed = args["handover_gap"], args["speed"]
@@ -130,7 +131,7 @@ def compute() -> dict:
                                 "p_MPa": _rounded(np.append(pressure, 0.0) * pressure_unit / 1e6),
                                 "h_um": _rounded(gap * h0 * 1e6), "w_um": _rounded(deformation * h0 * 1e6)}
         record["cavitation"][name] = {
-            "p_cav_Pa": CAVITATION[name], "V_in_m_s": speed, "h0_um": h0 * 1e6, "radius_m": args["radius"],
+            "p_cav_Pa": p_cav, "V_in_m_s": speed, "h0_um": h0 * 1e6, "radius_m": args["radius"],
             "sphere_mass_kg": scene.sphere.mass, "added_mass_kg": added, "net_weight_N": -args["external_force"],
             "e_star_Pa": args["e_star"], "viscosity_Pa_s": args["viscosity"], "epsilon": result.epsilon,
             "film_St": result.stokes, "restitution": result.restitution, "outcome": result.outcome,
@@ -163,7 +164,7 @@ def write(record: dict) -> None:
         end = "," if i < len(items) - 1 else ""
         if key == "cavitation":
             inner = [f'  {json.dumps(k)}: {json.dumps(v)}' for k, v in value.items()]
-            lines.append(f' "cavitation": {{\n' + ",\n".join(inner) + f"\n }}{end}")
+            lines.append(' "cavitation": {\n' + ",\n".join(inner) + f"\n }}{end}")
         else:
             lines.append(f" {json.dumps(key)}: {json.dumps(value)}{end}")
     RECORD.write_text("\n".join(lines) + "\n}\n")

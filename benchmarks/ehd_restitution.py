@@ -143,9 +143,10 @@ class Setting:
 
 def _commit() -> str:
     """The commit the script runs at (a + when the work tree differs from it)."""
-    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
+                          check=False).stdout
     dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
-                           text=True).stdout
+                           text=True, check=False).stdout
     return head.strip() + ("+" if dirty.strip() else "")
 
 
@@ -189,13 +190,14 @@ def main(quick: bool = False):
         entry = {"density_ratio": s.density_ratio, "viscosity": s.viscosity, "points": points}
         found = bracket(points)
         if found:
-            entry["critical_St"] = critical(lambda st: s.film(st)["e"] > 0.0, *found)
+            entry["critical_St"] = critical(lambda st, s=s: s.film(st)["e"] > 0.0, *found)
             entry["critical_epsilon"] = ehd.elasticity_parameter(s.radius, s.e_star, s.viscosity,
                                                                  s.speed(entry["critical_St"]), H0)
         lh = [{"St": p["St"], "e": p["e_lubricated_hertz_ed1"]} for p in points]
         found = bracket(lh)
         if found:
-            entry["critical_St_lubricated_hertz"] = critical(lambda st: s.lubricated_hertz(st, 1.0) > 0.0, *found)
+            entry["critical_St_lubricated_hertz"] = critical(lambda st, s=s: s.lubricated_hertz(st, 1.0) > 0.0,
+                                                             *found)
         # the film's tension limited at minus one atmosphere (cavitation at zero absolute pressure)
         cav = []
         for st in stokes:
@@ -206,8 +208,8 @@ def main(quick: bool = False):
         entry["cavitation"] = {"p_cav_Pa": -ATMOSPHERE, "points": cav}
         found = bracket(cav)
         if found:
-            entry["cavitation"]["critical_St"] = critical(lambda st: s.film(st, cavitation=-ATMOSPHERE)["e"] > 0.0,
-                                                          *found)
+            entry["cavitation"]["critical_St"] = critical(
+                lambda st, s=s: s.film(st, cavitation=-ATMOSPHERE)["e"] > 0.0, *found)
         record["sets"][name] = entry
     # h0, on the 85 % glycerol set
     s = Setting("li2011-table3-steel-85")

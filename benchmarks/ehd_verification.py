@@ -36,9 +36,10 @@ EPSILON_ST20 = 1.022e-4  # steel-85 at St 20, h0 = 20 um (tests/test_ehd.py)
 
 def _commit() -> str:
     """The commit the script runs at (a + when the work tree differs from it)."""
-    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
+                          check=False).stdout
     dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
-                           text=True).stdout
+                           text=True, check=False).stdout
     return head.strip() + ("+" if dirty.strip() else "")
 
 
@@ -62,8 +63,9 @@ def rigid_limit() -> dict:
     for stokes in (2.0, 4.0):
         settings = ehd.FilmSettings(inner_cells=80, outer_cells=160, tolerance=1e-5)
         result = ehd.FilmCollision(0.0, stokes, settings).run()
-        x_stop = brentq(lambda x: quad(lambda s: truncated_reynolds_force(s) / (6.0 * math.pi), x, 1.0)[0] - stokes,
-                        1e-6, 0.99)
+        def unspent(x_stop, stokes=stokes):  # St - int_X^1 g dX: zero where the film has taken the momentum
+            return quad(lambda s: truncated_reynolds_force(s) / (6.0 * math.pi), x_stop, 1.0)[0] - stokes
+        x_stop = brentq(unspent, 1e-6, 0.99)
         out["free_sphere"].append({"St": stokes, "outcome": result.outcome, "e": result.restitution,
                                    "largest_V": float(result.velocity.max()), "X_stop": float(result.separation[-1]),
                                    "X_stop_momentum": x_stop})
