@@ -1,7 +1,7 @@
 """The film during case 3's first collision (contact.model = "ehd", issue 26 "Verified"): its pressure,
 thickness and the surfaces' deformation at five instants, and its gaps, force and speed against time.
 
-    PYTHONPATH=. python benchmarks/ehd_collision.py              # ~15 s on one core (two ODE runs, four films)
+    PYTHONPATH=. python benchmarks/ehd_collision.py              # 10-26 s on one core (two ODE runs, four films)
     PYTHONPATH=. python benchmarks/ehd_collision.py --plot-only  # redraw from the record
 
 The collision is the one a run solves: `fem-bounce run li2011-case3 --model ode --set contact.model=ehd`
