@@ -1,6 +1,6 @@
 """The elastohydrodynamic film's restitution against the Stokes number (issue 26, first part).
 
-    PYTHONPATH=. python benchmarks/ehd_restitution.py               # ~8 min on one core (timed under load)
+    PYTHONPATH=. python benchmarks/ehd_restitution.py               # 6-7 min on one core (timed under load)
     PYTHONPATH=. python benchmarks/ehd_restitution.py --quick       # 85 % glycerol only, ~2 min
     PYTHONPATH=. python benchmarks/ehd_restitution.py --plot-only   # redraw the figure from the record
 
