@@ -1,7 +1,8 @@
 """The elastohydrodynamic film's restitution against the Stokes number (issue 26, first part).
 
-    PYTHONPATH=. python benchmarks/ehd_restitution.py          # ~6 min on one core (timed under load)
-    PYTHONPATH=. python benchmarks/ehd_restitution.py --quick  # 85 % glycerol only, ~1 min
+    PYTHONPATH=. python benchmarks/ehd_restitution.py               # 6-7 min on one core (timed under load)
+    PYTHONPATH=. python benchmarks/ehd_restitution.py --quick       # 85 % glycerol only, ~2 min
+    PYTHONPATH=. python benchmarks/ehd_restitution.py --plot-only   # redraw the figure from the record
 
 The reduced setting of Davis, Serayssol & Hinch (1986): a sphere arrives at the handover gap h0 = 20 um
 at V0 and meets the wall through the film alone (no outer drag, no added mass, no history; fem_bounce/ehd.py);
@@ -11,7 +12,7 @@ rho_p V0 D / (9 mu), checked below) from 3 to 1000 with V0 <= 2 m/s, and for eac
 - the film model (`ehd`), its elasticity parameter epsilon = 4 theta mu V0 a^1.5 / h0^2.5 (DSH's, with
   theta = 1 / (pi E*); the issue's 8 theta form is twice this and is recorded too), its smallest film
   thickness, largest and smallest pressure and how long the undeformed surfaces overlap;
-- the same with a cavitation limit at minus one atmosphere (85 % glycerol; ehd.FilmCollision's option);
+- the same with a cavitation limit at minus one atmosphere (every set; ehd.FilmCollision's option);
 - the package's lubricated-hertz law in the same reduced setting: Reynolds' 6 pi mu a^2 V / h down to
   h_c = max(roughness, x_d), then the Tsuji-damped Hertz contact with the film held at h_c and faded out
   (fem_bounce.contact.ContactLaw, read only), with e_d = 1 (like for like: the film model has no solid
@@ -19,8 +20,8 @@ rho_p V0 D / (9 mu), checked below) from 3 to 1000 with V0 <= 2 m/s, and for eac
 - composed with the rigid Reynolds film above h0 (from 0.2 D, where the package and the pendulum
   experiments measure: the speed lost there is 6 pi mu a^2 ln(0.2 D / h0) / m each way), beside the
   Legendre et al. (2006) fit e / e_d = exp(-35 / St*), St* = St (1 + rho_l / (2 rho_p)).
-Also the critical Stokes number of each (bisection to 2 %), and the sensitivity of the 85 % glycerol
-curve to h0 (10 and 40 um).
+Also the critical Stokes number of each (bisection to 2 %, with and without the cavitation limit), and the
+sensitivity of the 85 % glycerol curve to h0 (10 and 40 um).
 
 Writes benchmarks/history/ehd_restitution.json and docs/figures/ehd_restitution.png.
 """
@@ -29,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import subprocess
 import time
 from pathlib import Path
 
@@ -45,6 +47,8 @@ H0 = 20e-6
 MAX_SPEED = 2.0  # m/s: the pendulum experiments reach about 1 m/s
 ATMOSPHERE = 101325.0
 OUTER_GAP = 0.2  # in D: where the package's restitution study and the cameras measure
+RECORD = ROOT / "benchmarks" / "history" / "ehd_restitution.json"
+FIGURE = ROOT / "docs" / "figures" / "ehd_restitution.png"
 
 
 class Setting:
@@ -137,6 +141,15 @@ class Setting:
         return self.scene.stokes(launch), max(restitution * v0 - lost, 0.0) / launch
 
 
+def _commit() -> str:
+    """The commit the script runs at (a + when the work tree differs from it)."""
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
+                          check=False).stdout
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
+                           text=True, check=False).stdout
+    return head.strip() + ("+" if dirty.strip() else "")
+
+
 def critical(rebounds, lo: float, hi: float, rel: float = 0.02) -> float:
     """The St between lo (no rebound) and hi (rebound) where e becomes positive (bisection in ln St)."""
     while hi / lo > 1.0 + rel:
@@ -155,7 +168,8 @@ def bracket(points):
 
 def main(quick: bool = False):
     started = time.perf_counter()
-    record = {"command": "PYTHONPATH=. python benchmarks/ehd_restitution.py" + (" --quick" if quick else ""),
+    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "commit": _commit(),
+              "command": "PYTHONPATH=. python benchmarks/ehd_restitution.py" + (" --quick" if quick else ""),
               "h0_um": H0 * 1e6, "settings": vars(ehd.FilmSettings()), "sets": {}}
     names = ["li2011-table3-steel-85"] if quick else PRESETS
     for name in names:
@@ -176,23 +190,30 @@ def main(quick: bool = False):
         entry = {"density_ratio": s.density_ratio, "viscosity": s.viscosity, "points": points}
         found = bracket(points)
         if found:
-            entry["critical_St"] = critical(lambda st: s.film(st)["e"] > 0.0, *found)
+            entry["critical_St"] = critical(lambda st, s=s: s.film(st)["e"] > 0.0, *found)
             entry["critical_epsilon"] = ehd.elasticity_parameter(s.radius, s.e_star, s.viscosity,
                                                                  s.speed(entry["critical_St"]), H0)
         lh = [{"St": p["St"], "e": p["e_lubricated_hertz_ed1"]} for p in points]
         found = bracket(lh)
         if found:
-            entry["critical_St_lubricated_hertz"] = critical(lambda st: s.lubricated_hertz(st, 1.0) > 0.0, *found)
+            entry["critical_St_lubricated_hertz"] = critical(lambda st, s=s: s.lubricated_hertz(st, 1.0) > 0.0,
+                                                             *found)
+        # the film's tension limited at minus one atmosphere (cavitation at zero absolute pressure)
+        cav = []
+        for st in stokes:
+            p = s.film(st, cavitation=-ATMOSPHERE)
+            p["St_at_0.2D"], p["e_at_0.2D"] = s.composed(st, p["e"])
+            cav.append(p)
+            print(f"{name} cavitated St {st:g} e {p['e']:.3f} ({p['outcome']}) {p['seconds']} s", flush=True)
+        entry["cavitation"] = {"p_cav_Pa": -ATMOSPHERE, "points": cav}
+        found = bracket(cav)
+        if found:
+            entry["cavitation"]["critical_St"] = critical(
+                lambda st, s=s: s.film(st, cavitation=-ATMOSPHERE)["e"] > 0.0, *found)
         record["sets"][name] = entry
-    # cavitation at minus one atmosphere, and h0, on the 85 % glycerol set
+    # h0, on the 85 % glycerol set
     s = Setting("li2011-table3-steel-85")
     stokes = [st for st in STOKES if s.speed(st) <= MAX_SPEED]
-    cav = [s.film(st, cavitation=-ATMOSPHERE) for st in stokes]
-    record["cavitation_85"] = {"p_cav_Pa": -ATMOSPHERE, "points": cav}
-    found = bracket(cav)
-    if found:
-        record["cavitation_85"]["critical_St"] = critical(
-            lambda st: s.film(st, cavitation=-ATMOSPHERE)["e"] > 0.0, *found)
     record["h0_sensitivity_85"] = {}
     for h0 in (10e-6, 40e-6):
         pts = [{"St": st, "e": s.film(st, h0=h0)["e"], "e_lubricated_hertz_ed1": s.lubricated_hertz(st, 1.0, h0)}
@@ -200,10 +221,9 @@ def main(quick: bool = False):
         record["h0_sensitivity_85"][f"{h0 * 1e6:g} um"] = pts
         print("h0", h0, [(p["St"], round(p["e"], 3)) for p in pts], flush=True)
     record["seconds"] = round(time.perf_counter() - started, 1)
-    out = ROOT / "benchmarks" / "history" / "ehd_restitution.json"
-    out.write_text(json.dumps(record, indent=1) + "\n")
-    plot(record, ROOT / "docs" / "figures" / "ehd_restitution.png")
-    print(f"wrote {out} in {record['seconds']} s")
+    RECORD.write_text(json.dumps(record, indent=1) + "\n")
+    plot(record, FIGURE)
+    print(f"wrote {RECORD} in {record['seconds']} s")
 
 
 def plot(record: dict, path: Path):
@@ -224,10 +244,15 @@ def plot(record: dict, path: Path):
                        ms=4, label=f"EHD film + Reynolds above h0, {label}")
         right.semilogx([p["St_at_0.2D"] for p in pts], [p["e_lubricated_hertz_ed097_at_0.2D"] / 0.97 for p in pts],
                        "x--", color=colours[name], ms=4, lw=0.8)
-    cav = record.get("cavitation_85")
-    if cav:
-        left.semilogx([p["St"] for p in cav["points"]], [p["e"] for p in cav["points"]], "s:", color="C2", ms=4,
-                      label="EHD film, steel-85, cavitation at -1 atm")
+    for name, entry in record["sets"].items():
+        cav = entry.get("cavitation")
+        if cav:
+            label = name.replace("li2011-table3-", "")
+            left.semilogx([p["St"] for p in cav["points"]], [p["e"] for p in cav["points"]], "s:",
+                          color=colours[name], ms=3, label=f"EHD film, {label}, cavitation at -1 atm")
+            right.semilogx([p["St_at_0.2D"] for p in cav["points"]], [p["e_at_0.2D"] for p in cav["points"]], "s:",
+                           color=colours[name], ms=3)
+    right.plot([], [], "ks:", ms=3, label="EHD film cavitated at -1 atm + Reynolds above h0")
     ratio = record["sets"].get("li2011-table3-steel-85", next(iter(record["sets"].values())))["density_ratio"]
     for ax in (left, right):
         ax.semilogx(st_line, [legendre_fit(s, ratio, 1.0) for s in st_line], "k-", lw=1.5,
@@ -240,8 +265,8 @@ def plot(record: dict, path: Path):
     left.set_title(f"from h0 = {record['h0_um']:g} um back to h0 (no outer drag)")
     right.set_title("composed with Reynolds' film from 0.2 D (St, e at 0.2 D)")
     left.set_ylabel(r"$e$ (or $e/e_d$)")
-    left.legend(fontsize=7, loc="upper left")
-    right.legend(fontsize=7, loc="upper left")
+    left.legend(fontsize=7, loc="lower right")
+    right.legend(fontsize=7, loc="lower right")
     left.set_ylim(-0.02, 1.02)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -251,4 +276,9 @@ def plot(record: dict, path: Path):
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="the 85 %% glycerol set only")
-    main(parser.parse_args().quick)
+    parser.add_argument("--plot-only", action="store_true", help="redraw the figure from the record")
+    args = parser.parse_args()
+    if args.plot_only:
+        plot(json.loads(RECORD.read_text()), FIGURE)
+    else:
+        main(args.quick)

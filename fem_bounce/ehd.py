@@ -367,7 +367,9 @@ class FilmCollision:
 
     def run(self, snapshot_times=(), end_separation: float | None = None) -> FilmResult:
         """From X = 1, V = -1 through the collision until the sphere is back at X = 1 (e = V there), stops,
-        or (prescribed speed) X reaches `end_separation`."""
+        or (prescribed speed) X reaches `end_separation`.  At the first accepted step at or after each of
+        `snapshot_times` (T) the film is kept in result.snapshots as (T, P at nodes 0..N-1, H at nodes 0..N);
+        X at that T is result.separation where result.time equals it, the deformation H - X - R^2 / 2."""
         s, n = self.settings, self.n
         z = np.concatenate([self.initial_pressure(), [1.0, -1.0]])
         gap = self.gap(z[:n], 1.0)
@@ -524,13 +526,14 @@ def _cross(t0, x0, t1, x1):
 
 def collide(radius: float, mass: float, e_star: float, viscosity: float, speed: float, handover_gap: float,
             settings: FilmSettings = FilmSettings(), cavitation_pressure: float | None = None,
-            external_force: float = 0.0) -> FilmResult:
+            external_force: float = 0.0, snapshot_times=()) -> FilmResult:
     """The film collision of a sphere of reduced `radius` [m] and `mass` [kg] arriving at `speed` [m/s]
     (> 0, towards the wall) at the gap `handover_gap` h0 [m] through a liquid of `viscosity` [Pa s] with
     the solids' reduced modulus `e_star` [Pa]; `cavitation_pressure` [Pa, gauge, <= 0] or None;
     `external_force` [N] a constant force on the sphere besides the film's, positive away from the wall
-    (the net weight inside a run, negative).  The result is dimensionless (units in FilmResult);
-    e = result.restitution."""
+    (the net weight inside a run, negative); `snapshot_times` (in h0 / speed) the instants at which the film
+    is kept in result.snapshots (the first accepted step at or after each; FilmCollision.run), which changes
+    no number.  The result is dimensionless (units in FilmResult); e = result.restitution."""
     for name, value in (("radius", radius), ("mass", mass), ("e_star", e_star), ("viscosity", viscosity),
                         ("speed", speed), ("handover_gap", handover_gap)):
         if not (value > 0.0 and math.isfinite(value)):
@@ -543,4 +546,5 @@ def collide(radius: float, mass: float, e_star: float, viscosity: float, speed: 
     pressure_scale = viscosity * speed * radius / handover_gap**2
     cavitation = None if cavitation_pressure is None else cavitation_pressure / pressure_scale
     force_scale = viscosity * speed * radius**2 / handover_gap
-    return FilmCollision(epsilon, stokes, settings, cavitation, external_force=external_force / force_scale).run()
+    collision = FilmCollision(epsilon, stokes, settings, cavitation, external_force=external_force / force_scale)
+    return collision.run(snapshot_times)

@@ -136,6 +136,32 @@ def test_collide_in_si_units():
     assert 0.2 < result.restitution < 0.5
 
 
+def test_snapshots_keep_the_film_at_the_asked_times_and_change_no_number():
+    """collide(..., snapshot_times=...) (benchmarks/ehd_collision.py): the film at the first step at or after
+    each time, consistent with the time series; the collision itself unchanged."""
+    speed = 9.0 * MU * 20.0 / (RHO * 2 * A)
+    settings = ehd.FilmSettings(inner_cells=40, outer_cells=20)
+    plain = ehd.collide(A, MASS, STEEL_ZERODUR, MU, speed, H0, settings)
+    wanted = [0.5, float(plain.time[np.argmax(plain.force)]), 0.9 * plain.end_time]
+    kept = ehd.collide(A, MASS, STEEL_ZERODUR, MU, speed, H0, settings, snapshot_times=wanted)
+    assert kept.steps == plain.steps and np.array_equal(kept.separation, plain.separation)
+    assert kept.restitution == pytest.approx(plain.restitution, rel=1e-12)
+    assert len(kept.snapshots) == len(wanted)
+    for asked, (t, pressure, gap) in zip(wanted, kept.snapshots):
+        step = int(np.flatnonzero(kept.time == t)[0])
+        assert t >= asked and (step == 0 or kept.time[step - 1] < asked)
+        assert gap[0] == pytest.approx(kept.central_gap[step], rel=1e-12)
+        assert gap.min() == pytest.approx(kept.smallest_gap[step], rel=1e-12)
+        assert pressure.size == gap.size - 1  # the outer node holds p = 0
+    # at the largest load the film carries it: F = 2 pi int p r dr, and the surfaces are pressed in (w > 0)
+    t, pressure, gap = kept.snapshots[1]
+    step = int(np.flatnonzero(kept.time == t)[0])
+    grid = ehd.RadialGrid(kept.radius)
+    assert 2.0 * math.pi * grid.areas @ pressure == pytest.approx(kept.force[step], rel=1e-12)
+    deformation = gap - kept.separation[step] - 0.5 * kept.radius**2
+    assert deformation[0] > 0.5 * abs(kept.separation[step])
+
+
 @pytest.mark.parametrize("field, value", [("speed", -1.0), ("handover_gap", 1e-3), ("viscosity", 0.0),
                                           ("e_star", float("nan"))])
 def test_bad_input_gives_one_line_error_naming_the_field(field, value):
