@@ -16,10 +16,10 @@ with the matrix timed on the first mesh, and the time a step would take with one
 back-solves.  The machine's load average is recorded: timings compare only within one run.
 
 The runs go through fem_bounce.cli.run_logged, as `fem-bounce run` makes them: on a cold form cache the
-compiler's log goes to each run's run.log, not the terminal.  --compilations runs, with an empty form cache (XDG_CACHE_HOME in a new temporary folder), case 3 at
-4 cells/D to its first apex, then at 5 cells/D with another density and step: the form compiler's
-compilations and seconds in each (the second should compile nothing: every number is a Constant).
-Results are merged into
+compiler's log goes to each run's run.log, not the terminal.  --compilations runs, with an empty form
+cache (XDG_CACHE_HOME in a new temporary folder), case 3 at 4 cells/D to its first apex, then at 5 cells/D
+with another density and step: the form compiler's compilations and seconds in each (the second should
+compile nothing: every number is a Constant).  Results are merged into
 benchmarks/history/ale_speed.json (key: date and ranks).
 """
 from __future__ import annotations
@@ -171,12 +171,14 @@ def main() -> None:
         return
     load_before = os.getloadavg()
     with CompileClock() as warm:  # fill the form cache (both schemes, the projections) on a short run
-        run_logged(load({"numerics.ale.factorisation": "reuse", "run.bounces": 1, "numerics.ale.cells_per_diameter": 4}),
+        run_logged(load({"numerics.ale.factorisation": "reuse", "run.bounces": 1,
+                         "numerics.ale.cells_per_diameter": 4}),
                    "ale", comm, args.out / "warm-up", force=True, progress=False, plots=False)
     runs = {path: run(comm, args.out, path) for path in PATHS}
     costs = floor(comm)
     old, new = runs["every-step"], runs["reuse"]
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=HERE).stdout.strip()
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                            cwd=HERE).stdout.strip()
     result = {
         "commit": commit, "machine": platform.node(), "cores": os.cpu_count(),
         "ranks": comm.size, "load_average_before": load_before, "load_average_after": os.getloadavg(),
@@ -189,9 +191,11 @@ def main() -> None:
     if comm.rank == 0:
         for r in runs.values():
             parts = ", ".join(f"{k} {v:.2f}" for k, v in r["breakdown_s"].items())
-            print(f"{r['path']:10s}: {r['wall_time_s']:6.2f} s, {r['steps']} steps, {r['factorisations']} factorisations, "
+            print(f"{r['path']:10s}: {r['wall_time_s']:6.2f} s, {r['steps']} steps, "
+                  f"{r['factorisations']} factorisations, "
                   f"{r['krylov_iterations']} GMRES iterations, "
-                  f"{r['compilations']} compilations; V_i {r['V_i']:.5f} m/s, Re_II {r['Re_II']:.3f}, e_1 {r['e_1']:.5f}")
+                  f"{r['compilations']} compilations; V_i {r['V_i']:.5f} m/s, Re_II {r['Re_II']:.3f}, "
+                  f"e_1 {r['e_1']:.5f}")
             print(f"{'':10s}  [s] {parts}")
         diffs = ", ".join(f"{k} {v:+.1e}" for k, v in result["relative_difference"].items())
         print(f"reuse against every-step, relative: {diffs}; speed-up {result['speed_up']:.2f}x")

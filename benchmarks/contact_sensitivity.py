@@ -48,7 +48,8 @@ def main() -> None:
         results[name] = found
         c, e = found["case1"], found["e_St"]
         print(f"{name:28s} case 1: V_i {c['V_i']:.4f} m/s, Re_II {c['Re_II']:.1f} (measured 29), e_1 {c['e_1']:.3f}, "
-              f"h_c {c['contact_gap_um']:.3g} um | e(St): rms {e['rms_to_fit']:.3f}, largest {e['max_abs_to_fit']:.3f}, "
+              f"h_c {c['contact_gap_um']:.3g} um | e(St): rms {e['rms_to_fit']:.3f}, "
+              f"largest {e['max_abs_to_fit']:.3f}, "
               f"no rebound below St {e['critical_St'][0]:.3g} (first rebound at {e['critical_St'][1]:.3g})", flush=True)
     path = Path(__file__).parent / "history" / "contact_sensitivity.json"
     path.write_text(json.dumps(results, indent=1) + "\n")

@@ -57,7 +57,8 @@ def table(stored: dict) -> str:
         if 1 in runs and 2 in runs:
             a, b = runs[1], runs[2]
             lines.append(f"| {a['unknowns']:,} | {solver} | {a['time_per_step_s']:.3f} | {b['time_per_step_s']:.3f} | "
-                         f"{a['time_per_step_s'] / b['time_per_step_s']:.2f} | {a['setup_s']:.1f} / {b['setup_s']:.1f} |")
+                         f"{a['time_per_step_s'] / b['time_per_step_s']:.2f} | "
+                         f"{a['setup_s']:.1f} / {b['setup_s']:.1f} |")
     return "\n".join(lines)
 
 

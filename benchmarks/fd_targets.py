@@ -95,7 +95,8 @@ def main() -> None:
         result = run(comm, "li2011-case3", {**changes, "run.bounces": 2}, args.out / "case3")
         ref = reference_values(args.reference)
         result["reference"] = ref
-        result["errors"] = {k: (result[k] / ref[k] - 1.0 if result[k] is not None else None) for k in ("V_i", "Re_II", "e_1")}
+        result["errors"] = {k: (result[k] / ref[k] - 1.0 if result[k] is not None else None)
+                            for k in ("V_i", "Re_II", "e_1")}
         result["target_met"] = (result["wall_time_s"] <= 10.0 and
                                 all(e is not None and abs(e) <= 0.01 for e in result["errors"].values()))
     else:

@@ -151,7 +151,9 @@ def check_density(cells):
             warnings.simplefilter("ignore")
             terminal = scene.load("tencate2002-e4", changes).terminal_speed()
         wobble = float(np.abs(np.diff(velocity, 2)).max() / max(np.abs(velocity).max(), 1e-12))
-        out[f"{coupling} {ratio:.4g}"] = {"stable": stable and wobble < 0.05, "max_step_wobble_relative": round(wobble, 5), "final_speed": round(float(abs(velocity[-1])), 5),
+        out[f"{coupling} {ratio:.4g}"] = {"stable": stable and wobble < 0.05,
+                               "max_step_wobble_relative": round(wobble, 5),
+                               "final_speed": round(float(abs(velocity[-1])), 5),
                                "terminal_speed_schiller_naumann": round(terminal, 5), "status": s["status"][:80],
                                "wall_time_s": round(s["wall_time_s"], 1)}
     return out

@@ -183,8 +183,10 @@ def reference_study(args) -> None:
         diameter = scenes.load(f"li2011-case{case}").sphere.diameter
         rows.append({"name": name, "case": case, **found})
         lines.append(f"| {case} | {name.split('-', 1)[1]} | | {fmt(found.get('V_i'), '.4f')} | "
-                     f"{fmt(found.get('Re_I'), '.2f')} | {fmt(found.get('Re_II'), '.2f')} | {fmt(found.get('e_1'), '.3f')} | "
-                     f"{fmt(found['apex_1'] / diameter if 'apex_1' in found else None, '.4f')} | {found['steps']} | {fmt(found['wall_time_s'], '.0f')} s |")
+                     f"{fmt(found.get('Re_I'), '.2f')} | {fmt(found.get('Re_II'), '.2f')} | "
+                     f"{fmt(found.get('e_1'), '.3f')} | "
+                     f"{fmt(found['apex_1'] / diameter if 'apex_1' in found else None, '.4f')} | {found['steps']} | "
+                     f"{fmt(found['wall_time_s'], '.0f')} s |")
     lines += ["", "Convergence (the two finest levels of each ladder) and the reference against Table 2:", "",
               "| case | mesh (two finest): V_i, Re_II | dt (two finest): V_i, Re_II | reference V_i | Re_I | Re_II | "
               "e_1 | V_i vs Table 2 | Re_II vs Table 2 |", "|---|---|---|---|---|---|---|---|---|"]
@@ -200,7 +202,8 @@ def reference_study(args) -> None:
             f"| {case} | {fmt(change(fine.get('V_i'), mid.get('V_i')), '+.2f')} %, "
             f"{fmt(change(fine.get('Re_II'), mid.get('Re_II')), '+.2f')} % | "
             f"{fmt(change(step_fine.get('V_i'), coarse_step.get('V_i')), '+.2f')} %, "
-            f"{fmt(change(step_fine.get('Re_II'), coarse_step.get('Re_II')), '+.2f')} % | {fmt(fine.get('V_i'), '.4f')} | "
+            f"{fmt(change(step_fine.get('Re_II'), coarse_step.get('Re_II')), '+.2f')} % | "
+            f"{fmt(fine.get('V_i'), '.4f')} | "
             f"{fmt(fine.get('Re_I'), '.1f')} | {fmt(fine.get('Re_II'), '.1f')} | {fmt(fine.get('e_1'), '.3f')} | "
             f"{fmt(change(fine.get('V_i'), ref['V_i_m_per_s']), '+.1f')} % | "
             f"{fmt(change(fine.get('Re_II'), ref['Re_II']), '+.1f')} % |")
@@ -208,7 +211,8 @@ def reference_study(args) -> None:
     record("reference", rows, "\n".join(lines) + "\n")
 
 
-TABLE2_RUNS = ("ode", "fd", "ib", "ale")  # benchmarks/table2.py's records with the issue-23 contact, history/table2-NAME.json
+# benchmarks/table2.py's records with the issue-23 contact, history/table2-NAME.json
+TABLE2_RUNS = ("ode", "fd", "ib", "ale")
 
 
 def models_against(by_name: dict, cases: list[int], finest: int, surface: float, mesh_cfl: float) -> list[str]:
@@ -255,7 +259,8 @@ def insensitivity_study(args) -> None:
                              {**settings, "contact.near_wall": mode, "contact.delta_sl": delta_sl, "run.bounces": 2}))
     dirs = run_all("insensitivity", jobs, args)
     rows = [{"name": name, **measures(d)} for name, d in dirs.items()]
-    lines = ["| model | near_wall | delta_sl | V_i (m/s) | Re_I | Re_II | e_1 | wall time |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| model | near_wall | delta_sl | V_i (m/s) | Re_I | Re_II | e_1 | wall time |",
+             "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         model, mode, dsl = r["name"].split("-")
         lines.append(f"| {model} | {mode} | {dsl[3:]} | {fmt(r.get('V_i'), '.4f')} | {fmt(r.get('Re_I'), '.2f')} | "
@@ -393,8 +398,10 @@ def dss_study(args) -> None:
         summary = json.loads((run_dir / "summary.json").read_text())
         st_2 = summary["impacts"][1]["St"] if len(summary["impacts"]) > 1 else None
         rows.append({"name": name, "case": case, "delta_ss_factor": factor, **found, "St_II": st_2})
-        lines.append(f"| {case} | 0.017 x {factor:g} | {fmt(found.get('V_i'), '.4f')} | {fmt(found.get('Re_I'), '.1f')} | "
-                     f"{fmt(found.get('Re_II'), '.1f')} | {fmt(change(found.get('Re_II'), measured[case]['Re_II']), '+.1f')} % | "
+        lines.append(f"| {case} | 0.017 x {factor:g} | {fmt(found.get('V_i'), '.4f')} | "
+                     f"{fmt(found.get('Re_I'), '.1f')} | "
+                     f"{fmt(found.get('Re_II'), '.1f')} | "
+                     f"{fmt(change(found.get('Re_II'), measured[case]['Re_II']), '+.1f')} % | "
                      f"{fmt(found.get('e_1'), '.3f')} | {fmt(st_2, '.1f')} |")
     record("dss", rows, "\n".join(lines) + "\n")
 

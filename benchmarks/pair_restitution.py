@@ -76,7 +76,8 @@ FORCE_RUNS = [  # (label, model, changes)
     ("ode, launched at 0.255 m/s", "ode", {"second_sphere.velocity": -0.255}),
     ("ale 8 cells/D, preset", "ale", {"numerics.ale.cells_per_diameter": 8}),
     ("ale 12 cells/D, preset", "ale", {"numerics.ale.cells_per_diameter": 12}),
-    ("ode, 67.5 mPa s, launched at 0.246 m/s", "ode", {"liquid.viscosity": VISCOSITIES[7], "second_sphere.velocity": -0.246}),
+    ("ode, 67.5 mPa s, launched at 0.246 m/s", "ode",
+     {"liquid.viscosity": VISCOSITIES[7], "second_sphere.velocity": -0.246}),
     ("ale 8 cells/D, 67.5 mPa s", "ale", {"liquid.viscosity": VISCOSITIES[7], "numerics.ale.cells_per_diameter": 8}),
 ]
 

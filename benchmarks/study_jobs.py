@@ -55,7 +55,8 @@ def time_sweep(arguments: list[str], jobs: int) -> dict:
             found = list(csv.DictReader(stream))
     rows = [{k: row[k] for k in SAME_COLUMNS} for row in found]
     return {"command": "fem-bounce " + " ".join(arguments + ["--jobs", str(jobs)]), "jobs": jobs,
-            "wall_time_s": wall, "runs": len(rows), "sum_of_run_wall_times_s": sum(float(r["wall_time_s"]) for r in found),
+            "wall_time_s": wall, "runs": len(rows),
+            "sum_of_run_wall_times_s": sum(float(r["wall_time_s"]) for r in found),
             "loadavg_before": load_before, "loadavg_after": _load(), "rows": rows}
 
 

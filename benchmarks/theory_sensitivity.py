@@ -57,7 +57,8 @@ def main() -> None:
     out = Path("results")
     out.mkdir(exist_ok=True)
     (out / "theory_sensitivity.md").write_text("\n".join(lines) + "\n")
-    (out / "theory_sensitivity.json").write_text(json.dumps({"date": time.strftime("%Y-%m-%d"), "rows": rows}, indent=2))
+    (out / "theory_sensitivity.json").write_text(json.dumps({"date": time.strftime("%Y-%m-%d"), "rows": rows},
+                                                            indent=2))
     print("\n".join(lines))
 
 

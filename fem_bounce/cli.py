@@ -99,7 +99,8 @@ def _parser() -> argparse.ArgumentParser:
     stab = kinds.add_parser("stability", help="density ratio, time step, contact resolution and delta_sl sweeps")
     stab.add_argument("scene", nargs="?", default=DEFAULT_SCENE)
     stab.add_argument("--model", required=True)
-    stab.add_argument("--sweeps", default=None, help="comma-separated subset of density_ratio,cfl,cells_per_gap,delta_sl")
+    stab.add_argument("--sweeps", default=None,
+                      help="comma-separated subset of density_ratio,cfl,cells_per_gap,delta_sl")
     rest_study = kinds.add_parser("restitution", help="e against St over the Table 3 sets (paper Fig. 13-14)")
     rest_study.add_argument("--model", required=True)
     rest_study.add_argument("--points", type=int, default=12)
@@ -247,8 +248,8 @@ def _restart_model(run_dir: Path, requested: str | None) -> str:
     model = output.RunDirectory(run_dir).newest_checkpoint().model
     if model not in models.registry.restarting():
         raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
-                                f"checkpoints (only {', '.join(models.registry.restarting())} can --restart): it is not a checkpoint "
-                                "this version wrote")
+                                f"checkpoints (only {', '.join(models.registry.restarting())} can --restart): "
+                                "it is not a checkpoint this version wrote")
     if requested and requested != model:
         raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
     return model
@@ -284,7 +285,8 @@ def _print_collisions(summary: dict) -> None:
     """A pair's collisions, pair and wall, in time order (relative impact speed, binary St, e)."""
     if not summary["collisions"]:
         final = summary["final"]
-        print(f"no collision: the pair gap ended at {final['gap'][1] - final['gap'][0] - summary['scene']['sphere']['diameter']:.4g} m "
+        print("no collision: the pair gap ended at "
+              f"{final['gap'][1] - final['gap'][0] - summary['scene']['sphere']['diameter']:.4g} m "
               f"at t = {final['time']:.4g} s")
     for k, c in enumerate(summary["collisions"], 1):
         line = (f"collision {k} ({c['kind']}): t = {c['time']:.4f} s  V_rel = {c['impact_speed']:.4f} m/s  "
@@ -373,7 +375,8 @@ def _study(args, comm, runner) -> int:
         result = studies.speed_accuracy.run(scenes.load(args.scene, changes), model_names, comm, out, levels,
                                             runner=runner)
         if args.record and comm.rank == 0:
-            recorded = studies.speed_accuracy.record(result, out if args.out else studies.speed_accuracy.RECORD_DIRECTORY)
+            recorded = studies.speed_accuracy.record(result,
+                                                     out if args.out else studies.speed_accuracy.RECORD_DIRECTORY)
             print(f"recommendations recorded in {recorded} (`run --accuracy` reads "
                   f"{studies.speed_accuracy.RECORD_DIRECTORY / recorded.name})")
     elif args.kind == "stability":

@@ -42,7 +42,8 @@ class ProgressBar:
         bar = "#" * int(width * fraction) + "-" * (width - int(width * fraction))
         if getattr(gap, "ndim", 0):  # a pair: sphere 1's gap to z = 0 and the pair gap, both velocities
             where = (f"gap_1/D {gap[0] / self.diameter:7.4f}  pair gap/D "
-                     f"{(gap[1] - gap[0] - self.diameter) / self.diameter:8.5f}  V {velocity[0]:+.4f}, {velocity[1]:+.4f} m/s")
+                     f"{(gap[1] - gap[0] - self.diameter) / self.diameter:8.5f}  "
+                     f"V {velocity[0]:+.4f}, {velocity[1]:+.4f} m/s")
         else:
             where = f"gap/D {gap / self.diameter:7.4f}  V {velocity:+.4f} m/s"
         line = f"[{bar}] t = {t:.4f}/{self.end_time:g} s  step {steps}  {where}  {elapsed:5.0f} s elapsed {left}"

@@ -11,7 +11,7 @@ import numpy as np
 def table(name: str) -> list[dict]:
     """Rows of a packaged CSV as dicts, '#' comment lines skipped; numbers parsed where they parse."""
     text = (resources.files("fem_bounce") / "data" / f"{name}.csv").read_text()
-    reader = csv.DictReader(io.StringIO("\n".join(l for l in text.splitlines() if not l.startswith("#"))))
+    reader = csv.DictReader(io.StringIO("\n".join(line for line in text.splitlines() if not line.startswith("#"))))
     return [{k: _number(v) for k, v in row.items()} for row in reader]
 
 

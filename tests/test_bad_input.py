@@ -271,7 +271,8 @@ def test_unwritable_out_gives_one_line(tmp_path):
 def test_out_that_cannot_be_a_directory(case, message, tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("keep")
     out = {"/proc": "/proc/fem-bounce-test/run", "/sys": "/sys/fem-bounce-test/run",
-           "regular file": str(tmp_path / "notes.txt"), "below a regular file": str(tmp_path / "notes.txt" / "run")}[case]
+           "regular file": str(tmp_path / "notes.txt"),
+           "below a regular file": str(tmp_path / "notes.txt" / "run")}[case]
     before = tree(tmp_path)
     status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--out", out)
     assert status == 2
@@ -329,7 +330,8 @@ def test_signal_ends_a_run_with_a_summary(signum, tmp_path):
 
 
 @pytest.mark.parametrize("override,message", [
-    ("gravity=0", "gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity != 0 or a pair set in motion by second_sphere.velocity"),
+    ("gravity=0", "gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity != 0 "
+                  "or a pair set in motion by second_sphere.velocity"),
     ("contact.delta_sl=1e9", "contact.delta_sl = 1000000000.0 is out of range: allowed in (0, 0.5] (the gap, in "
                              "diameters, below which the contact model supplies the near-wall force)"),
     ("initial_gap=1e300", "initial_gap = 1e+300 m is 1.05e+302 diameters: allowed up to 1e+10 D"),

@@ -45,7 +45,7 @@ def test_library_output_goes_to_run_log_not_the_terminal(tmp_path, capsys):
         cli._route_warnings()
         warnings.warn_explicit("unclosed file <libffcx_forms_0.c>", ResourceWarning, "/anywhere/gc.py", 1)
         warnings.warn_explicit("old API", DeprecationWarning, "/usr/lib/python3/dist-packages/ffcx/jit.py", 2)
-        warnings.warn("the package's own warning")
+        warnings.warn("the package's own warning", stacklevel=1)  # reported from this file, not a library's
         level = root.level
         root.setLevel(logging.INFO)  # what distutils does while cffi compiles a form
         logging.info("x86_64-linux-gnu-gcc -c libffcx_forms_0.c")
@@ -78,7 +78,8 @@ def test_existing_directory_is_never_silently_replaced(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv,message", [
     (["run", "--model", "ode", "--set", "sphere.densty=3"], "unknown key sphere.densty; did you mean sphere.density?"),
-    (["run", "--model", "ode", "--set", "liquid.viscosity=-1"], "liquid.viscosity = -1.0 Pa s is out of range: allowed in (0, 1e+08] Pa s"),
+    (["run", "--model", "ode", "--set", "liquid.viscosity=-1"],
+     "liquid.viscosity = -1.0 Pa s is out of range: allowed in (0, 1e+08] Pa s"),
     (["run", "--model", "ode", "--set", "initial_gap=0"], "initial_gap = 0.0 m is out of range: allowed > 0 m"),
     (["run", "--model", "ode", "--set", "contact.delta_ss=0.3"], "must be smaller than contact.delta_sl"),
     (["run", "--model", "xyz"], "unknown model 'xyz': choose one of ode, fd, ib, ale"),
@@ -97,7 +98,8 @@ def test_scene_dump_runs_unchanged_as_a_scene_file(tmp_path, capsys):
     path = tmp_path / "e4.toml"
     path.write_text(capsys.readouterr().out)
     out = tmp_path / "e4"
-    assert cli.main(["run", str(path), "--model", "ode", "--out", str(out), "--quiet", "--set", "run.end_time=0.3"]) == 0
+    assert cli.main(["run", str(path), "--model", "ode", "--out", str(out), "--quiet",
+                     "--set", "run.end_time=0.3"]) == 0
     assert json.loads((out / "summary.json").read_text())["scene"]["name"] == "tencate2002-e4"
 
 

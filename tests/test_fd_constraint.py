@@ -25,8 +25,9 @@ def brinkman_model(strength: float):
 @pytest.mark.mpi
 def test_the_brinkman_penalty_obeys_its_law_in_few_iterations_and_stiffens_with_its_strength():
     """From a fluid at rest, lambda for U = 0.1 m/s: CG in the Phi inner product reaches 1e-8 in tens of
-    iterations (the exact multiplier by Euclidean CG needed thousands), the interior's momentum is U V_phi + eps I(lambda)
-    (the penalty law integrated over the band), and ten times the strength leaves several times less slip."""
+    iterations (the exact multiplier by Euclidean CG needed thousands), the interior's momentum is
+    U V_phi + eps I(lambda) (the penalty law integrated over the band), and ten times the strength leaves
+    several times less slip."""
     speed, slips = 0.1, []
     for strength in (100.0, 1000.0):
         model = brinkman_model(strength)

@@ -21,7 +21,8 @@ CASES = {  # a toy run of each model that writes checkpoints, alone and in a pai
     # no field snapshots: dolfinx's XDMF/HDF5 file of a SIGKILLed segment can be left unreadable (the ib
     # model's own writer flushes every snapshot; fd and ale fields across a restart: test_fd_model.py)
     "ale": ["li2011-case3", "--model", "ale", "--set", "numerics.ale.cells_per_diameter=6",
-            "--set", "run.end_time=0.08", "--set", "numerics.ale.checkpoint_every=35"],  # after its remesh at step 31 of 49
+            "--set", "run.end_time=0.08",
+            "--set", "numerics.ale.checkpoint_every=35"],  # after its remesh at step 31 of 49
     # 12 cells/D: the coarsest that keeps the two spheres' indicators apart at the pair's hold gap; 64 steps
     "fd-pair": ["yang-hunt2006-pair", "--model", "fd", "--set", "numerics.fd.cells_per_diameter=12",
                 "--set", "run.end_time=0.03", "--set", "numerics.fd.checkpoint_every=20"],

@@ -94,7 +94,8 @@ def test_figure_11_draws_from_the_run_into_the_study(tmp_path, monkeypatch):
     from fem_bounce.studies import figures
 
     calls = []
-    monkeypatch.setattr(fields, "vorticity_figure", lambda run_dir, times=None, path=None: calls.append((run_dir, path)) or path)
+    monkeypatch.setattr(fields, "vorticity_figure",
+                        lambda run_dir, times=None, path=None: calls.append((run_dir, path)) or path)
     study = common.StudyDirectory(tmp_path / "study", MPI.COMM_SELF)
     assert figures.figure_11(tmp_path / "run", tmp_path / "fig11.png", study) == tmp_path / "fig11.png"
     assert calls == [(tmp_path / "run", tmp_path / "fig11.png")]

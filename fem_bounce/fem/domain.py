@@ -4,10 +4,10 @@ the speed that sets the time step.  Nothing is tuned per case: everything follow
 (the sphere's path from release to the wall, the wake behind it, the stream for a fixed sphere) and the
 model's `[numerics.*]` settings (refined_radius, wake_length, far_field), all in diameters.
 
-- free / prescribed / fixed without a stream: the wall z = 0 is no-slip (slip when wall.present is false); an unbounded scene closes with
-  slip (zero normal velocity) at r = R = far_field D and at z = Z = top of the path + far_field D, as the
-  paper does; a container is no-slip all round.  The fine region covers r <= refined_radius D from the wall
-  to wake_length D above the highest sphere top.
+- free / prescribed / fixed without a stream: the wall z = 0 is no-slip (slip when wall.present is false);
+  an unbounded scene closes with slip (zero normal velocity) at r = R = far_field D and at
+  z = Z = top of the path + far_field D, as the paper does; a container is no-slip all round.  The fine
+  region covers r <= refined_radius D from the wall to wake_length D above the highest sphere top.
 - fixed in a stream: uniform inflow through z = 0 (no wall), do-nothing outflow at the top, slip at r = R
   (no-slip in a container); the fine region runs from refined_radius D upstream of the sphere to
   wake_length D downstream.

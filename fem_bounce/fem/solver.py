@@ -179,7 +179,8 @@ class ReusedFactorOperator(FactorizedOperator):
         # preconditioned directions, so the solution needs no extra back-solve at the end as GMRES's does
         _default_option(f"{prefix}ksp_type", "fgmres")
         _default_option(f"{prefix}ksp_gmres_restart", limit)
-        self.rtol, self.factorisation_cost, self.max_iterations, self.limit = rtol, factorisation_cost, max_iterations, limit
+        self.rtol, self.factorisation_cost = rtol, factorisation_cost
+        self.max_iterations, self.limit = max_iterations, limit
         self.fixed_rows = None if fixed_rows is None else np.asarray(fixed_rows, dtype=np.int64)
         self._free = None  # the mask of the other rows, made at the first solve
         self.factorisations = 0

@@ -40,7 +40,8 @@ def run(model: str, comm, out: Path, cases=(1, 2, 3, 4, 5, 6, 7), overrides: dic
         wanted[("fig11", 7)] = (7, {snapshots_key: 20})
     keys = list(wanted)
     tasks = [(scenes.load(f"li2011-case{case}", {"run.bounces": 3, **extra, **changes}), model,
-              f"case {case} " + ", ".join(f"{k} = {v:g}" for k, v in changes.items())) for case, changes in wanted.values()]
+              f"case {case} " + ", ".join(f"{k} = {v:g}" for k, v in changes.items()))
+             for case, changes in wanted.values()]
     study.log(f"{len(tasks)} runs, {runner.describe()} (finished runs are reused from the cache)")
     found: dict = {}
     for k, run_dir in runner.run([(scene, name) for scene, name, _ in tasks]):

@@ -5,9 +5,10 @@
 
 The Table 3 material sets launched at the wall without gravity, as on Joseph et al.'s (2001) pendulum
 (studies.restitution_planning.plan): a point every factor 1.3 between St 3 and 30 and the others spread
-over 1-1000; with contact.model = "li2011" also the paper's runs 30-35 (85 % glycerol, delta_ss + 5 %).  Writes restitution.csv (a row per run, failed runs marked with their status
-and no e), restitution.json (the comparison with the experiments' fit) and restitution.png (e against St
-with the ODE curve, the fit and the experiments' limits); every run goes through the study cache.
+over 1-1000; with contact.model = "li2011" also the paper's runs 30-35 (85 % glycerol, delta_ss + 5 %).
+Writes restitution.csv (a row per run, failed runs marked with their status and no e), restitution.json
+(the comparison with the experiments' fit) and restitution.png (e against St with the ODE curve, the fit
+and the experiments' limits); every run goes through the study cache.
 
 The comparison is like with like: e = V_out / V_in, the speeds where the gap passes delta_sl = 0.2 D
 outward and inward (just outside the wall's film, what the pendulum's camera sees), and

@@ -42,9 +42,9 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
         r["error"] = _worst(r, "error_", names)
         r["experiment_error"] = _worst(r, "experiment_error_", judged) if judged else None
     recommendations = recommend(rows, names, finest)
-    result = {"scene": scene.name, "quantities": names, "experiment_quantities": judged, "reference_run": finest["run_dir"],
-              "reference_model": reference_model, "experiment": experiment, "rows": rows,
-              "recommendations": recommendations}
+    result = {"scene": scene.name, "quantities": names, "experiment_quantities": judged,
+              "reference_run": finest["run_dir"], "reference_model": reference_model, "experiment": experiment,
+              "rows": rows, "recommendations": recommendations}
     study.write_json("speed_accuracy.json", result)
     study.write_csv("speed_accuracy.csv", [{k: v for k, v in r.items() if k != "setting"} | r["setting"]
                                            for r in rows])

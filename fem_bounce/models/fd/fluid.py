@@ -37,7 +37,7 @@ class FlowSolver:
 
     def __init__(self, mesh, facet_tags, sides: dict[int, str], density: float, viscosity: float, dt: float,
                  inflow_speed: float = 0.0, order: int = 2, prefix: str = "fd_flow_", solver: str = "direct"):
-        for side, kind in sides.items():
+        for kind in sides.values():
             if kind not in SIDE_KINDS:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
         self.mesh, self.density, self.viscosity, self.dt = mesh, density, viscosity, dt

@@ -136,7 +136,8 @@ class StaggeredGrid:
     def describe(self) -> dict:
         return {"cells": self.n_cells, "nr": self.nr, "nz": self.nz, "h": self.h,
                 "fine_cells": int(round(self.fine_r / self.h)) * int(round((self.fine_z[1] - self.fine_z[0]) / self.h)),
-                "radius": float(self.R[-1]), "height": float(self.Z[-1]), "max_cell": float(max(self.dr.max(), self.dz.max())),
+                "radius": float(self.R[-1]), "height": float(self.Z[-1]),
+                "max_cell": float(max(self.dr.max(), self.dz.max())),
                 "unknowns": self.n_psi}
 
 

@@ -126,8 +126,10 @@ class ImmersedBoundaryModel(FlowModel):
                               f"{scene.initial_gap / d:.3g} D, which a sphere heavier than the liquid cannot: the "
                               "coupling went unstable (numerics.ib.coupling = \"explicit\" fails as rho_p / rho_l "
                               "nears 1; use \"implicit\", or a smaller numerics.ib.cfl)")
-        raise RunDiverged(f"t = {t:.5g} s: the sphere and its delta kernel (z = {z_low / d:.3g}..{(z.max() + reach) / d:.3g} D) "
-                          f"left the uniform grid region (z = {self.grid.fine_z[0] / d:.3g}..{self.grid.fine_z[1] / d:.3g} D); "
+        raise RunDiverged(f"t = {t:.5g} s: the sphere and its delta kernel "
+                          f"(z = {z_low / d:.3g}..{(z.max() + reach) / d:.3g} D) "
+                          "left the uniform grid region "
+                          f"(z = {self.grid.fine_z[0] / d:.3g}..{self.grid.fine_z[1] / d:.3g} D); "
                           "raise numerics.ib.fine_margin")
 
     # -- the FlowModel interface ----------------------------------------------------------------
