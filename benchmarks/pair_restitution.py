@@ -46,13 +46,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from fem_bounce import scene as scenes  # noqa: E402
-from fem_bounce.output import read_summary  # noqa: E402
-from fem_bounce.pair import PairIntegrator  # noqa: E402
-from fem_bounce.studies.runner import Runner  # noqa: E402
+from fem_bounce import scene as scenes
+from fem_bounce.output import read_summary
+from fem_bounce.pair import PairIntegrator
+from fem_bounce.studies.runner import Runner
 
 PRESET = "yang-hunt2006-pair"
 VISCOSITIES = np.geomspace(0.8, 0.004, 16)  # Pa s, at the preset's speed

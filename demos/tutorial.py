@@ -40,11 +40,11 @@ import matplotlib
 
 if "ipykernel" not in sys.modules:  # a script (also under mpirun): files only
     matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from mpi4py import MPI  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from mpi4py import MPI
 
-import fem_bounce as fb  # noqa: E402
+import fem_bounce as fb
 
 parser = argparse.ArgumentParser(description="fem_bounce from Python: a tutorial")
 parser.add_argument("--out", type=Path, default=Path("runs/tutorial"), help="where the figures and runs go")

@@ -19,7 +19,7 @@ Errors:   Error, the base of SceneError, ModelError, OutputError, CheckpointErro
 """
 __version__ = "0.1.0"
 
-from .api import (  # noqa: E402 -- after __version__, which the modules behind the API read
+from .api import (
     Collision, CheckpointError, Error, Impact, ModelError, OutputError, Rebound, Result, RunDiverged, RunFailed,
     RunInterrupted, RunnerError, Scene, SceneError, Table, compare, load, model_names, presets, restitution, resume,
     save, simulate)
