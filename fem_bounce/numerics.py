@@ -94,6 +94,12 @@ class AleNumerics:
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
     cfl: float = _setting(0.5, 0.01, 20.0)  # dt = cfl * fine size / speed scale (convection is implicit)
     time_order: int = _setting(2, 1, 2)  # BDF order of the flow and the mesh motion
+    # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
+    # approach to a contact and the changes of the sphere's velocity ask (models/ale/domain.py next_time_step);
+    # false: the cfl step throughout
+    adaptive_step: bool = False
+    min_step_factor: float = _setting(0.125, 0.001, 1.0)
+    max_step_factor: float = _setting(4.0, 1.0, 50.0)
     min_quality: float = _setting(0.3, 0.01, 0.9)  # remesh when a triangle's quality would fall below this
     min_gap_cells: float = _setting(2.0, 0.5, 100.0)  # a remeshed gap has at least this many triangles across
     hold_delta: float = _setting(0.02, 0.0, 0.5)  # the mesh stops following the sphere at this gap / D

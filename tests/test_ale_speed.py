@@ -166,3 +166,41 @@ def test_the_tolerance_ignores_the_dirichlet_rows():
     finally:
         operator.destroy()
         A.destroy()
+
+
+# -- the adaptive step (numerics.ale.adaptive_step) -----------------------------------------------------
+@pytest.mark.parametrize("ratio", [0.25, 1.0, 2.0])
+def test_variable_step_bdf2_is_exact_for_a_quadratic_and_its_extrapolation_for_a_line(ratio):
+    from fem_bounce.fem.taylor_hood import step_coefficients
+
+    dt, before = 0.3, 0.3 / ratio  # the coming step and the one before it
+    times = np.array([dt, 0.0, -before])  # t_{n+1}, t_n, t_{n-1}
+    bdf, ext = step_coefficients(2, ratio)
+    assert np.dot(bdf, times**2) / dt == pytest.approx(2.0 * dt, rel=1e-12)  # d(t^2)/dt at t_{n+1}
+    assert np.dot(bdf, np.ones(3)) == pytest.approx(0.0, abs=1e-12)
+    assert np.dot(ext, times[1:]) == pytest.approx(dt, rel=1e-12)  # the line t at t_{n+1}
+
+
+def test_the_adaptive_step_stays_within_its_bounds_and_shortens_near_the_wall():
+    from fem_bounce.models.ale.domain import GROWTH, next_time_step, time_step
+
+    scene = scenes.load("li2011-case3", {"numerics.ale.adaptive_step": True})
+    base = time_step(scene)
+    far = next_time_step(scene, base, gap=0.1, speed=0.01, jerk=0.0)  # slow, far away: grows by GROWTH
+    assert far == pytest.approx(GROWTH * base, rel=1e-12)
+    assert next_time_step(scene, 10 * base, gap=0.1, speed=0.01, jerk=0.0) == pytest.approx(4.0 * base)
+    near = next_time_step(scene, base, gap=1e-6, speed=0.4, jerk=0.0)  # about to touch: the shortest
+    assert near == pytest.approx(0.125 * base, rel=1e-12)
+    assert next_time_step(scene, base, gap=0.1, speed=0.01, jerk=1e9) == pytest.approx(0.125 * base)
+
+
+def test_an_adaptive_step_held_at_the_cfl_step_is_the_constant_step():
+    """With min_step_factor = max_step_factor = 1 the adaptive path takes the cfl step every time: the
+    variable-step coefficients and the re-centred prediction reduce to the constant ones (to round-off in
+    the step ratio, through the reused factors' 1e-7 tolerance)."""
+    constant = _run({})
+    held = _run({"numerics.ale.adaptive_step": True, "numerics.ale.min_step_factor": 1.0,
+                 "numerics.ale.max_step_factor": 1.0})
+    assert held["steps"] == constant["steps"]
+    assert held["impacts"][0]["impact_speed"] == pytest.approx(constant["impacts"][0]["impact_speed"], rel=1e-5)
+    assert held["rebounds"][0]["restitution"] == pytest.approx(constant["rebounds"][0]["restitution"], rel=1e-5)

@@ -24,6 +24,20 @@ EXTRAPOLATION = {1: (1.0,), 2: (2.0, -1.0), 3: (3.0, -3.0, 1.0)}
 _NORMAL_COMPONENT = {WALL: 1, TOP: 1, OUTER: 0, AXIS: 0}
 
 
+def step_coefficients(order: int, ratio: float = 1.0) -> tuple[tuple, tuple]:
+    """(BDF, EXTRAPOLATION) coefficients of a step whose length is `ratio` times the previous one's.
+    ratio 1: the constant-step tables above.  Order 2 otherwise: the variable-step BDF2 and its linear
+    extrapolation (Hairer, Norsett & Wanner, Solving ODEs I, section III.5; w = ratio):
+    du/dt ~ [(1 + 2w)/(1 + w) u^{n+1} - (1 + w) u^n + w^2/(1 + w) u^{n-1}] / dt, u* = (1 + w) u^n - w u^{n-1};
+    zero-stable for w < 1 + sqrt(2)."""
+    if ratio == 1.0 or order == 1:
+        return BDF[order], EXTRAPOLATION[order]
+    if order != 2:
+        raise ValueError(f"a variable step needs time order 1 or 2, not {order}")
+    w = ratio
+    return ((1.0 + 2.0 * w) / (1.0 + w), -(1.0 + w), w * w / (1.0 + w)), (1.0 + w, -w)
+
+
 def side_constraints(facet_tags, sides: dict[int, str]) -> tuple[list[tuple[int, np.ndarray, bool]], bool]:
     """The velocity components the named sides fix, as (component, facets, is_inflow_value), and
     whether every side fixes the normal velocity (then the pressure level is free and must be pinned)."""

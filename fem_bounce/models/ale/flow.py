@@ -72,7 +72,7 @@ from petsc4py import PETSc
 from ...fem import forms
 from ...fem.mesh import AXIS, SPHERE
 from ...fem.solver import FactorizedOperator, ReusedFactorOperator
-from ...fem.taylor_hood import (BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, owned_dirichlet_rows, pressure_pin,
+from ...fem.taylor_hood import (SIDE_KINDS, lifted_rhs, owned_dirichlet_rows, pressure_pin, step_coefficients,
                                 side_constraints, taylor_hood_space)
 
 FACTORISATIONS = ("reuse", "every-step")  # numerics.ale.factorisation
@@ -100,9 +100,8 @@ class SphereFlow:
         self.factorisation_cost = factorisation_cost
         self.assembly_s = self.factorise_s = self.solve_s = 0.0  # [s] this flow's matrix assembly, factorisations, solves
         self._direct_factorisations = 0
-        self.mesh, self.density, self.viscosity, self.dt = mesh, density, viscosity, dt
-        self.order, self.bdf, self.ext = order, BDF[order], EXTRAPOLATION[order]
-        self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference)
+        self.mesh, self.density, self.viscosity = mesh, density, viscosity
+        self.order = order
         self.prefix = prefix
         self.inflow_speed = inflow_speed
         self.sphere_tags = tuple(sphere_tags)
@@ -119,15 +118,19 @@ class SphereFlow:
         self.dx = dx = ufl.Measure("dx", domain=mesh)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
-        # the numbers of a scene as Constants, not literals: one compiled form for every scene and mesh
-        rho, mu = (fem.Constant(mesh, PETSc.ScalarType(value)) for value in (density, viscosity))
-        inverse_dt = fem.Constant(mesh, PETSc.ScalarType(1.0 / dt))
+        # the numbers of a scene and of the step as Constants, not literals: one compiled form for every
+        # scene, mesh and step length (the step's BDF rates alpha_j / dt and extrapolation weights beta_j)
+        rho, mu, inverse_dt = (fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in range(3))
+        self._bdf = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in range(order + 1)]
+        self._ext = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in range(order)]
+        rho.value, mu.value = density, viscosity
         self.constants = {"density": rho, "viscosity": mu, "inverse_dt": inverse_dt}
         self.rho, self.mu = rho, mu
+        self.set_time_step(dt)
         past = [ufl.split(state)[0] for state in self.states]
-        extrapolated = sum(beta * u_j for beta, u_j in zip(self.ext, past))
-        history = -rho * inverse_dt * sum(alpha * u_j for alpha, u_j in zip(self.bdf[1:], past))
-        a = (forms.stokes_operator(u, p, v, q, rho * self.bdf[0] * inverse_dt, mu, r, dx)
+        extrapolated = sum(beta * u_j for beta, u_j in zip(self._ext, past))
+        history = -rho * inverse_dt * sum(alpha * u_j for alpha, u_j in zip(self._bdf[1:], past))
+        a = (forms.stokes_operator(u, p, v, q, rho * self._bdf[0] * inverse_dt, mu, r, dx)
              + rho * forms.convection(extrapolated - mesh_velocity, u, v, r, dx))
         L = forms.source(history, v, r, dx)
         self.a, self.L = fem.form(a), fem.form(L)
@@ -141,6 +144,16 @@ class SphereFlow:
         self.matrix.assemble()
         self.operator: FactorizedOperator | ReusedFactorOperator | None = None
         self.rhs = create_vector(self.L)
+
+    def set_time_step(self, dt: float, previous: float | None = None) -> None:
+        """The coming step's length dt [s] and the one before it (default dt): the BDF and extrapolation
+        coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ)."""
+        self.dt = dt
+        self.bdf, self.ext = step_coefficients(self.order, dt / (previous or dt))
+        self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference)
+        self.constants["inverse_dt"].value = 1.0 / dt
+        for constant, coefficient in zip(self._bdf + self._ext, self.bdf + self.ext):
+            constant.value = coefficient
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides) -> None:

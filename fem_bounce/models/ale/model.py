@@ -59,7 +59,7 @@ import csv
 import math
 import resource
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -73,7 +73,7 @@ from ...output import CheckpointError, segment_path
 from ...scene import pair_diameter
 from ...sphere import FluidForce
 from ...motion import is_stream, start_velocities, start_velocity
-from .domain import AleDomain, domain_for, is_steady, time_step
+from .domain import AleDomain, domain_for, is_steady, next_time_step, time_step
 from .fields import MovingFieldWriter
 from .flow import SphereFlow
 from .motion import MeshMotion
@@ -89,27 +89,28 @@ PAIR_FORCE_COLUMNS = ("t", "mesh_gap", "mesh_pair_gap", "f_variational_1", "f_va
 @dataclass
 class Kinematics:
     """The sphere velocities U [m/s] the flow was given and the mesh's sphere centres z [m] at the
-    last time levels, newest first (a pair: arrays, sphere 1 first); `bdf` are the time scheme's
-    coefficients."""
+    last time levels, newest first (a pair: arrays, sphere 1 first), and the time t_n [s] they reach
+    after `step` steps, the last of length `last_step` [s] (0 before the first)."""
 
-    bdf: tuple
     velocities: list
     centers: list
     step: int = 0
+    time: float = 0.0
+    last_step: float = 0.0
 
-    def push(self, velocity: float, center: float) -> None:
+    def push(self, velocity: float, center: float, time_now: float) -> None:
         self.step += 1
+        self.last_step, self.time = time_now - self.time, time_now
         self.velocities = [velocity] + self.velocities[:-1]
         self.centers = [center] + self.centers[:-1]
 
-    @property
-    def reference_velocity(self) -> float:
-        """U_ref: dV/dt ~ c (U - U_ref) [m/s]."""
-        return -sum(a * v for a, v in zip(self.bdf[1:], self.velocities)) / self.bdf[0]
+    def reference_velocity(self, bdf: tuple) -> float:
+        """U_ref: dV/dt ~ c (U - U_ref) [m/s], with the coming step's BDF coefficients `bdf`."""
+        return -sum(a * v for a, v in zip(bdf[1:], self.velocities)) / bdf[0]
 
-    def center_rate(self, center: float, dt: float) -> float:
-        """The BDF rate of the mesh's sphere centre if it moves to `center` now [m/s]."""
-        return (self.bdf[0] * center + sum(a * z for a, z in zip(self.bdf[1:], self.centers))) / dt
+    def center_rate(self, center: float, bdf: tuple, dt: float) -> float:
+        """The BDF rate of the mesh's sphere centre if it moves to `center` at the end of a step dt [m/s]."""
+        return (bdf[0] * center + sum(a * z for a, z in zip(bdf[1:], self.centers))) / dt
 
 
 @dataclass
@@ -138,6 +139,7 @@ class Statistics:
     remesh_s: float = 0.0
     setup_s: float = 0.0
     held_steps: int = 0
+    longest_step: float = 0.0  # [s] (numerics.ale.adaptive_step)
     min_mesh_gap: float = math.inf
     max_unknowns: int = 0
     min_mesh_pair_gap: float = math.inf  # a pair: the smallest gap between the mesh's two spheres [m]
@@ -160,7 +162,7 @@ class AleModel(FlowModel):
         self.writer: MovingFieldWriter | None = None
         self.domain: AleDomain = domain_for(scene)
         self.steady = is_steady(scene)
-        self.dt = time_step(scene)
+        self.dt = self.cfl_step = time_step(scene)  # the coming step; the shortest (adaptive_step) [s]
         self.mesh = self.motion = self.flow = None
         self.stats = Statistics()
         self.pair = scene.pair
@@ -239,7 +241,7 @@ class AleModel(FlowModel):
         seconds = time.perf_counter() - start
         self.stats.remesh_s += seconds
         self.stats.remeshes.append(Remesh(
-            step=k.step, time=k.step * self.dt, gap=float(np.min(center) - self.domain.sphere_radius), quality=quality,
+            step=k.step, time=k.time, gap=float(np.min(center) - self.domain.sphere_radius), quality=quality,
             cells=mesh.topology.index_map(2).size_global, momentum_old=momenta[0][0],
             momentum_interpolated=momenta[0][1], momentum_projected=momenta[0][2], sphere_volume_old=volumes[0],
             sphere_volume=volumes[1], seconds=seconds, pair_gap=self.pair_gap(center) if self.pair else None))
@@ -288,21 +290,42 @@ class AleModel(FlowModel):
             centers = np.array(domain.initial_centers)
             self.mesh, self.motion, self.flow = self.build_mesh(centers)
             velocities = np.array(start_velocities(scene), dtype=float)
-            self.kinematics = Kinematics(self.flow.bdf, [velocities.copy() for _ in range(order)],
+            self.kinematics = Kinematics([velocities.copy() for _ in range(order)],
                                          [centers.copy() for _ in range(order)])
         else:
             self.mesh, self.motion, self.flow = self.build_mesh(domain.initial_center)
             velocity = start_velocity(scene)
-            self.kinematics = Kinematics(self.flow.bdf, [velocity] * order, [domain.initial_center] * order)
+            self.kinematics = Kinematics([velocity] * order, [domain.initial_center] * order)
         self.flow.set_uniform((0.0, domain.inflow_speed))
         self.stats.setup_s = time.perf_counter() - start
 
     def initial_velocities(self) -> list[float]:
         return list(self.kinematics.velocities)
 
+    def next_time(self) -> float:
+        if self.settings.adaptive_step:
+            return self.kinematics.time + self.dt
+        return super().next_time()  # (n + 1) dt, as every constant-step model
+
+    def finished(self, end_time: float) -> bool:
+        if self.settings.adaptive_step:
+            return self.kinematics.time >= end_time - 1e-9 * self.cfl_step
+        return super().finished(end_time)
+
+    def _over_step(self, prediction: Prediction) -> Prediction:
+        """The controller's AB2 mean velocity 1.5 V_n - 0.5 V_{n-1} assumes two equal steps; after a step of
+        another length (adaptive_step) it is V_n + (dt / 2) (V_n - V_{n-1}) / dt_{n-1}."""
+        k = self.kinematics
+        if not (self.settings.adaptive_step and k.last_step):
+            return prediction
+        v_now, v_before = (np.asarray(v, dtype=float) for v in k.velocities[:2])
+        mean = v_now + 0.5 * self.dt / k.last_step * (v_now - v_before)
+        return replace(prediction, mean_velocity=mean if self.pair else float(mean))
+
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         k, settings = self.kinematics, self.settings
-        t_next = (k.step + 1) * self.dt
+        t_next = self.next_time()
+        prediction = self._over_step(prediction)
         center, held = self.next_center(prediction)
         gap = center - self.domain.sphere_radius if not self.pair else float(center[0] - self.domain.sphere_radius)
         if gap <= 0.0:
@@ -322,10 +345,11 @@ class AleModel(FlowModel):
                 self.remesh(center, quality)
                 remeshed = True
         self.stats.held_steps += held
+        self.flow.set_time_step(self.dt, k.last_step if settings.adaptive_step and k.last_step else None)
         self.motion.move_to(center)
-        self.motion.set_rates(k.center_rate(center, self.dt))
+        self.motion.set_rates(k.center_rate(center, self.flow.bdf, self.dt))
         self.stats.min_mesh_gap = min(self.stats.min_mesh_gap, gap)
-        reference = k.reference_velocity
+        reference = k.reference_velocity(self.flow.bdf)
         start = time.perf_counter()
         extrapolated = sum(beta * v for beta, v in zip(self.flow.ext, k.velocities))
         force, slope = self.flow.step(reference, extrapolated_velocity=extrapolated)
@@ -334,21 +358,45 @@ class AleModel(FlowModel):
         if not (np.all(np.isfinite(force)) and np.all(np.isfinite(added_mass))):
             raise FloatingPointError(f"the fluid force became {force} N at t = {t_next:.6g} s")
         self.last_force = (force, added_mass)
-        self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed)
+        self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction)
         self._integrator_start = time.perf_counter()
         return FluidForce(explicit=force, added_mass=added_mass)
 
     def complete(self, velocity: float, time_now: float) -> None:
         self.stats.integrator_s += time.perf_counter() - self._integrator_start
-        t_next, center, gap, reference, force, slope, added_mass, quality, remeshed = self._pending
+        t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction = self._pending
         if self.pair:
             velocity = np.array(velocity, dtype=float)  # the integrator's, copied
         change = velocity - reference
         self.flow.commit(change)
-        self.kinematics.push(velocity, center)
+        if self.settings.adaptive_step:
+            self.dt = self._next_step(velocity, self._nearest_gap(prediction))
+        self.kinematics.push(velocity, center, t_next)
         self.step = self.kinematics.step
         self._record_force(t_next, gap, force + (slope @ change if self.pair else slope * change), added_mass,
                            quality if remeshed else self.motion.quality(self.motion.shift), remeshed)
+
+    def _nearest_gap(self, prediction: Prediction) -> float:
+        """The sphere's predicted gap to the wall at the step's end (a pair: the nearer of the wall's and the
+        pair's) [m]: where the sphere is, not where the mesh holds it."""
+        if not self.pair:
+            return prediction.gap
+        gaps = np.asarray(prediction.gap, dtype=float)
+        pair_gap = gaps[1] - gaps[0] - self.diameters[0]
+        return min(gaps[0], pair_gap) if self.scene.wall.present else pair_gap
+
+    def _next_step(self, velocity, gap: float) -> float:
+        """The coming step [s] (domain.next_time_step) from the step just made, which ends at `velocity`
+        with the mesh's sphere `gap` [m] from what it may hit (the nearer of wall and neighbour for a pair):
+        the jerk from the last three velocities, the fastest sphere's."""
+        k, dt = self.kinematics, self.dt
+        levels = [np.asarray(v, dtype=float) for v in (velocity, *k.velocities[:2])]
+        acceleration = (levels[0] - levels[1]) / dt
+        before = (levels[1] - levels[2]) / k.last_step if k.last_step else acceleration
+        jerk = float(np.max(np.abs(acceleration - before))) / (0.5 * (dt + (k.last_step or dt)))
+        step = next_time_step(self.scene, dt, gap, float(np.max(np.abs(levels[0]))), jerk)
+        self.stats.longest_step = max(self.stats.longest_step, step)
+        return step
 
     def _record_force(self, t, gap, force, added_mass, quality, remeshed) -> None:
         surface = self.flow.surface_force()
@@ -391,23 +439,28 @@ class AleModel(FlowModel):
                            ("assembly_s", flow.assembly_s), ("factorise_s", flow.factorise_s),
                            ("solve_s", flow.solve_s)):
             stats[key] += value
-        state = {"dt": self.dt, "mesh_center": _plain(self.motion.reference_center),
+        state = {"dt": self.cfl_step, "step_length": self.dt, "time": k.time, "last_step": k.last_step,
+                 "mesh_center": _plain(self.motion.reference_center),
                  "velocities": [_plain(v) for v in k.velocities], "centers": [_plain(z) for z in k.centers],
                  "kinematics_step": k.step, "last_force": [_plain(x) for x in self.last_force],
                  "statistics": stats, "force_rows": self._force_rows}
         return state, arrays
 
     def restore(self, state: dict, arrays) -> None:
-        if not math.isclose(state["dt"], self.dt, rel_tol=1e-12):
+        if not math.isclose(state["dt"], self.cfl_step, rel_tol=1e-12):
             raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
-                                  f"{self.dt:g} s: the scene was changed")
+                                  f"{self.cfl_step:g} s: the scene was changed")
         per_sphere = np.array if self.pair else (lambda x: x)  # a pair's values were stored as lists
         mesh_center = per_sphere(state["mesh_center"])
         if np.any(mesh_center != self.motion.reference_center):  # remeshed: gmsh makes the same mesh again
             self.flow.destroy()
             self.mesh, self.motion, self.flow = self.build_mesh(mesh_center, cache=False)
-        k = self.kinematics = Kinematics(self.flow.bdf, [per_sphere(v) for v in state["velocities"]],
-                                         [per_sphere(z) for z in state["centers"]], step=state["kinematics_step"])
+        step = state["kinematics_step"]
+        k = self.kinematics = Kinematics([per_sphere(v) for v in state["velocities"]],
+                                         [per_sphere(z) for z in state["centers"]], step=step,
+                                         time=state.get("time", step * self.cfl_step),
+                                         last_step=state.get("last_step", self.cfl_step if step else 0.0))
+        self.dt = state.get("step_length", self.cfl_step)
         self.motion.move_to(k.centers[0])
         try:
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.domain.fine_size)
@@ -453,7 +506,7 @@ class AleModel(FlowModel):
     def sizes(self) -> dict:
         cells = self.mesh.topology.index_map(2).size_global
         return {"cells": cells, "unknowns": self.flow.unknowns, "max_unknowns": self.stats.max_unknowns,
-                "dt": None if self.steady else self.dt, "fine_size": self.domain.fine_size}
+                "dt": None if self.steady else self.cfl_step, "fine_size": self.domain.fine_size}
 
     def report(self) -> dict:
         """Cost, remeshing and near-contact details for summary.json [SI]."""
@@ -485,6 +538,8 @@ class AleModel(FlowModel):
             "remeshes": [asdict(r) for r in stats.remeshes],
             "hold_delta": self.settings.hold_delta,
             "held_steps": stats.held_steps,
+            "adaptive_step": self.settings.adaptive_step,
+            "longest_step_s": max(stats.longest_step, self.cfl_step),
             "min_mesh_delta": stats.min_mesh_gap / diameter,
             "last_force_N": _plain(force),
             # a pair: M_ij / (rho V_i), row i the force on sphere i
