@@ -61,8 +61,8 @@ def main() -> None:
     for name, r in found.items():
         r["relative_to_finest"] = {key: r[key] / finest[key] - 1.0 for key in ("V_i", "Re_II", "e_1")}
         errors = ", ".join(f"{key} {100 * v:+.2f} %" for key, v in r["relative_to_finest"].items())
-        print(f"{name:32s} {r['steps']:4d} steps {r['wall_time_s']:6.1f} s  V_i {r['V_i']:.5f}  Re_II {r['Re_II']:.3f}  "
-              f"e_1 {r['e_1']:.5f}  ({errors}); steps by mesh gap {r['steps_by_gap']}")
+        print(f"{name:32s} {r['steps']:4d} steps {r['wall_time_s']:6.1f} s  V_i {r['V_i']:.5f}  "
+              f"Re_II {r['Re_II']:.3f}  e_1 {r['e_1']:.5f}  ({errors}); steps by mesh gap {r['steps_by_gap']}")
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=HERE).stdout.strip()
     RECORD.write_text(json.dumps({"date": time.strftime("%Y-%m-%d"), "commit": commit, "load_average_before": load,

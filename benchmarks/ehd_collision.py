@@ -122,7 +122,7 @@ def compute() -> dict:
         radial_unit = math.sqrt(args["radius"] * h0)
         when = instants(first)
         snapshots = {}
-        for (label, wanted), (t, pressure, gap) in zip(sorted(when.items(), key=lambda kv: kv[1]), result.snapshots):
+        for (label, _), (t, pressure, gap) in zip(sorted(when.items(), key=lambda kv: kv[1]), result.snapshots):
             step = int(np.flatnonzero(result.time == t)[0])
             separation = result.separation[step]
             deformation = gap - separation - 0.5 * result.radius**2

@@ -407,11 +407,11 @@ class FilmCollision:
             guess = predicted if np.all(self.gap(predicted[:n], predicted[n]) > 0.0) else past[-1][1]
             try:
                 znew, gnew = self._newton(guess, history, coefficients, dt)
-            except FilmError:
+            except FilmError as err:
                 dt *= 0.25
                 if dt < 1e-12 * max(t, 1.0):
                     raise FilmError(f"the film collision (epsilon = {self.epsilon:g}, St = {self.stokes:g}) "
-                                    f"could not step on at T = {t:g}")
+                                    f"could not step on at T = {t:g}") from err
                 continue
             # local error: corrector against predictor, on X, V and the gap at every node
             if len(past) >= 3:
