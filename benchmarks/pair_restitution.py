@@ -51,7 +51,7 @@ import numpy as np  # noqa: E402
 
 from fem_bounce import scene as scenes  # noqa: E402
 from fem_bounce.output import read_summary  # noqa: E402
-from fem_bounce.pair import PairIntegrator  # noqa: E402
+from fem_bounce.integrator import BodyIntegrator  # noqa: E402
 from fem_bounce.studies.runner import Runner  # noqa: E402
 
 PRESET = "yang-hunt2006-pair"
@@ -152,11 +152,11 @@ def force_check() -> dict:
             "date": time.strftime("%Y-%m-%d")}
 
 
-def collide(changes: dict) -> tuple[PairIntegrator, dict | None]:
+def collide(changes: dict) -> tuple[BodyIntegrator, dict | None]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the Reynolds-number warning of the thin liquids
         scene = scenes.load(PRESET, changes)
-    integrator = PairIntegrator(scene)
+    integrator = BodyIntegrator(scene)
     integrator.advance(scene.run.end_time)
     integrator.finish()
     collisions = integrator.collisions()

@@ -71,7 +71,7 @@ from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction, flow_gaps
 from ...output import CheckpointError, segment_path
 from ...scene import pair_diameter
-from ...sphere import FluidForce
+from ...integrator import FluidForce
 from ...motion import is_stream, start_velocities, start_velocity
 from .domain import AleDomain, domain_for, is_steady, time_step
 from .fields import MovingFieldWriter

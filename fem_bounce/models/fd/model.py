@@ -35,7 +35,7 @@ from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
 from ...motion import is_stream, start_velocities, start_velocity
 from ...output import CheckpointError, segment_path
 from ...scene import SceneError, pair_diameter
-from ...sphere import FluidForce
+from ...integrator import FluidForce
 from . import coupling
 from .domain import Domain, brinkman_rate, domain_for, time_step
 from .fields import FieldWriter
@@ -123,7 +123,7 @@ class FictitiousDomainModel(FlowModel):
         if scene.pair:
             self.hold_gaps = tuple(integrator.hold_gaps)  # (wall, pair) [m]
         else:
-            self.hold_gap = integrator.contact.hold_gap
+            self.hold_gap = integrator.hold_gaps[0]  # above the wall [m]
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
         self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
