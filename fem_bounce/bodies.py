@@ -72,8 +72,7 @@ def scene_bodies(scene: Scene) -> tuple[Body, ...]:
     liquid, g = scene.liquid.density, scene.gravity
     found = [Body(0, scene.sphere, scene.motion.mode, scene.initial_gap, scene.initial_velocity, liquid, g,
                   prescribed_velocity(scene))]
-    upper = () if scene.second_sphere is None else (scene.second_sphere, *scene.further_spheres)
-    for k, sphere in enumerate(upper, start=1):
+    for k, sphere in enumerate(scene.spheres[1:], start=1):
         below = found[-1]
         gap = below.initial_gap + below.diameter + sphere.gap
         key = "second_sphere" if k == 1 else f"further_spheres[{k - 2}]"

@@ -539,7 +539,8 @@ class BodyIntegrator:
                                  self.weights[c.upper:].sum()) for c in contacts):
                 for c in contacts:
                     c.record.rest(t, y[c.gap_index])
-                everyone = "the sphere" if len(self.bodies) == 1 else f"all {len(self.bodies)} spheres"
+                count = len(self.bodies)
+                everyone = {1: "the sphere", 2: "both spheres"}.get(count, f"all {count} spheres")
                 self.stop_reason = f"{everyone} came to rest on the wall at t = {t:.6g} s"
         elif all(abs(c.rate(rates)) < self._stall_speed and not c.record.in_contact and y[c.gap_index] < c.model.blend_gap
                  for c in contacts):
@@ -631,14 +632,6 @@ class BodyIntegrator:
         """The flow models' view: one sphere's velocity as a number, else `velocities`."""
         return float(self.velocities[0]) if len(self.bodies) == 1 else self.velocities
 
-    @property
-    def pair_gap(self) -> float:
-        """The surface gap between spheres 1 and 2 [m]."""
-        return float(self._state()[2])
-
-    def current_row(self) -> dict:
-        return self.row(self.time, self._state())
-
     def _post_step_initial(self) -> None:
         """Log and report the initial state as the first row."""
         y = self.y.array_r
@@ -665,11 +658,6 @@ class BodyIntegrator:
     def blend_crossings(self) -> list[dict]:
         return self.wall.record.blend_crossings if self.wall else []
 
-    @property
-    def in_contact(self) -> bool:
-        """Sphere 1 in contact with the wall."""
-        return self.wall is not None and self.wall.record.in_contact
-
     def collisions(self) -> list[dict]:
         """Every collision, in time order: kind (the contact's name: "pair" or "wall"; "pair_12", ... for
         three spheres or more), time of the minimum gap, min_gap, the relative impact speed, Re and St of
@@ -684,16 +672,16 @@ class BodyIntegrator:
         previous minimum belongs to the collision before it and is not listed."""
         found = []
         for contact in self.contacts:
-            record, pair = contact.record, contact.lower is not None
+            record, two_spheres = contact.record, contact.lower is not None
             for k, impact in enumerate(record.impacts):
-                if pair and k > 0 and not any(
+                if two_spheres and k > 0 and not any(
                         c["direction"] == "in" and record.impacts[k - 1].time < c["time"] <= impact.time
                         for c in record.blend_crossings):
                     continue
                 entry = {"kind": contact.name, **dataclasses.asdict(impact)}
                 if k < len(record.rebounds):
                     entry.update(dataclasses.asdict(record.rebounds[k]))
-                if pair:
+                if two_spheres:
                     following = record.impacts[k + 1].time if k + 1 < len(record.impacts) else math.inf
                     _at_blend_gap(entry, record.blend_crossings, following, contact.model)
                 found.append(entry)

@@ -64,6 +64,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import SPHERE_TAGS, create_mesh
 from ...fem.solver import SolverError
@@ -464,7 +465,7 @@ class AleModel(FlowModel):
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
         diameter = self.scene.sphere.diameter
         force, added_mass = self.last_force
-        displaced = np.array([self.scene.liquid.density * sphere.volume for sphere in self.scene.spheres])
+        displaced = np.array([body.displaced_mass for body in scene_bodies(self.scene)])
         pair = {}
         if self.pair:
             pair = {"min_mesh_pair_delta": self.stats.min_mesh_pair_gap / pair_diameter(*self.scene.spheres),

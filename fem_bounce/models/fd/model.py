@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
@@ -408,7 +409,7 @@ class FictitiousDomainModel(FlowModel):
         """A pair's last 2 x 2 added mass, each row over its sphere's displaced mass, and each indicator's
         volume over its sphere's."""
         scene = self.scene
-        displaced = np.array([scene.liquid.density * sphere.volume for sphere in scene.spheres])
+        displaced = np.array([body.displaced_mass for body in scene_bodies(scene)])
         matrix = self.last_force.added_mass if self.last_force is not None else None
         return {"added_mass_over_displaced": (matrix / displaced[:, None]).tolist() if matrix is not None else None,
                 "indicator_volume_over_sphere": (self.pair.volumes
