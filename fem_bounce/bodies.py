@@ -4,8 +4,9 @@ Sphere 1 is the scene's [sphere] with its [motion] and initial_gap; the second s
 and every further one an entry of [[further_spheres]] (each with the second_sphere fields: its own
 material, the gap between its surface and the one below, its velocity and mode).  The wall, when
 wall.present, lies below sphere 1 as a body of infinite radius: it enters only through the contact of
-sphere 1 with it (contact.ContactModel).  The integrator (integrator.py), the run's safeguards and the
-flow models read mass, weight and motion here instead of from the scene's fields.
+sphere 1 with it (contact.ContactModel).  The integrator (integrator.py), the pair contact models, the
+run's safeguards and the models' reports read mass, weight and motion here instead of from the scene's
+fields.
 """
 from __future__ import annotations
 
@@ -72,11 +73,10 @@ def scene_bodies(scene: Scene) -> tuple[Body, ...]:
     liquid, g = scene.liquid.density, scene.gravity
     found = [Body(0, scene.sphere, scene.motion.mode, scene.initial_gap, scene.initial_velocity, liquid, g,
                   prescribed_velocity(scene))]
+    gaps = scene.initial_gaps
     for k, sphere in enumerate(scene.spheres[1:], start=1):
-        below = found[-1]
-        gap = below.initial_gap + below.diameter + sphere.gap
         key = "second_sphere" if k == 1 else f"further_spheres[{k - 2}]"
-        found.append(Body(k, sphere, sphere.mode, gap, sphere.velocity, liquid, g, _constant_motion(sphere), key))
+        found.append(Body(k, sphere, sphere.mode, gaps[k], sphere.velocity, liquid, g, _constant_motion(sphere), key))
     return tuple(found)
 
 
@@ -91,6 +91,5 @@ def sphere_scene(scene: Scene, k: int) -> Scene:
     other sphere.  For the per-sphere theory forces; never run or validated."""
     if k == 0:
         return dataclasses.replace(scene, second_sphere=None, further_spheres=())
-    body = scene_bodies(scene)[k]
-    return dataclasses.replace(scene, sphere=body.sphere, initial_gap=body.initial_gap, second_sphere=None,
+    return dataclasses.replace(scene, sphere=scene.spheres[k], initial_gap=scene.initial_gaps[k], second_sphere=None,
                                further_spheres=())

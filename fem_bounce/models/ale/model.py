@@ -11,7 +11,7 @@ One fluid step of length dt (motion.MeshMotion, flow.SphereFlow):
    factorises the matrix every step; "reuse", the default, solves by flexible GMRES preconditioned
    with the factors of an earlier step and factorises when that pays: flow.py);
 4. the variational force is affine in the new sphere velocity U, F(U) = F* - m_a c (U - U_ref)
-   with m_a = -(dF/dU) / c: hand F* and m_a to the shared SphereIntegrator, which sub-cycles
+   with m_a = -(dF/dU) / c: hand F* and m_a to the shared BodyIntegrator, which sub-cycles
    through the contact and blends f_sim with f_thr below delta_sl as every model does;
 5. read back U and keep the step's field x_ref + (U - U_ref) x_unit.
 

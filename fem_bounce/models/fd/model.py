@@ -7,7 +7,7 @@ controller (fem_bounce.run.Controller), which owns the loop, the observers and t
 2. predictor A x~ = b(u^n, u^{n-1});
 3. responses A y0 = rho c phi (-u~), A y1 = rho c phi e_z (y1 reused while the sphere is held);
 4. the force on the sphere is affine in its new velocity U: hand F* and the numerical added
-   mass m_a to the shared SphereIntegrator, which sub-cycles through the contact and blends
+   mass m_a to the shared BodyIntegrator, which sub-cycles through the contact and blends
    f_sim with f_thr below delta_sl exactly as every model does;
 5. read back U and set the step's field u = u~ + y0 + s(U) y1.
 
