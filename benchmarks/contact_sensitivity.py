@@ -15,7 +15,7 @@ import warnings
 from pathlib import Path
 
 from fem_bounce import scene
-from fem_bounce.sphere import SphereIntegrator
+from fem_bounce.integrator import BodyIntegrator
 from fem_bounce.studies import restitution, restitution_planning
 
 VARIANTS = {
@@ -30,7 +30,7 @@ VARIANTS = {
 
 def case1(overrides: dict) -> dict:
     sc = scene.load("li2011-case1", {"run.bounces": 2, **overrides})
-    integrator = SphereIntegrator(sc)
+    integrator = BodyIntegrator(sc)
     integrator.advance(sc.run.end_time)
     integrator.finish()
     first, second = integrator.impacts[:2]

@@ -7,7 +7,7 @@ thickness and the surfaces' deformation at five instants, and its gaps, force an
 The collision is the one a run solves: `fem-bounce run li2011-case3 --model ode --set contact.model=ehd`
 (and with `--set contact.ehd_cavitation=-101325`) is run in memory to its first film collision, and the
 arguments the run hands to contact.ContactLaw.collide (V_in at h0, the inertia m_p + C_M(h0) m_l, minus
-the net weight; sphere.SphereIntegrator._film_jump) are recorded by wrapping that method: nothing is
+the net weight; integrator.BodyIntegrator._film_jump) are recorded by wrapping that method: nothing is
 typed in.  The film is then solved again by fem_bounce.ehd.collide with the same arguments, first to find
 the instants, then keeping the film there (`snapshot_times`; the same steps, so the same numbers: checked
 against the run's film restitution).  Instants (T in h0 / V_in): approach (the undeformed surfaces'
@@ -108,7 +108,7 @@ def compute() -> dict:
         run_restitution = args.pop("restitution")
         h0, speed = args["handover_gap"], args["speed"]
         added = args["mass"] - scene.sphere.mass
-        # the run's inertia: m_p + C_M(h0) m_l (sphere.py _film_jump), checked against the theory's C_M
+        # the run's inertia: m_p + C_M(h0) m_l (integrator.py _film_jump), checked against the theory's C_M
         c_m = contact.ContactModel(scene).theory.added_mass(h0)[0]
         if not math.isclose(added, c_m, rel_tol=1e-10):
             raise RuntimeError(f"the run's added mass {added:g} kg is not C_M(h0) m_l = {c_m:g} kg")

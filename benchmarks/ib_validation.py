@@ -175,17 +175,16 @@ def check_resolution(cells):
 def cost_at(cells: int, steps: int = 40) -> dict:
     """Set-up and per-step cost at `cells` per diameter (case 3, first steps), and the
     projected cost of case 3's first bounce there (steps scale with cells per diameter)."""
-    from fem_bounce.contact import ContactModel
     from fem_bounce.models.ib import ImmersedBoundaryModel
     from fem_bounce.run import Controller
-    from fem_bounce.sphere import SphereIntegrator
+    from fem_bounce.integrator import BodyIntegrator
 
     sc = scene.load("li2011-case3", {"numerics.ib.cells_per_diameter": cells})
     start = time.perf_counter()
     model = ImmersedBoundaryModel(sc, COMM)
     sc_short = sc.replace(**{"run.end_time": steps * model.dt})
     model = ImmersedBoundaryModel(sc_short, COMM)
-    integrator = SphereIntegrator(sc_short, ContactModel(sc_short), resolved=True)
+    integrator = BodyIntegrator(sc_short, resolved=True)
     result = Controller(model, integrator).run()
     wall = time.perf_counter() - start
     return {"cells_per_diameter": cells, "unknowns": result["sizes"]["unknowns"], "dt": model.dt,

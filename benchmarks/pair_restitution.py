@@ -50,8 +50,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from fem_bounce import scene as scenes
+from fem_bounce.integrator import BodyIntegrator
 from fem_bounce.output import read_summary
-from fem_bounce.pair import PairIntegrator
 from fem_bounce.studies.runner import Runner
 
 PRESET = "yang-hunt2006-pair"
@@ -153,11 +153,11 @@ def force_check() -> dict:
             "date": time.strftime("%Y-%m-%d")}
 
 
-def collide(changes: dict) -> tuple[PairIntegrator, dict | None]:
+def collide(changes: dict) -> tuple[BodyIntegrator, dict | None]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the Reynolds-number warning of the thin liquids
         scene = scenes.load(PRESET, changes)
-    integrator = PairIntegrator(scene)
+    integrator = BodyIntegrator(scene)
     integrator.advance(scene.run.end_time)
     integrator.finish()
     collisions = integrator.collisions()

@@ -1,6 +1,6 @@
 """The run's account of the bounces: the sphere integrator's events (the gap crossing the contact gap
 and delta_sl, the velocity changing sign) turned into Impact and Rebound records, with the step log the
-paper's 2 ms means are taken from.  The equation of motion (sphere.py) reads only the contact state
+paper's 2 ms means are taken from.  The equations of motion (integrator.py) read only the contact state
 (in contact? what the contact fixed when it began: contact.ContactLaw.engage) from here.
 """
 from __future__ import annotations
@@ -52,7 +52,7 @@ class BounceRecord:
     rebound -> apex -> approach ...  PETSc may report one crossing more than once; the phases make that
     harmless.  `stop_at` is when the run may stop: the bounce limit's apex plus the rebound's 2 ms window.
 
-    The gap h and its rate v = dh/dt are a sphere's to the wall, or a pair's (fem_bounce.pair: the gap
+    The gap h and its rate v = dh/dt are a sphere's to the wall, or a pair's (fem_bounce.integrator: the gap
     between the two surfaces and the relative velocity), with `numbers(speed) -> (Re, St)` of an impact.
     `separating` (a pair, which gravity need not bring back): a rebound also ends when the gap passes
     the contact model's blend gap (delta_sl) outward, and a rebound still opening at the end counts with

@@ -29,7 +29,7 @@ between the undeformed surfaces; `ContactLaw` is written once for both.
   down to the handover gap h0 = contact.ehd_handover, where no Hertz contact has begun (h0 is at least
   ten elastohydrodynamic gaps); there the elastohydrodynamic film collision of Davis, Serayssol & Hinch
   (1986) (fem_bounce.ehd) takes the sphere from (h0, V_in) to (h0, e V_in) in the film's collision time,
-  or to rest (`ContactLaw.collide`, the jump in sphere.SphereIntegrator).  No contact force acts in the
+  or to rest (`ContactLaw.collide`, the jump in integrator.BodyIntegrator).  No contact force acts in the
   integrator: the film is the contact.
 
 Near-wall liquid force of a free sphere in a resolved flow, `contact.near_wall` (`ContactModel`):
@@ -192,7 +192,7 @@ class ContactLaw:
     def force(self, gap: float, rate: float, engaged: float) -> float:
         """The contact force pushing the surfaces apart [N] at the gap `gap` [m] closing at -`rate` [m/s]."""
         if self.ehd:
-            return 0.0  # the film collision is a jump of the state (sphere.py), not a force
+            return 0.0  # the film collision is a jump of the state (integrator.py), not a force
         if not self.hertz:
             return self.dry_restitution * engaged * elastic_shape(gap / (self.delta_ss * self.length))
         overlap = engaged - gap

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .sphere import FluidForce
+from .integrator import FluidForce
 
 
 @dataclass(frozen=True)

@@ -51,9 +51,23 @@ TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_histo
 # A pair (scene.second_sphere): one row per instant, both spheres side by side (suffix _1: sphere 1, the
 # lower one; _2: the second sphere); gap_i is sphere i's lowest point above z = 0, pair_gap the distance
 # between the two surfaces, f_pair_i the pair's Stokes interaction in the theory force (docs/usage.md).
-PAIR_TRAJECTORY_COLUMNS = ("t", "pair_gap", *(f"{name}_{k}" for k in (1, 2) for name in (
-    "gap", "velocity", "acceleration", "f_drag", "f_pair", "f_added_mass", "f_theory", "f_sim", "f_liquid",
-    "f_elastic", "f_correction")))
+EACH_SPHERE_COLUMNS = ("gap", "velocity", "acceleration", "f_drag", "f_pair", "f_added_mass", "f_theory", "f_sim",
+                       "f_liquid", "f_elastic", "f_correction")
+PAIR_TRAJECTORY_COLUMNS = ("t", "pair_gap", *(f"{name}_{k}" for k in (1, 2) for name in EACH_SPHERE_COLUMNS))
+
+
+def trajectory_columns(spheres: int) -> tuple:
+    """The trajectory's columns for this many spheres: TRAJECTORY_COLUMNS for one, PAIR_TRAJECTORY_COLUMNS
+    for two, and for three or more the pair's scheme with each neighbouring pair's gap (pair_gap_12,
+    pair_gap_23, ...: the distance between the surfaces of spheres 1 and 2, 2 and 3, ...)."""
+    if spheres == 1:
+        return TRAJECTORY_COLUMNS
+    if spheres == 2:
+        return PAIR_TRAJECTORY_COLUMNS
+    gaps = tuple(f"pair_gap_{k}{k + 1}" for k in range(1, spheres))
+    return ("t", *gaps, *(f"{name}_{k}" for k in range(1, spheres + 1) for name in EACH_SPHERE_COLUMNS))
+
+
 MARKER = ".fem-bounce-run"
 MARKER_TEXT = "fem-bounce run directory: `fem-bounce run --force` may replace everything in it.\n"
 

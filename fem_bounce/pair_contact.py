@@ -31,8 +31,9 @@ import math
 import numpy as np
 
 from .contact import ContactGaps, ContactLaw, reduced_modulus
-from .pair_theory import PairAddedMass, PairResistance, reduced_radius
-from .scene import Scene
+from .bodies import scene_bodies
+from .pair_theory import PairAddedMass, PairResistance
+from .scene import Scene, reduced_radius
 
 # Trial states of an implicit step may close the pair gap; real penetration is an event of the integrator.
 MIN_PAIR_DELTA = 1e-12
@@ -42,14 +43,17 @@ class PairContactModel(ContactGaps):
     """One pair scene's contact model: the pair's gap scales, its elastic force, its liquid interaction
     in Stokes flow and a resolved flow's correction (module docstring)."""
 
-    def __init__(self, scene: Scene, resolved: bool = False):
-        first, second = scene.sphere, scene.second_sphere
+    def __init__(self, scene: Scene, resolved: bool = False, lower: int = 0):
+        """The contact between the scene's bodies `lower` and `lower + 1` (0: sphere 1 and the second
+        sphere; fem_bounce.bodies)."""
+        bodies = scene_bodies(scene)[lower:lower + 2]
+        first, second = (body.sphere for body in bodies)
         c = scene.contact
         self.delta_sl = c.delta_sl
         self.radii = np.array([first.radius, second.radius])
         self.diameter = 2.0 * reduced_radius(first.radius, second.radius)  # 2 a*: the pair's gap scale [m]
         self.reduced_radius = 0.5 * self.diameter
-        free = (scene.motion.mode == "free", second.mode == "free")
+        free = tuple(body.free for body in bodies)
         if all(free) or not any(free):
             self.reduced_mass = first.mass * second.mass / (first.mass + second.mass)
         else:  # a held or prescribed sphere is infinitely heavy to the collision
@@ -65,7 +69,7 @@ class PairContactModel(ContactGaps):
         self._resistance = PairResistance(first.radius, second.radius)  # tabulated once, ~3 us a call
         self._resistance_hold = self.resistance(self.blend_gap)
         self._added_mass = PairAddedMass(first.radius, second.radius)  # tabulated once, microseconds a call
-        self.displaced_masses = np.array([scene.liquid.density * s.volume for s in (first, second)])  # m_l,i [kg]
+        self.displaced_masses = np.array([body.displaced_mass for body in bodies])  # m_l,i [kg]
 
     # -- the collision's numbers ---------------------------------------------------------------------
     def stokes(self, speed: float) -> float:

@@ -23,14 +23,11 @@ import math
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from .scene import reduced_radius
+
 SERIES_TOLERANCE = 1e-13  # truncation of the Gegenbauer series, relative to the isolated drag
 MAX_TERMS = 400_000  # safety cap; the series needs about 36 / (alpha + beta) terms
 SERIES_MIN_GAP = 1e-4  # in units of the reduced radius: below it `resistance` uses the lubrication form
-
-
-def reduced_radius(a1: float, a2: float) -> float:
-    """a* = a1 a2 / (a1 + a2) [m]: the radius of the sphere whose wall-lubrication equals the pair's."""
-    return a1 * a2 / (a1 + a2)
 
 
 def bispherical_poles(a_upper: float, a_lower: float, gap: float) -> tuple[float, float, float]:

@@ -18,6 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from . import reference  # noqa: E402
 from .contact import REBOUND_MIN_APEX  # noqa: E402
 from .output import read_summary, read_trajectory  # noqa: E402,F401 -- also read from here by older scripts
+from .scene import reduced_radius  # noqa: E402
 
 
 def units(scene: dict) -> tuple[float, float, float]:
@@ -129,22 +130,26 @@ def velocity_gap_figure(traj: dict, summary: dict, path: Path) -> Path:
 
 
 def pair_figure(traj: dict, summary: dict, path: Path) -> Path:
-    """A pair of spheres: (a) each sphere's lowest point above z = 0, (b) the pair gap (and sphere 1's
-    gap to the wall, if there is one) on a log scale with delta_ss and delta_sl, (c) both velocities and
-    the relative one, with the collisions marked."""
+    """Two spheres or more: (a) each sphere's lowest point above z = 0, (b) each neighbouring pair's gap
+    (and sphere 1's gap to the wall, if there is one) on a log scale with delta_ss and delta_sl, (c) the
+    velocities (and a pair's relative one), with the collisions marked."""
     scene = summary["scene"]
-    d1, second = scene["sphere"]["diameter"], scene["second_sphere"]
-    pair_d = 2.0 * (0.5 * d1) * (0.5 * second["diameter"]) / (0.5 * d1 + 0.5 * second["diameter"])  # 2 a*
+    spheres = [scene["sphere"], scene["second_sphere"], *scene.get("further_spheres", ())]
+    count, d1 = len(spheres), spheres[0]["diameter"]
     contact, wall = scene["contact"], scene["wall"].get("present", True)
     t = traj["t"] * 1e3
     fig, (ax_pos, ax_gap, ax_vel) = plt.subplots(3, 1, figsize=(7, 8.5), sharex=True)
-    ax_pos.plot(t, traj["gap_1"] / d1, lw=1.2, label="sphere 1 (lower)")
-    ax_pos.plot(t, traj["gap_2"] / d1, lw=1.2, label="sphere 2")
+    for k in range(1, count + 1):
+        ax_pos.plot(t, traj[f"gap_{k}"] / d1, lw=1.2, label=f"sphere {k}" + (" (lower)" if k == 1 else ""))
+        ax_vel.plot(t, traj[f"velocity_{k}"], lw=1.2, label=f"sphere {k}")
     if wall:
         ax_pos.axhline(0.0, color="k", lw=1.0)
     ax_pos.set_ylabel(r"lowest point above $z=0$, $/D_1$")
     ax_pos.legend(loc="best", fontsize=8)
-    ax_gap.semilogy(t, traj["pair_gap"] / pair_d, lw=1.2, color="C4", label=r"pair gap $h/2a^*$")
+    for k, (lower, upper) in enumerate(zip(spheres, spheres[1:]), start=1):
+        pair_d = 2.0 * reduced_radius(0.5 * lower["diameter"], 0.5 * upper["diameter"])  # 2 a*
+        column, name = ("pair_gap", "pair gap") if count == 2 else (f"pair_gap_{k}{k + 1}", f"gap {k}-{k + 1}")
+        ax_gap.semilogy(t, traj[column] / pair_d, lw=1.2, color=f"C{3 + k}", label=f"{name} $h/2a^*$")
     if wall:
         ax_gap.semilogy(t, traj["gap_1"] / d1, lw=1.0, color="C0", ls="--", label=r"sphere 1 to wall $h_1/D_1$")
     ax_gap.axhline(contact["delta_sl"], color="0.6", ls=":", lw=0.8, label=r"$\delta_{sl}$")
@@ -152,13 +157,12 @@ def pair_figure(traj: dict, summary: dict, path: Path) -> Path:
         ax_gap.axhline(contact["delta_ss"], color="0.3", ls="--", lw=0.8, label=r"$\delta_{ss}$")
     ax_gap.set_ylabel("gap (scaled)")
     ax_gap.legend(loc="best", fontsize=8)
-    ax_vel.plot(t, traj["velocity_1"], lw=1.2, label="sphere 1")
-    ax_vel.plot(t, traj["velocity_2"], lw=1.2, label="sphere 2")
-    ax_vel.plot(t, traj["velocity_2"] - traj["velocity_1"], lw=0.9, color="C4", ls="--",
-                label=r"relative $V_2 - V_1$")
+    if count == 2:
+        ax_vel.plot(t, traj["velocity_2"] - traj["velocity_1"], lw=0.9, color="C4", ls="--",
+                    label=r"relative $V_2 - V_1$")
     collisions = summary.get("collisions", [])
     for k, collision in enumerate(collisions):
-        colour = "C3" if collision["kind"] == "pair" else "C2"
+        colour = "C2" if collision["kind"] == "wall" else "C3"
         for ax in (ax_gap, ax_vel):
             ax.axvline(collision["time"] * 1e3, color=colour, lw=0.6, ls="-.")
         if k < 4:  # the first few in the legend; summary.json has them all
@@ -168,9 +172,9 @@ def pair_figure(traj: dict, summary: dict, path: Path) -> Path:
     ax_vel.set_xlabel("t [ms]")
     ax_vel.set_ylabel("V [m/s] (up +)")
     ax_vel.legend(loc="best", fontsize=7)
-    kinds = [c["kind"] for c in collisions]
-    fig.suptitle(f"{scene['name']}: {summary['model']} model ({kinds.count('pair')} pair and "
-                 f"{kinds.count('wall')} wall collisions)", fontsize=10)
+    walls = sum(c["kind"] == "wall" for c in collisions)
+    fig.suptitle(f"{scene['name']}: {summary['model']} model ({len(collisions) - walls} pair and "
+                 f"{walls} wall collisions)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)

@@ -2,7 +2,7 @@
 
     summary = simulate(scene, "ode", comm, out_dir=Path("runs/case3"))
 
-The model advances the flow (if any) and the shared SphereIntegrator; this module owns everything
+The model advances the flow (if any) and the shared BodyIntegrator; this module owns everything
 around it: the run directory (output.py), the trajectory rows, the progress line, the checks every
 model shares, restarts, the summary and the plots.  Before anything is written the model is built
 (it checks the scene against itself) and, for a restart, the checkpoint, the scene and the
@@ -11,7 +11,7 @@ trajectory are checked, so a refused run changes nothing.
 How a run ends (summary.json "status" and "stop_reason"):
 
 - completed: end_time, the bounce limit, a sphere at rest on the wall (or, without gravity, stalled in
-  the film: sphere.py), or a sphere lighter than the liquid stopped where it can no
+  the film: integrator.py), or a sphere lighter than the liquid stopped where it can no
   longer be followed: risen RISE_LIMIT diameters above its release, at a container's lid, or at the
   top of a resolved model's refined region (it never reaches the wall);
 - diverged (RunDiverged): NaN, a solver failure, the sphere inside the wall, or the sphere's energy
@@ -39,12 +39,10 @@ from petsc4py import PETSc
 
 from . import models, output
 from . import scene as scenes
-from .contact import ContactModel
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel, Predictor
-from .pair import PairIntegrator
+from .integrator import BodyIntegrator, PenetrationError
 from .progress import Monitor, ProgressBar
-from .sphere import PenetrationError, SphereIntegrator
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
 ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error before a gain stops the run
@@ -122,10 +120,10 @@ def on_root(comm, action):
 # -- what every step shares ----------------------------------------------------------------------
 
 
-class _CarriesRunRecord:
-    """An integrator whose checkpoint state also carries the run's record (the trajectory's rows, put on
-    the disk first; the wall time; the scene): every model that checkpoints the integrator, as it must
-    to restart, so checkpoints the run whole."""
+class _RunIntegrator(BodyIntegrator):
+    """The shared integrator, whose checkpoint state also carries the run's record (the trajectory's rows,
+    put on the disk first; the wall time; the scene): every model that checkpoints the integrator, as it
+    must to restart, so checkpoints the run whole."""
 
     record: "_RunRecord | None" = None
 
@@ -134,14 +132,6 @@ class _CarriesRunRecord:
         if self.record is not None:
             state["run"] = self.record.checkpoint()
         return state
-
-
-class _RunIntegrator(_CarriesRunRecord, SphereIntegrator):
-    """The shared sphere integrator, carrying the run's record."""
-
-
-class _RunPairIntegrator(_CarriesRunRecord, PairIntegrator):
-    """The pair's integrator (pair.py), carrying the run's record."""
 
 
 class _RunRecord:
@@ -167,23 +157,31 @@ class _RunRecord:
 
 
 class _Safeguards:
-    """Checks after every integrator step (identical on every rank: the integrators are): the energy
-    bound, and where a rising sphere is stopped."""
+    """Checks after every integrator step (identical on every rank: the integrators are).
 
-    def __init__(self, scene, integrator: SphereIntegrator, model: str, resolved_top: float):
+    The energy bound of free spheres: their kinetic energy and the potential energy of their net
+    weights, sum_i 1/2 m_i V_i^2 + (m_i - m_l,i) g h_i, can never exceed its value at the start plus the
+    kinetic energy the liquid can hold at the start, at most sum_i 1/2 m_l,i V_i0^2 (potential flow
+    around a moving sphere, C_M = 1/2, and up to 0.80 at contact: taken as 1): the elastic energy and
+    the liquid's are >= 0 and viscosity only dissipates.  A held or prescribed sphere is worked on by its
+    prescription, so the bound is not checked then.  Spheres all lighter than the liquid are stopped
+    where sphere 1 can no longer be followed (they never reach the wall)."""
+
+    def __init__(self, scene, integrator: BodyIntegrator, model: str, resolved_top: float):
         self.scene, self.integrator, self.model = scene, integrator, model
-        self.free = scene.motion.mode == "free"
-        sphere, d, h0 = scene.sphere, scene.sphere.diameter, scene.initial_gap
-        self.net_weight = (sphere.mass - scene.displaced_mass) * scene.gravity  # toward the wall [N]
-        # Released into a quiescent liquid, the sphere's kinetic and potential energy can never exceed their
-        # value at release plus the kinetic energy the liquid can hold at the start (a launched sphere's
-        # potential flow, C_M m_l V0^2 / 2 with C_M at most 0.80 at contact: taken as 1): the liquid's
-        # kinetic energy and the elastic energy are >= 0 and viscosity only dissipates.
-        launch = 0.5 * (sphere.mass + scene.displaced_mass) * scene.initial_velocity**2 if self.free else 0.0
-        self.release_energy = self.net_weight * h0 + launch
-        self.tolerance = ENERGY_TOLERANCE * (abs(self.net_weight) * h0 + launch)
-        self.light = self.free and scene.density_ratio < 1.0
-        limits = [(h0 + RISE_LIMIT * d, f"risen {RISE_LIMIT:g} D above its release")]
+        bodies = integrator.bodies
+        self.free = all(body.free for body in bodies)
+        self.masses = np.array([body.mass for body in bodies])
+        displaced = np.array([body.displaced_mass for body in bodies])
+        self.weights = np.array([body.net_weight for body in bodies])
+        v0 = np.array([body.start_velocity for body in bodies]) if self.free else np.zeros(len(bodies))
+        h0 = np.array([body.initial_gap for body in bodies])
+        launch = 0.5 * (self.masses + displaced) @ v0**2
+        self.release_energy = self.weights @ h0 + launch
+        self.tolerance = ENERGY_TOLERANCE * (np.abs(self.weights) @ h0 + launch)
+        self.light = self.free and all(body.mass < body.displaced_mass for body in bodies)
+        d = bodies[0].diameter
+        limits = [(h0[0] + RISE_LIMIT * d, f"risen {RISE_LIMIT:g} D above its release")]
         if not scene.container.unbounded:
             limits.append((scene.container.height - d, "reached the container's lid"))
         if math.isfinite(resolved_top):
@@ -194,8 +192,9 @@ class _Safeguards:
     def __call__(self, row: dict) -> None:
         if not self.free:
             return
-        h, v, d = row["gap"], row["velocity"], self.scene.sphere.diameter
-        excess = 0.5 * self.scene.sphere.mass * v * v + self.net_weight * h - self.release_energy
+        integrator = self.integrator
+        h, v, d = integrator.gaps, integrator.velocities, integrator.bodies[0].diameter
+        excess = 0.5 * self.masses @ (v * v) + self.weights @ h - self.release_energy
         if excess > self.tolerance:
             settings, entry = getattr(self.scene.numerics, self.model), models.info(self.model)
             if not entry.resolved:
@@ -203,56 +202,19 @@ class _Safeguards:
             elif getattr(settings, "coupling", "implicit") == "explicit":
                 hint = f"numerics.{self.model}.coupling = \"explicit\" fails here: use \"implicit\""
             else:
-                hint = f"use a smaller numerics.{self.model}.cfl"
+                hint = f"use a smaller {entry.time_step_key}"
+            where = ", ".join(f"{x / d:.3g}" for x in h)
+            speeds = ", ".join(f"{x:+.3g}" for x in v)
+            what = "the sphere" if len(h) == 1 else "the spheres"
             raise RunDiverged(
-                f"the sphere gained energy it cannot have: at t = {row['t']:.6g} s (gap {h / d:.3g} D, "
-                f"V = {v:+.3g} m/s) its kinetic + potential energy is {excess / self.tolerance * ENERGY_TOLERANCE:.0%} "
-                f"of its scale above its bound at release; the coupling or the time step is unstable ({hint})")
-        if self.light and h >= self.ceiling and self.stop_reason is None:
-            self.stop_reason = (f"the light sphere {self.where} (gap {h / d:.3g} D at t = {row['t']:.4g} s); "
+                f"{what} gained energy {'it' if len(h) == 1 else 'they'} cannot have: at t = {row['t']:.6g} s (gap "
+                f"{where} D, V = {speeds} m/s) the kinetic + potential energy is "
+                f"{excess / self.tolerance * ENERGY_TOLERANCE:.0%} of its scale above its bound at release; the "
+                f"coupling or the time step is unstable ({hint})")
+        if self.light and h[0] >= self.ceiling and self.stop_reason is None:
+            self.stop_reason = (f"the light sphere {self.where} (gap {h[0] / d:.3g} D at t = {row['t']:.4g} s); "
                                 "it never reaches the wall")
-            self.integrator.done = True
-
-
-class _PairSafeguards:
-    """The energy bound of a free pair (checked after every integrator step): the spheres' kinetic
-    energy and the potential energy of their net weights, sum_i 1/2 m_i V_i^2 + (m_i - m_l,i) g h_i, can
-    never exceed its value at the start plus the kinetic energy the liquid can hold at the start, at most
-    sum_i 1/2 m_l,i V_i0^2 (potential flow around a moving sphere, C_M = 1/2, and up to 0.80 at contact:
-    taken as 1): the elastic energy and the liquid's are >= 0 and viscosity only dissipates.  A held or
-    prescribed sphere is worked on by its prescription, so the bound is not checked then.  A light pair
-    is not stopped at a ceiling: it runs to run.end_time or its collision limit."""
-
-    light, stop_reason = False, None
-
-    def __init__(self, scene, model: str):
-        self.scene, self.model = scene, model
-        spheres = scene.spheres
-        self.masses = np.array([s.mass for s in spheres])
-        displaced = np.array([scene.liquid.density * s.volume for s in spheres])
-        self.weights = (self.masses - displaced) * scene.gravity
-        from .motion import start_velocities
-
-        v0, h0 = np.array(start_velocities(scene)), np.array(scene.initial_gaps)
-        self.free = scene.motion.mode == "free" and scene.second_sphere.mode == "free"
-        self.start_energy = float(0.5 * self.masses @ v0**2 + self.weights @ h0)
-        liquid_energy = float(0.5 * displaced @ v0**2)
-        self.bound = self.start_energy + liquid_energy
-        self.tolerance = ENERGY_TOLERANCE * (abs(self.weights) @ np.abs(h0) + 0.5 * (self.masses + displaced) @ v0**2)
-
-    def __call__(self, row: dict) -> None:
-        if not self.free:
-            return
-        v, h = np.array([row["velocity_1"], row["velocity_2"]]), np.array([row["gap_1"], row["gap_2"]])
-        energy = float(0.5 * self.masses @ v**2 + self.weights @ h)
-        if energy - self.bound > self.tolerance:
-            entry = models.info(self.model)
-            hint = f"tighten {entry.resolution_key}" if not entry.resolved else f"use a smaller numerics.{self.model}.cfl"
-            raise RunDiverged(
-                f"the pair gained energy it cannot have: at t = {row['t']:.6g} s (pair gap {row['pair_gap']:.3g} m, "
-                f"V = {v[0]:+.3g}, {v[1]:+.3g} m/s) its kinetic + potential energy exceeds its bound by "
-                f"{(energy - self.bound) / self.tolerance * ENERGY_TOLERANCE:.0%} of its scale; the coupling or "
-                f"the time step is unstable ({hint})")
+            integrator.done = True
 
 
 # -- before the run: warnings and restarts ---------------------------------------------------------
@@ -315,7 +277,7 @@ class Controller:
     is done (bounce limit, safeguards), and turns the model's failures into one RunDiverged that says
     where the run can be continued from.  The trajectory rows are an observer of the integrator."""
 
-    def __init__(self, model: FlowModel, integrator: SphereIntegrator, monitor=None,
+    def __init__(self, model: FlowModel, integrator: BodyIntegrator, monitor=None,
                  run_dir: output.RunDirectory | None = None):
         """`monitor(t, steps, gap, velocity, force=False)` is called after every step (the run's progress
         line and stop requests); without `run_dir` nothing is written."""
@@ -454,9 +416,11 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     if models.info(model).serial and comm.size > 1:
         return _serial_on_root(scene, model, comm, out_dir, force=force, restart=restart, command=command,
                                progress=progress, plots=plots, interrupts=interrupts)
-    if scene.pair and not models.info(model).pairs:
-        raise models.ModelError(f"the {model} model cannot run a pair of spheres ([second_sphere]): use one of "
-                                f"{', '.join(models.registry.pairing())}")
+    spheres, most = len(scene.spheres), models.info(model).max_spheres
+    if spheres > most:
+        what = "a pair of spheres ([second_sphere])" if spheres == 2 else f"{spheres} spheres ([[further_spheres]])"
+        raise models.ModelError(f"the {model} model cannot run {what}: it runs at most {most}; use one of "
+                                f"{', '.join(models.registry.running(spheres))}")
     model_cls = models.get(model)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active
@@ -473,12 +437,8 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
             f"model meshes the whole path, allowed up to {RESOLVED_MAX_GAP:g} D (a sphere reaches its terminal speed "
             "within ~10-20 D); start it lower, or use the ode model")
     flow = model_cls(scene, comm)
-    if scene.pair:
-        integrator = _RunPairIntegrator(scene, resolved=model_cls.resolved)
-        guards = _PairSafeguards(scene, model)
-    else:
-        integrator = _RunIntegrator(scene, ContactModel(scene), resolved=model_cls.resolved)
-        guards = _Safeguards(scene, integrator, model, flow.resolved_top())
+    integrator = _RunIntegrator(scene, resolved=model_cls.resolved)
+    guards = _Safeguards(scene, integrator, model, flow.resolved_top())
     if root:
         for message in _warnings(scene, model, comm, guards):
             warnings.warn(message, stacklevel=2)
@@ -495,7 +455,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     interval = models.info(model).setting(scene, interval_key) if interval_key else 0.0
     writer = None
     if run_dir is not None:
-        columns = output.PAIR_TRAJECTORY_COLUMNS if scene.pair else output.TRAJECTORY_COLUMNS
+        columns = output.trajectory_columns(len(scene.spheres))
         writer = on_root(comm, lambda: run_dir.trajectory(interval, columns))
     earlier_wall = resumed.wall_time_s if resumed is not None else []  # [s], one per earlier segment
     record = _RunRecord(scene, model, writer, earlier_wall)

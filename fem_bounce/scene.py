@@ -95,6 +95,10 @@ def _check_fields(obj: Any, prefix: str) -> None:
         if dataclasses.is_dataclass(value):
             _check_fields(value, key + ".")
             continue
+        if isinstance(value, tuple):  # an array of tables ([[further_spheres]])
+            for k, item in enumerate(value):
+                _check_fields(item, f"{key}[{k}].")
+            continue
         if "choices" in f.metadata and value not in f.metadata["choices"]:
             allowed = ", ".join(repr(c) for c in f.metadata["choices"])
             raise SceneError(f"{key} = {value!r} is not one of {allowed}")
@@ -139,10 +143,15 @@ class Sphere:
         return self.density * self.volume
 
 
+def reduced_radius(a1: float, a2: float) -> float:
+    """a* = a1 a2 / (a1 + a2) [m]: the radius of the sphere whose wall-lubrication equals the pair's."""
+    return a1 * a2 / (a1 + a2)
+
+
 def pair_diameter(first: Sphere, second: Sphere) -> float:
-    """2 a*, the pair's reduced diameter, a* = a1 a2 / (a1 + a2) [m]: the length that scales the gap of a
-    pair (delta = h / (2 a*)), as D scales a sphere's gap to a wall (a2 -> infinity gives D1)."""
-    return 2.0 * first.radius * second.radius / (first.radius + second.radius)
+    """2 a*, the pair's reduced diameter [m]: the length that scales the gap of a pair (delta = h / (2 a*)),
+    as D scales a sphere's gap to a wall (a2 -> infinity gives D1)."""
+    return 2.0 * reduced_radius(first.radius, second.radius)
 
 
 @dataclass(frozen=True)
@@ -335,11 +344,15 @@ class Scene:
     reference: Reference = field(default_factory=Reference)
     numerics: Numerics = field(default_factory=Numerics)
     second_sphere: SecondSphere | None = None
+    # the spheres above the second, lowest first ([[further_spheres]], each with the second_sphere fields,
+    # its gap measured from the sphere below it): a column of three or more (fem_bounce.bodies)
+    further_spheres: tuple[SecondSphere, ...] = ()
 
     # -- derived quantities (never typed in) --
     @property
     def pair(self) -> bool:
-        """Two spheres on the axis (second_sphere given)."""
+        """More than one sphere on the axis (second_sphere given): the pair's outputs (collisions, the
+        columns with suffixes)."""
         return self.second_sphere is not None
 
     @property
@@ -353,15 +366,17 @@ class Scene:
 
     @property
     def spheres(self) -> tuple[Sphere, ...]:
-        """Sphere 1 (nearest z = 0), then the second sphere if there is one."""
-        return (self.sphere,) if self.second_sphere is None else (self.sphere, self.second_sphere)
+        """Sphere 1 (nearest z = 0), then the second sphere and the further ones if there are."""
+        return (self.sphere,) if self.second_sphere is None else (self.sphere, self.second_sphere,
+                                                                   *self.further_spheres)
 
     @property
     def initial_gaps(self) -> tuple[float, ...]:
         """Each sphere's lowest point above z = 0 at the start [m]."""
-        if self.second_sphere is None:
-            return (self.initial_gap,)
-        return (self.initial_gap, self.initial_gap + self.sphere.diameter + self.second_sphere.gap)
+        gaps = [self.initial_gap]
+        for below, sphere in zip(self.spheres, self.spheres[1:]):
+            gaps.append(gaps[-1] + below.diameter + sphere.gap)
+        return tuple(gaps)
 
     @property
     def density_ratio(self) -> float:
@@ -440,6 +455,9 @@ class Scene:
                              "wall.present = true "
                              "(or set wall.present = false)")
         second = self.second_sphere
+        if self.further_spheres and second is None:
+            raise SceneError(f"further_spheres ({len(self.further_spheres)} given) are the spheres above the second: "
+                             "give [second_sphere] first")
         if self.gravity == 0.0 and self.launch_speed == 0.0:
             raise SceneError("gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity "
                              "!= 0 or a pair set in motion by second_sphere.velocity != 0 (in [-100, 100] m/s) with "
@@ -468,9 +486,10 @@ class Scene:
             if box.height <= top:
                 raise SceneError(f"container.height = {box.height:g} m must exceed the top of the highest sphere "
                                  f"at the start, {top:g} m")
-            if second is not None and box.radius <= second.radius:
-                raise SceneError(f"container.radius = {box.radius:g} m must exceed second_sphere's radius "
-                                 f"{second.radius:g} m")
+            for key, sphere in self._upper_spheres():
+                if box.radius <= sphere.radius:
+                    raise SceneError(f"container.radius = {box.radius:g} m must exceed {key}'s radius "
+                                     f"{sphere.radius:g} m")
         if self.motion.mode == "prescribed" and self.motion.series:
             read_series(self.motion.series)
         curve = self.reference.velocity_curve
@@ -478,7 +497,7 @@ class Scene:
             raise SceneError(f"reference.velocity_curve = {curve!r} is not one of the package's velocity curves: "
                              f"{', '.join(repr(n) for n in names)} (or \"\" for none)")
         speed = max(abs(self.motion.velocity), abs(self.motion.stream_velocity),
-                    abs(second.velocity) if second is not None else 0.0)
+                    *(abs(sphere.velocity) for _, sphere in self._upper_spheres()))
         re_max = self.reynolds(max(self.estimated_impact_speed(), speed) if self.motion.mode == "free" else speed)
         if re_max > AXISYMMETRIC_RE_LIMIT:
             warnings.warn(
@@ -523,11 +542,11 @@ class Scene:
         surfaces' combined roughness, which must lie below the resolved flow's hold delta_sl."""
         pairs = [("initial_gap", self.initial_gap, "sphere.diameter", self.sphere.diameter,
                   self.sphere.roughness + self.wall.roughness, "sphere.roughness + wall.roughness")]
-        second = self.second_sphere
-        if second is not None:
-            pairs.append(("second_sphere.gap", second.gap, "the pair's reduced diameter 2a*",
-                          pair_diameter(self.sphere, second), self.sphere.roughness + second.roughness,
-                          "sphere.roughness + second_sphere.roughness"))
+        lower = "sphere"
+        for (key, sphere), below in zip(self._upper_spheres(), self.spheres):
+            pairs.append((f"{key}.gap", sphere.gap, "the pair's reduced diameter 2a*", pair_diameter(below, sphere),
+                          below.roughness + sphere.roughness, f"{lower}.roughness + {key}.roughness"))
+            lower = key
         c = self.contact
         for key, gap, scale_name, scale, roughness, roughness_name in pairs:
             if c.paper and gap <= c.delta_ss * scale:
@@ -540,13 +559,19 @@ class Scene:
                 raise SceneError(f"{key} = {gap:g} m is out of range: allowed > {roughness_name} = {roughness:g} m: "
                                  "start outside contact")
 
+    def _upper_spheres(self) -> list[tuple[str, SecondSphere]]:
+        """(scene key, sphere) of each sphere above the first, lowest first."""
+        if self.second_sphere is None:
+            return []
+        return [("second_sphere", self.second_sphere),
+                *((f"further_spheres[{k}]", s) for k, s in enumerate(self.further_spheres))]
+
     @property
     def launch_speed(self) -> float:
         """The largest speed a sphere starts with [m/s]: initial_velocity, or a pair's projectile."""
-        second = self.second_sphere
-        pair_speed = abs(second.velocity) if second is not None and second.mode != "fixed" else 0.0
+        upper_speed = max((abs(s.velocity) for _, s in self._upper_spheres() if s.mode != "fixed"), default=0.0)
         free_speed = abs(self.initial_velocity) if self.motion.mode == "free" else 0.0
-        return max(free_speed, pair_speed)
+        return max(free_speed, upper_speed)
 
     def replace(self, **changes: Any) -> "Scene":
         """A copy with dotted keys changed, e.g. replace(**{"sphere.density": 8000.0})."""
@@ -570,7 +595,12 @@ def _build(cls, data: dict, prefix: str):
             hint = f"; did you mean {prefix}{near[0]}?" if near else f"; known: {', '.join(fields)}"
             raise SceneError(f"unknown key {prefix}{key}{hint}")
         table = _table_type(hints[key])
-        if table is not None:
+        if table is not None and typing.get_origin(hints[key]) is tuple:  # an array of tables
+            if not isinstance(value, (list, tuple)) or not all(isinstance(item, dict) for item in value):
+                raise SceneError(f"{prefix}{key} must be an array of tables ([[{prefix}{key}]] in TOML), each with "
+                                 f"{', '.join(f.name for f in dataclasses.fields(table))}")
+            kwargs[key] = tuple(_build(table, item, f"{prefix}{key}[{k}].") for k, item in enumerate(value))
+        elif table is not None:
             kwargs[key] = _build(table, value, f"{prefix}{key}.")
         else:
             kwargs[key] = _coerce(value, hints[key], prefix + key)
@@ -626,7 +656,7 @@ def dumps(scene: Scene) -> str:
     data = to_dict(scene)
     first = ["name", "description", "initial_gap", "gravity"]
     data = {**{k: data.pop(k) for k in first}, **data}
-    lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
+    lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, (dict, tuple))]
     if scene.container.unbounded:
         lines.append('container = "unbounded"')
         data.pop("container")
@@ -643,6 +673,9 @@ def dumps(scene: Scene) -> str:
     for key, value in data.items():
         if isinstance(value, dict):
             table(key, value)
+    for item in data.get("further_spheres", ()):  # an array of tables, after every table
+        lines.append("\n[[further_spheres]]")
+        lines.extend(f"{k} = {_toml_value(v)}" for k, v in item.items())
     return "\n".join(lines) + "\n"
 
 

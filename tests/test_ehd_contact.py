@@ -7,14 +7,14 @@ import math
 import pytest
 
 from fem_bounce import contact, ehd, scene
-from fem_bounce.sphere import SphereIntegrator
+from fem_bounce.integrator import BodyIntegrator
 
 
 def case3(**changes):
     return scene.load("li2011-case3", {"contact.model": "ehd", **changes})
 
 
-class Recorded(SphereIntegrator):
+class Recorded(BodyIntegrator):
     """Keeps (t, V) where each film collision began and the state the integrator resumed from."""
 
     def _film_jump(self):
@@ -64,7 +64,7 @@ def test_rebound_resumes_at_the_handover_with_e_times_v_in(run):
     s = run.scene
     e_star = contact.reduced_modulus(s.sphere.youngs_modulus, s.sphere.poisson_ratio, s.wall.youngs_modulus,
                                      s.wall.poisson_ratio)
-    mass = s.sphere.mass + run.theory.added_mass(h0)[0]
+    mass = s.sphere.mass + run.theories[0].added_mass(h0)[0]
     assert mass > s.sphere.mass + 0.5 * s.displaced_mass  # C_M near the wall exceeds 1/2
     weight = (s.sphere.mass - s.displaced_mass) * s.gravity  # pressing the sphere into the film
     again = ehd.collide(s.sphere.radius, mass, e_star, s.liquid.viscosity, -v0, h0, external_force=-weight)
@@ -82,13 +82,13 @@ def test_a_collision_without_rebound_leaves_the_sphere_at_rest(run):
     assert run.rebounds[-1].restitution == 0.0 and run.rebounds[-1].apex_gap is None
     assert "came to rest on the wall in the film" in run.stop_reason
     assert run.velocity == 0.0 and 0.0 < run.time < run.scene.run.end_time
-    assert run.bounces.resting
+    assert run.wall.record.resting
 
 
 def test_above_the_handover_the_run_is_lubricated_hertz(run):
     """Down to h0 the forces are lubricated-hertz's (its Hertz contact begins only at ~0.4 um)."""
     (t0, v0), *_ = run.jumps[0]
-    reference = SphereIntegrator(scene.load("li2011-case3"))
+    reference = BodyIntegrator(scene.load("li2011-case3"))
     try:
         reference.advance(t0)
         assert reference.impacts == []
@@ -131,8 +131,8 @@ def test_the_cavitation_switch_reaches_the_film_model():
 def test_a_checkpoint_after_a_film_collision_restarts_to_the_same_bounces(run):
     """The state after a jump (time, gap, velocity, history states, the record's phase) is all a restart needs."""
     t_after = run.jumps[0][1] + 0.01
-    first = SphereIntegrator(case3())
-    second = SphereIntegrator(case3())
+    first = BodyIntegrator(case3())
+    second = BodyIntegrator(case3())
     try:
         first.advance(t_after)
         second.load_state_dict(first.state_dict())
@@ -152,11 +152,11 @@ def test_a_checkpoint_after_a_film_collision_restarts_to_the_same_bounces(run):
 def test_a_film_collision_that_cannot_be_solved_ends_the_run_as_diverged(monkeypatch):
     from fem_bounce import errors
 
-    integrator = SphereIntegrator(case3())
+    integrator = BodyIntegrator(case3())
 
     def fails(speed, mass, force=0.0):
         raise ehd.FilmError("Newton did not converge")
-    monkeypatch.setattr(integrator.law, "collide", fails)
+    monkeypatch.setattr(integrator.contact.law, "collide", fails)
     try:
         with pytest.raises(errors.RunDiverged, match=r"the film collision \(contact\.model = \"ehd\"\) at t = .*"
                                                       r"Newton did not converge"):

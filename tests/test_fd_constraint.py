@@ -9,7 +9,7 @@ from fem_bounce import output, scene
 from fem_bounce.models.fd.domain import brinkman_rate, time_step
 from fem_bounce.models.fd.model import FictitiousDomainModel
 from fem_bounce.run import simulate
-from fem_bounce.sphere import SphereIntegrator
+from fem_bounce.integrator import BodyIntegrator
 
 TINY = {"numerics.fd.cells_per_diameter": 6, "run.end_time": 0.01}
 
@@ -18,7 +18,7 @@ def brinkman_model(strength: float):
     sc = scene.load("li2011-case3", {"numerics.fd.cells_per_diameter": 8, "numerics.fd.constraint": "brinkman",
                                      "numerics.fd.penalty_strength": strength})
     fd = FictitiousDomainModel(sc, MPI.COMM_WORLD)
-    fd.build(SphereIntegrator(sc, resolved=True))
+    fd.build(BodyIntegrator(sc, resolved=True))
     return fd
 
 

@@ -12,14 +12,14 @@ from scipy.integrate import quad
 from fem_bounce import scene
 from fem_bounce.models.fd import immersed
 from fem_bounce.models.fd.model import FictitiousDomainModel
-from fem_bounce.sphere import SphereIntegrator
+from fem_bounce.integrator import BodyIntegrator
 
 
 @pytest.fixture(scope="module")
 def model():
     sc = scene.load("li2011-case3", {"numerics.fd.cells_per_diameter": 8})
     fd = FictitiousDomainModel(sc, MPI.COMM_WORLD)
-    fd.build(SphereIntegrator(sc, resolved=True))
+    fd.build(BodyIntegrator(sc, resolved=True))
     yield fd
     fd.destroy()
 

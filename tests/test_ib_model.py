@@ -66,12 +66,11 @@ def test_the_implicit_coupling_keeps_a_light_sphere_stable():
     points crossing grid cells (8 cells per diameter); it must not grow."""
     sc = toy("tencate2002-e4", **{"sphere.density": 9.6, "initial_gap": 0.03, "run.end_time": 0.25,
                                   "container": {"radius": 0.05, "height": 0.16}})
-    from fem_bounce.contact import ContactModel
     from fem_bounce.models.ib import ImmersedBoundaryModel
     from fem_bounce.run import Controller
-    from fem_bounce.sphere import SphereIntegrator
+    from fem_bounce.integrator import BodyIntegrator
 
-    integrator = SphereIntegrator(sc, ContactModel(sc), resolved=True)
+    integrator = BodyIntegrator(sc, resolved=True)
     steps = []
     Controller(ImmersedBoundaryModel(sc, MPI.COMM_SELF), integrator,
                monitor=lambda t, n, gap, v, force=False: steps.append(v)).run()

@@ -14,7 +14,7 @@ from fem_bounce import cli, models, output
 from fem_bounce import scene as scenes
 from fem_bounce.contact import ContactModel, hertz_contact_time, hertz_peak_force
 from fem_bounce.flow_model import Predictor, flow_gaps
-from fem_bounce.pair import PairIntegrator
+from fem_bounce.integrator import BodyIntegrator
 from fem_bounce.pair_contact import PairContactModel
 from fem_bounce.run import simulate
 
@@ -37,8 +37,8 @@ class _nothing:
         return False
 
 
-def run_to_end(scene) -> PairIntegrator:
-    integrator = PairIntegrator(scene)
+def run_to_end(scene) -> BodyIntegrator:
+    integrator = BodyIntegrator(scene)
     integrator.advance(scene.run.end_time)
     integrator.finish()
     return integrator
@@ -73,13 +73,13 @@ def test_an_inviscid_pair_keeps_its_impulse_and_energy_with_the_liquids_added_ma
                           "contact.inertial_factor": "none"})  # phi(Re ~ 1e9) would leave a drag of 1e-7 N
     masses = np.array([s.mass for s in scene.spheres])
     rows = []
-    integrator = PairIntegrator(scene)
+    integrator = BodyIntegrator(scene)
     integrator.observers.append(rows.append)
     integrator.advance(scene.run.end_time)
     integrator.finish()
     (collision,) = integrator.collisions()
     assert collision["rebounded"]
-    pair = integrator.pair
+    pair = integrator.pairs[0]
 
     def totals(row):
         v = np.array([row["velocity_1"], row["velocity_2"]])
@@ -120,24 +120,24 @@ def test_the_pairs_history_is_each_spheres_own():
     """Far apart (80 D), sphere 2 of the pair slows down as the same sphere alone does, with its history
     force (theory.TheoryForces, the Mei & Adrian kernel); the history moves the speed by far more than
     the pair's interaction does.  And the drag-scaled factor K_H^(3/2) is the pair's X_kk(h)."""
-    from fem_bounce.pair import sphere_scene
-    from fem_bounce.sphere import SphereIntegrator
+    from fem_bounce.bodies import sphere_scene
+    from fem_bounce.integrator import BodyIntegrator
 
     end = 0.02
     changes = {"second_sphere.gap": 1.0, "run.end_time": end}
     slowed = {}
     for history in ("mei-adrian", "off"):
         scene = pair_scene(**changes, **{"contact.history": history})
-        integrator = PairIntegrator(scene)
+        integrator = BodyIntegrator(scene)
         integrator.advance(end)
         alone = scenes.to_dict(sphere_scene(scene, 1))  # sphere 2 alone, launched as in the pair
         alone["sphere"] = {k: v for k, v in alone["sphere"].items() if k not in ("gap", "velocity", "mode")}
         alone["initial_velocity"] = scene.second_sphere.velocity
         alone["wall"].update(youngs_modulus=200e9, poisson_ratio=0.33)  # ContactModel reads them; no wall here
-        single = SphereIntegrator(scenes.from_dict(alone))
+        single = BodyIntegrator(scenes.from_dict(alone))
         single.advance(end)
         slowed[history] = (integrator.velocity[1], single.velocity)
-        assert integrator.n == 4 + (2 * single.theory.n_history if history != "off" else 0)
+        assert integrator.n == 4 + (2 * single.theories[0].n_history if history != "off" else 0)
         integrator.destroy()
         single.destroy()
     pair_speed, single_speed = slowed["mei-adrian"]
@@ -148,11 +148,11 @@ def test_the_pairs_history_is_each_spheres_own():
     gap = 0.05 * scene.sphere.diameter
     forces = {}
     for factor in ("one", "drag-scaled"):
-        integrator = PairIntegrator(pair_scene(**{"second_sphere.gap": gap, "contact.history_wall_factor": factor}))
+        integrator = BodyIntegrator(pair_scene(**{"second_sphere.gap": gap, "contact.history_wall_factor": factor}))
         y = np.array(integrator.y.array_r)
         y[4 + integrator.n_history[0]:] = 1e-3  # sphere 2's modes only
         forces[factor] = integrator._terms(0.0, y)["history"]
-        resistance = integrator.pair.resistance(gap)
+        resistance = integrator.pairs[0].resistance(gap)
         integrator.destroy()
     assert forces["one"][0] == 0.0 and forces["one"][1] < 0.0  # f_H = -sum c_k z_k
     assert forces["drag-scaled"][1] / forces["one"][1] == pytest.approx(resistance[1, 1], rel=1e-12)
@@ -176,11 +176,11 @@ def test_elastic_limit_min_gap_and_contact_time_follow_the_contact_layer():
     approach from the energy balance and the time in the layer from its quadrature (the paper's spring)."""
     scene = pair_scene(**NO_LIQUID, **{"contact.model": "li2011"})
     rows = []
-    integrator = PairIntegrator(scene)
+    integrator = BodyIntegrator(scene)
     integrator.observers.append(rows.append)
     integrator.advance(scene.run.end_time)
     integrator.finish()
-    pair = integrator.pair
+    pair = integrator.pairs[0]
     (collision,) = integrator.collisions()
     speed, layer = collision["contact_speed"], pair.law.boundary(0.0)
     spring = scene.contact.dry_restitution * pair.law.engage(speed) * layer / pair.reduced_mass  # [m^2/s^2]
@@ -227,7 +227,7 @@ def test_the_correction_is_the_held_flows_missing_increment():
     below = 0.1 * pair.blend_gap
     expected = pair.interaction(below, velocities) - pair.interaction(pair.blend_gap, velocities)
     assert np.allclose(pair.correction(below, velocities), expected, rtol=1e-12, atol=0.0)
-    integrator = PairIntegrator(scene, resolved=True)
+    integrator = BodyIntegrator(scene, resolved=True)
     try:
         assert integrator.hold_gaps == (0.0, pytest.approx(scene.contact.delta_sl * scenes.pair_diameter(
             scene.sphere, scene.second_sphere)))
@@ -237,23 +237,13 @@ def test_the_correction_is_the_held_flows_missing_increment():
         integrator.destroy()
 
 
-def test_predictor_and_checkpoint_state_carry_arrays():
+def test_predictor_carries_arrays():
+    """(The integrator's checkpoint state for any number of spheres: test_bodies.py.)"""
     predictor = Predictor([np.array([0.0, -0.3])] * 2)  # order 2 (AB2)
     predictor.push(np.array([0.1, -0.2]))
     prediction = predictor.predict(0.0, np.array([0.05, 0.07]), np.array([0.1, -0.2]), 1e-3)
     assert np.allclose(prediction.mean_velocity, [0.15, -0.15])
     assert json.loads(json.dumps([np.asarray(v).tolist() for v in predictor.velocities])) == [[0.1, -0.2], [0.0, -0.3]]
-    scene = pair_scene(**{"run.end_time": 0.02})
-    first = PairIntegrator(scene)
-    first.advance(0.01)
-    state = json.loads(json.dumps(first.state_dict()))
-    first.advance(0.02)
-    second = PairIntegrator(scene)
-    second.load_state_dict(state)
-    second.advance(0.02)
-    assert np.allclose(second.gap, first.gap, rtol=1e-12, atol=0.0)
-    first.destroy()
-    second.destroy()
 
 
 def test_a_single_sphere_scene_is_unchanged(tmp_path):
@@ -301,7 +291,7 @@ def test_compare_refuses_a_pair_before_running(tmp_path, capsys):
 
 
 def test_a_model_without_pairs_refuses_before_writing(tmp_path):
-    unable = [name for name, entry in models.MODELS.items() if not entry.pairs]
+    unable = [name for name, entry in models.MODELS.items() if entry.max_spheres < 2]
     if not unable:
         pytest.skip("every model runs pairs")
     with pytest.raises(models.ModelError) as err:

@@ -34,7 +34,7 @@ class ModelInfo:
     trajectory_interval_key: str | None = None  # thins the trajectory rows to one per interval [s]
     colour: str = "k"  # the same in every chart
     sources: tuple = ()  # package paths whose code decides its numbers (the study cache's key)
-    pairs: bool = False  # runs a pair of spheres on the axis (scene.second_sphere; fem_bounce.pair)
+    max_spheres: int = 1  # the most spheres on the axis it runs (scene.second_sphere, further_spheres)
 
     @property
     def restarts(self) -> bool:
@@ -65,8 +65,10 @@ class ModelInfo:
 
 
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
-CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "sphere.py", "bounces.py", "motion.py", "flow_model.py",
-                "run.py", "errors.py", "output.py", "models/__init__.py", "pair.py", "pair_contact.py", "pair_theory.py")
+CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "bodies.py", "integrator.py", "bounces.py", "motion.py",
+                "flow_model.py", "run.py", "errors.py", "output.py", "models/__init__.py", "pair_contact.py",
+                "pair_theory.py")
+MANY = 1000  # the ode model's sphere count has no limit of its own
 
 MODELS: dict[str, ModelInfo] = {
     "ode": ModelInfo(
@@ -74,7 +76,7 @@ MODELS: dict[str, ModelInfo] = {
         liquid="nothing: the near-wall theory force f_thr everywhere", resolved=False,
         resolution_key="numerics.ode.rtol", resolution_unit="", ladder=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
         serial=True, trajectory_interval_key="numerics.ode.output_interval", colour="C0",
-        sources=("models/ode.py",), pairs=True),
+        sources=("models/ode.py",), max_spheres=MANY),
     "fd": ModelInfo(
         name="fd", module="fem_bounce.models.fd", class_name="FictitiousDomainModel",
         liquid="axisymmetric Taylor-Hood Navier-Stokes (FEniCSx), diffuse-interface sphere", resolved=True,
@@ -82,7 +84,7 @@ MODELS: dict[str, ModelInfo] = {
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.fd.cfl",
         scaled_with_time_step=("numerics.fd.forcing_number",), checkpoint_every_key="numerics.fd.checkpoint_every",
         checkpoint_files=("flow.npz",), min_cells_across_blend_gap=1.0, fields_key="numerics.fd.output_every",
-        colour="C1", sources=("models/fd", "fem"), pairs=True),
+        colour="C1", sources=("models/fd", "fem"), max_spheres=2),
     "ib": ModelInfo(
         name="ib", module="fem_bounce.models.ib", class_name="ImmersedBoundaryModel",
         liquid="the paper's IB projection method on a staggered grid", resolved=True,
@@ -97,7 +99,7 @@ MODELS: dict[str, ModelInfo] = {
         resolution_key="numerics.ale.cells_per_diameter", resolution_unit="cells/D",
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.ale.cfl",
         checkpoint_every_key="numerics.ale.checkpoint_every", checkpoint_files=("flow.npz",),
-        fields_key="numerics.ale.output_every", colour="C3", pairs=True,
+        fields_key="numerics.ale.output_every", colour="C3", max_spheres=2,
         sources=("models/ale", "fem")),
 }
 
@@ -105,9 +107,9 @@ BEST_FIRST = ("fd", "ib", "ode")  # the default model: the first of these that i
 FIDELITY = ("ale", "fd", "ib", "ode")  # which model's finest run serves as a study's reference, first found
 
 
-def pairing() -> list[str]:
-    """The models that run a pair of spheres on the axis."""
-    return [name for name, info in MODELS.items() if info.pairs]
+def running(spheres: int) -> list[str]:
+    """The models that run this many spheres on the axis."""
+    return [name for name, info in MODELS.items() if info.max_spheres >= spheres]
 
 
 def restarting() -> list[str]:

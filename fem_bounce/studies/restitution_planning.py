@@ -28,7 +28,7 @@ import warnings
 import numpy as np
 
 from .. import scene as scenes
-from ..sphere import SphereIntegrator
+from ..integrator import BodyIntegrator
 
 # Table 3, runs 1-29, in the order a Stokes number is assigned to a set that reaches it
 MATERIAL_SETS = (
@@ -72,7 +72,7 @@ def check_overrides(overrides: dict | None) -> None:
 def first_bounce(scene: scenes.Scene, launch: float, rebound: bool = True) -> dict:
     """ODE model launched at `launch` [m/s] to the end of the first rebound (or to the impact only)."""
     trial = bounce_scene(scene, launch)
-    integrator = SphereIntegrator(trial, stop_after_impacts=0 if rebound else 1)
+    integrator = BodyIntegrator(trial, stop_after_impacts=0 if rebound else 1)
     integrator.advance(trial.run.end_time)
     integrator.finish()
     speed_in, speed_out = crossing_speeds(integrator.blend_crossings)

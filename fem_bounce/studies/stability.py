@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bodies import scene_bodies
 from ..output import read_trajectory
 from .. import scene as scenes
 from .common import LADDERS, StudyDirectory, measure_all
@@ -50,7 +51,7 @@ def scene_for(base: scenes.Scene, model: str, sweep: str, value: float) -> scene
 
 def energy_grew(scene: scenes.Scene, run_dir: Path) -> bool:
     trajectory = read_trajectory(run_dir)
-    net = (scene.sphere.mass - scene.displaced_mass) * scene.gravity
+    net = scene_bodies(scene)[0].net_weight
     energy = 0.5 * scene.sphere.mass * trajectory["velocity"] ** 2 + net * trajectory["gap"]
     return bool(np.nanmax(energy) - energy[0] > ENERGY_SLACK * abs(net) * scene.initial_gap)
 

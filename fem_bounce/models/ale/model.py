@@ -11,7 +11,7 @@ One fluid step of length dt (motion.MeshMotion, flow.SphereFlow):
    factorises the matrix every step; "reuse", the default, solves by flexible GMRES preconditioned
    with the factors of an earlier step and factorises when that pays: flow.py);
 4. the variational force is affine in the new sphere velocity U, F(U) = F* - m_a c (U - U_ref)
-   with m_a = -(dF/dU) / c: hand F* and m_a to the shared SphereIntegrator, which sub-cycles
+   with m_a = -(dF/dU) / c: hand F* and m_a to the shared BodyIntegrator, which sub-cycles
    through the contact and blends f_sim with f_thr below delta_sl as every model does;
 5. read back U and keep the step's field x_ref + (U - U_ref) x_unit.
 
@@ -64,6 +64,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import SPHERE_TAGS, create_mesh
 from ...fem.solver import SolverError
@@ -71,7 +72,7 @@ from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction, flow_gaps
 from ...output import CheckpointError, segment_path
 from ...scene import pair_diameter
-from ...sphere import FluidForce
+from ...integrator import FluidForce
 from ...motion import is_stream, start_velocities, start_velocity
 from .domain import AleDomain, domain_for, is_steady, next_time_step, time_step
 from .fields import MovingFieldWriter
@@ -517,7 +518,7 @@ class AleModel(FlowModel):
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
         diameter = self.scene.sphere.diameter
         force, added_mass = self.last_force
-        displaced = np.array([self.scene.liquid.density * sphere.volume for sphere in self.scene.spheres])
+        displaced = np.array([body.displaced_mass for body in scene_bodies(self.scene)])
         pair = {}
         if self.pair:
             pair = {"min_mesh_pair_delta": self.stats.min_mesh_pair_gap / pair_diameter(*self.scene.spheres),

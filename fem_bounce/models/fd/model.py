@@ -7,7 +7,7 @@ controller (fem_bounce.run.Controller), which owns the loop, the observers and t
 2. predictor A x~ = b(u^n, u^{n-1});
 3. responses A y0 = rho c phi (-u~), A y1 = rho c phi e_z (y1 reused while the sphere is held);
 4. the force on the sphere is affine in its new velocity U: hand F* and the numerical added
-   mass m_a to the shared SphereIntegrator, which sub-cycles through the contact and blends
+   mass m_a to the shared BodyIntegrator, which sub-cycles through the contact and blends
    f_sim with f_thr below delta_sl exactly as every model does;
 5. read back U and set the step's field u = u~ + y0 + s(U) y1.
 
@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
@@ -35,7 +36,7 @@ from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
 from ...motion import is_stream, start_velocities, start_velocity
 from ...output import CheckpointError, segment_path
 from ...scene import SceneError, pair_diameter
-from ...sphere import FluidForce
+from ...integrator import FluidForce
 from . import coupling
 from .domain import Domain, brinkman_rate, domain_for, time_step
 from .fields import FieldWriter
@@ -123,7 +124,7 @@ class FictitiousDomainModel(FlowModel):
         if scene.pair:
             self.hold_gaps = tuple(integrator.hold_gaps)  # (wall, pair) [m]
         else:
-            self.hold_gap = integrator.contact.hold_gap
+            self.hold_gap = integrator.hold_gaps[0]  # above the wall [m]
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
         self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
@@ -408,7 +409,7 @@ class FictitiousDomainModel(FlowModel):
         """A pair's last 2 x 2 added mass, each row over its sphere's displaced mass, and each indicator's
         volume over its sphere's."""
         scene = self.scene
-        displaced = np.array([scene.liquid.density * sphere.volume for sphere in scene.spheres])
+        displaced = np.array([body.displaced_mass for body in scene_bodies(scene)])
         matrix = self.last_force.added_mass if self.last_force is not None else None
         return {"added_mass_over_displaced": (matrix / displaced[:, None]).tolist() if matrix is not None else None,
                 "indicator_volume_over_sphere": (self.pair.volumes

@@ -47,7 +47,7 @@ from ...flow_model import FlowModel, Prediction
 from ...motion import series_speed
 from ...output import CheckpointError
 from ...scene import SceneError
-from ...sphere import FluidForce
+from ...integrator import FluidForce
 from .body import SphereSurface
 from .delta import SUPPORT, interpolation_matrix
 from .domain import build_grid
@@ -135,7 +135,7 @@ class ImmersedBoundaryModel(FlowModel):
     # -- the FlowModel interface ----------------------------------------------------------------
     def build(self, integrator) -> None:
         opts = self.opts
-        self.hold_gap = integrator.contact.hold_gap
+        self.hold_gap = integrator.hold_gaps[0]  # above the wall [m]
         self.solver = FlowSolver(self.ops, self.scene.liquid.kinematic_viscosity, self.dt)
         self.stats = StepStatistics(calm_limit=0.5 * opts.max_cfl)
         self.preconditioner = ForcePreconditioner(self.grid.h)
