@@ -6,7 +6,7 @@ rebounds, final state, step count and a hash of trajectory.csv (rows to 10 digit
     python benchmarks/refactor_check.py --size 0d4af21          # the package's size then and now (no runs)
 
 --compare prints each run's largest relative difference and lists the numbers that moved by more than
---rtol (1e-10 by default).  Two machines of the same kind differ by round-off (2e-15 relative in the ode
+--rtol (1e-10 by default); numbers both below ZERO (1e-12, SI) in size are round-off zeros and compare equal.  Two machines of the same kind differ by round-off (2e-15 relative in the ode
 run, up to 1e-12 in the ale trajectory through MUMPS), so bit-for-bit equality is not portable; a real
 change moves numbers by far more than 1e-10.  The trajectory's sha256 is printed when it differs, for
 information only: it changes with the last of the 10 digits written.
@@ -64,9 +64,16 @@ def fingerprint(name: str) -> dict:
             "rows": len((out / "trajectory.csv").read_text().splitlines()) - 1}
 
 
+# Below this absolute size [SI] a number is a round-off zero (the velocity at an apex: 7e-15 m/s) and has no
+# relative digits to keep: two of them differ by less than ZERO whatever their ratio.
+ZERO = 1e-12
+
+
 def relative(a: float, b: float) -> float:
     if math.isnan(a) or math.isnan(b):
         return 0.0 if math.isnan(a) and math.isnan(b) else math.inf
+    if abs(a - b) < ZERO and max(abs(a), abs(b)) < ZERO:
+        return 0.0
     scale = max(abs(a), abs(b))
     return abs(a - b) / scale if scale else 0.0
 
@@ -76,9 +83,12 @@ def differences(before, after, path=""):
     if isinstance(before, dict) and isinstance(after, dict):
         for k in sorted(before.keys() | after.keys()):
             yield from differences(before.get(k), after.get(k), f"{path}.{k}")
-    elif isinstance(before, list) and isinstance(after, list) and len(before) == len(after):
+    elif isinstance(before, list) and isinstance(after, list):
         for k, (a, b) in enumerate(zip(before, after)):
             yield from differences(a, b, f"{path}[{k}]")
+        for k in range(min(len(before), len(after)), max(len(before), len(after))):  # added or removed
+            yield f"{path}[{k}]", before[k] if k < len(before) else "(none)", after[k] if k < len(after) else "(none)", \
+                math.inf
     elif all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (before, after)):
         yield path, before, after, relative(before, after)
     elif before != after:
