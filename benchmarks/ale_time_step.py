@@ -15,7 +15,6 @@ import argparse
 import csv
 import json
 import os
-import subprocess
 import time
 import warnings
 from pathlib import Path
@@ -25,6 +24,7 @@ from mpi4py import MPI
 
 from fem_bounce import scene
 from fem_bounce.cli import run_logged
+from provenance import commit
 
 HERE = Path(__file__).resolve().parent
 RECORD = HERE / "history" / "ale_time_step.json"
@@ -63,9 +63,7 @@ def main() -> None:
         errors = ", ".join(f"{key} {100 * v:+.2f} %" for key, v in r["relative_to_finest"].items())
         print(f"{name:32s} {r['steps']:4d} steps {r['wall_time_s']:6.1f} s  V_i {r['V_i']:.5f}  "
               f"Re_II {r['Re_II']:.3f}  e_1 {r['e_1']:.5f}  ({errors}); steps by mesh gap {r['steps_by_gap']}")
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=HERE).stdout.strip()
-    RECORD.write_text(json.dumps({"date": time.strftime("%Y-%m-%d"), "commit": commit, "load_average_before": load,
+    RECORD.write_text(json.dumps({"date": time.strftime("%Y-%m-%d"), "commit": commit(), "load_average_before": load,
                                   "load_average_after": os.getloadavg()[0], "setting": SETTING, "runs": found},
                                  indent=1) + "\n")
 

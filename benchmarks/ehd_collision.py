@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import subprocess
 import time
 from pathlib import Path
 
@@ -31,6 +30,7 @@ import numpy as np
 
 import fem_bounce as fb
 from fem_bounce import contact, ehd
+from provenance import commit
 
 ROOT = Path(__file__).resolve().parents[1]
 RECORD = ROOT / "benchmarks" / "history" / "ehd_collision.json"
@@ -39,15 +39,6 @@ FIGURES = {"off": ROOT / "docs" / "figures" / "ehd_case3_film.png",
 CAVITATION = {"off": None, "-101325 Pa": -101325.0}
 INSTANTS = ("approach", "maximum load", "overlap ends", "largest tension", "separation")
 SIGNIFICANT = 6  # digits kept in the record
-
-
-def _commit() -> str:
-    """The commit the script runs at (a + when the work tree differs from it)."""
-    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                          check=False).stdout
-    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
-                           text=True, check=False).stdout
-    return head.strip() + ("+" if dirty.strip() else "")
 
 
 def _rounded(values) -> list:
@@ -98,7 +89,7 @@ def instants(result: ehd.FilmResult) -> dict:
 
 def compute() -> dict:
     started = time.perf_counter()
-    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "commit": _commit(),
+    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "commit": commit(),
               "command": "PYTHONPATH=. python benchmarks/ehd_collision.py", "scene": "li2011-case3",
               "instants": "T at the first accepted step at or after: approach (X = 0.1 h0 inbound), maximum load, "
                           "overlap ends (X = 0 outbound), largest tension (min force), separation (X = 0.1 h0 "

@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import subprocess
 import time
 from pathlib import Path
 
@@ -39,6 +38,7 @@ from scipy.integrate import solve_ivp
 
 from fem_bounce import contact, ehd, scene
 from fem_bounce.studies.restitution import legendre_fit
+from provenance import commit
 
 ROOT = Path(__file__).resolve().parents[1]
 PRESETS = ["li2011-table3-steel-65", "li2011-table3-steel-78", "li2011-table3-steel-85", "li2011-table3-steel-95"]
@@ -141,15 +141,6 @@ class Setting:
         return self.scene.stokes(launch), max(restitution * v0 - lost, 0.0) / launch
 
 
-def _commit() -> str:
-    """The commit the script runs at (a + when the work tree differs from it)."""
-    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                          check=False).stdout
-    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
-                           text=True, check=False).stdout
-    return head.strip() + ("+" if dirty.strip() else "")
-
-
 def critical(rebounds, lo: float, hi: float, rel: float = 0.02) -> float:
     """The St between lo (no rebound) and hi (rebound) where e becomes positive (bisection in ln St)."""
     while hi / lo > 1.0 + rel:
@@ -168,7 +159,7 @@ def bracket(points):
 
 def main(quick: bool = False):
     started = time.perf_counter()
-    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "commit": _commit(),
+    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "commit": commit(),
               "command": "PYTHONPATH=. python benchmarks/ehd_restitution.py" + (" --quick" if quick else ""),
               "h0_um": H0 * 1e6, "settings": vars(ehd.FilmSettings()), "sets": {}}
     names = ["li2011-table3-steel-85"] if quick else PRESETS

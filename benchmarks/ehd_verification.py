@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
 import time
 from pathlib import Path
 
@@ -26,21 +25,13 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 
 from fem_bounce import ehd
+from provenance import commit
 
 ROOT = Path(__file__).resolve().parents[1]
 RECORD = ROOT / "benchmarks" / "history" / "ehd_verification.json"
 GRIDS = [(60, 30), (120, 60), (240, 120)]
 TOLERANCES = [1e-3, 2.5e-4, 6.25e-5]
 EPSILON_ST20 = 1.022e-4  # steel-85 at St 20, h0 = 20 um (tests/test_ehd.py)
-
-
-def _commit() -> str:
-    """The commit the script runs at (a + when the work tree differs from it)."""
-    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                          check=False).stdout
-    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
-                           text=True, check=False).stdout
-    return head.strip() + ("+" if dirty.strip() else "")
 
 
 def truncated_reynolds_force(separation: float, outer: float = 8.0) -> float:
@@ -102,7 +93,7 @@ def convergence() -> dict:
 
 def main():
     started = time.perf_counter()
-    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "commit": _commit(),
+    record = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "commit": commit(),
               "command": "PYTHONPATH=. python benchmarks/ehd_verification.py",
               "default_grid": f"{ehd.FilmSettings().inner_cells}+{ehd.FilmSettings().outer_cells}",
               "default_tolerance": ehd.FilmSettings().tolerance}

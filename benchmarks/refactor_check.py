@@ -6,7 +6,8 @@ rebounds, final state, step count and a hash of trajectory.csv (rows to 10 digit
     python benchmarks/refactor_check.py --size 0d4af21          # the package's size then and now (no runs)
 
 --compare prints each run's largest relative difference and lists the numbers that moved by more than
---rtol (1e-10 by default); numbers both below ZERO (1e-12, SI) in size are round-off zeros and compare equal.  Two machines of the same kind differ by round-off (2e-15 relative in the ode
+--rtol (1e-10 by default); numbers both below ZERO (1e-12, SI) in size are round-off zeros and compare
+equal.  Two machines of the same kind differ by round-off (2e-15 relative in the ode
 run, up to 1e-12 in the ale trajectory through MUMPS), so bit-for-bit equality is not portable; a real
 change moves numbers by far more than 1e-10.  The trajectory's sha256 is printed when it differs, for
 information only: it changes with the last of the 10 digits written.
@@ -87,8 +88,8 @@ def differences(before, after, path=""):
         for k, (a, b) in enumerate(zip(before, after)):
             yield from differences(a, b, f"{path}[{k}]")
         for k in range(min(len(before), len(after)), max(len(before), len(after))):  # added or removed
-            yield f"{path}[{k}]", before[k] if k < len(before) else "(none)", after[k] if k < len(after) else "(none)", \
-                math.inf
+            old = before[k] if k < len(before) else "(none)"
+            yield f"{path}[{k}]", old, after[k] if k < len(after) else "(none)", math.inf
     elif all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (before, after)):
         yield path, before, after, relative(before, after)
     elif before != after:
