@@ -41,6 +41,13 @@ class Ladder:
         factor = cfl / _setting(scene, self.time_step_key)
         return {self.time_step_key: cfl, **{k: factor * _setting(scene, k) for k in self.scaled_with_time_step}}
 
+    def scaled_step(self, scene: scenes.Scene, factor: float) -> dict:
+        """Scene changes that multiply the scene's time step by `factor` (its CFL number and the other
+        step limits alike); {} for a model without a time-step setting (its tolerance sets its steps)."""
+        if self.time_step_key is None:
+            return {}
+        return self.time_step(scene, factor * _setting(scene, self.time_step_key))
+
 
 def _setting(scene: scenes.Scene, key: str) -> float:
     value = scene
@@ -75,8 +82,10 @@ def quantities(scene: scenes.Scene, run_dir: Path) -> dict:
         found["impact_speed"] = impacts[0]["impact_speed"]
     if len(impacts) > 1:
         found["re_second"] = impacts[1]["Re"]
-    if rebounds and rebounds[0]["apex_gap"] is not None:
-        found["apex_gap"] = rebounds[0]["apex_gap"]
+    if rebounds:
+        found["restitution"] = rebounds[0]["restitution"]
+        if rebounds[0]["apex_gap"] is not None:
+            found["apex_gap"] = rebounds[0]["apex_gap"]
     return found
 
 
