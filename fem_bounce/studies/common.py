@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -209,7 +210,8 @@ def measure_all(tasks: list[tuple[scenes.Scene, str, str]], study: StudyDirector
     for k, run_dir in runner.run([(scene, model) for scene, model, _ in tasks]):
         scene, model, label = tasks[k]
         found = quantities(scene, run_dir)
-        study.log(f"{model} {label}: {found['status']}, {found['wall_time_s']:.1f} s  "
+        study.log(f"{model} {label}: {found['status']}, {found['wall_time_s']:.1f} s "
+                  f"(load average now {os.getloadavg()[0]:.2f})  "
                   + "  ".join(f"{name} = {value:.5g}" for name, value in found.items()
                               if isinstance(value, float) and name != "wall_time_s"))
         rows[k] = {"model": model, "label": label, "run_dir": str(run_dir), **found}

@@ -13,6 +13,7 @@ reaches it on every primary quantity: `fem-bounce run --accuracy 5%` reads these
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -66,6 +67,7 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
     """Every model at every level (`levels`: {model: [resolution or Level, ...]}, default its ladder), and
     the reference run; the errors, recommendations and figure go to `out`."""
     study = StudyDirectory(out, comm)
+    load_at_start = os.getloadavg()  # 1, 5, 15 minutes: a shared machine's load slows the runs timed now
     plan = [(model, value if isinstance(value, Level) else Level(value)) for model in models
             for value in (levels or {}).get(model, LADDERS[model].values)]
     reference_model = next(m for m in FIDELITY if m in models)
@@ -104,7 +106,8 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
                             "step_factor": reference_level.step_factor, "run_dir": reference["run_dir"],
                             "text": reference_text},
               "reference_run": reference["run_dir"], "reference_model": reference_model, "experiment": experiment,
-              "rows": rows, "recommendations": recommendations}
+              "rows": rows, "recommendations": recommendations,
+              "load_average": {"start": load_at_start, "end": os.getloadavg()}}
     study.write_json("speed_accuracy.json", result)
     study.write_csv("speed_accuracy.csv", [{k: v for k, v in r.items() if k != "setting"} | r["setting"]
                                            for r in rows])
