@@ -146,10 +146,11 @@ def test_speed_accuracy_reference_is_the_finest_level_at_a_shorter_step(tmp_path
         return rows
 
     monkeypatch.setattr(speed_accuracy, "measure_all", toy_measure_all)
-    levels = {"ale": [8.0, speed_accuracy.Level(8.0, 0.5), 16.0]}
+    levels = {"ale": [8.0, speed_accuracy.Level(8.0, 0.5), 16.0, speed_accuracy.Level(16.0, 0.5)]}
     result = speed_accuracy.run(sc, ["ale"], MPI.COMM_SELF, tmp_path / "study", levels)
-    # four runs: the three levels and the reference, 16 cells/D at a quarter of the step
-    assert [task[0].numerics.ale.cfl for task in asked] == pytest.approx([cfl, 0.5 * cfl, cfl, 0.25 * cfl])
+    # five runs: the four levels and the reference, 16 cells/D at a quarter of the scene's step
+    assert [task[0].numerics.ale.cfl for task in asked] == pytest.approx([cfl, 0.5 * cfl, cfl, 0.5 * cfl,
+                                                                          0.25 * cfl])
     assert result["reference"]["setting"] == {"numerics.ale.cells_per_diameter": 16.0,
                                               "numerics.ale.cfl": pytest.approx(0.25 * cfl)}
     assert result["reference"]["step_factor"] == pytest.approx(0.25)

@@ -72,10 +72,8 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
             for value in (levels or {}).get(model, LADDERS[model].values)]
     reference_model = next(m for m in FIDELITY if m in models)
     ladder = LADDERS[reference_model]
-    finest = min((level for model, level in plan if model == reference_model),
-                 key=lambda level: (ladder.spacing(level.resolution), level.step_factor))
-    reference_level = finest if ladder.time_step_key is None else Level(finest.resolution,
-                                                                        finest.step_factor * reference_step)
+    finest = min((level.resolution for model, level in plan if model == reference_model), key=ladder.spacing)
+    reference_level = Level(finest, 1.0 if ladder.time_step_key is None else reference_step)
     if (reference_model, reference_level) not in plan:
         plan.append((reference_model, reference_level))
     settings = [level.setting(scene, model) for model, level in plan]
