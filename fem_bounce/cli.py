@@ -56,7 +56,7 @@ def _parser() -> argparse.ArgumentParser:
                           "too, not only in the run directory's run.log")
     run.add_argument("--accuracy", default=None, metavar="PERCENT",
                      help="pick the cheapest model and resolution that the recorded study says reaches this "
-                          "error on the scene's quantities (1%%, 5%% or 10%%)")
+                          "error on the scene's quantities (1%%, 2%%, 5%% or 10%%)")
 
     cmp_ = sub.add_parser("compare", help="run several models on one scene; one figure and one table")
     cmp_.add_argument("scene", nargs="?", default=None, help=f"preset name or TOML file (default {DEFAULT_SCENE})")
