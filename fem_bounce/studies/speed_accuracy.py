@@ -163,8 +163,10 @@ def figure(result: dict, path: Path) -> None:
                       label=model)
             for factor in sorted({r["step_factor"] for r in usable if r["model"] == model} - {1.0}):
                 other = [r for r in usable if r["model"] == model and r["step_factor"] == factor]
-                ax.loglog([r["wall_time_s"] for r in other], [r[key] for r in other], "^", mfc="none", ms=8,
-                          color=MODELS[model].colour, label=f"{model}, {factor:g} x step")
+                is_reference = all(r["reference"] for r in other)
+                ax.loglog([r["wall_time_s"] for r in other], [r[key] for r in other], "*" if is_reference else "^",
+                          mfc="none", ms=10 if is_reference else 8, color=MODELS[model].colour,
+                          label=f"{model}, {factor:g} x step" + (" (the reference)" if is_reference else ""))
         points = [(r["wall_time_s"], r[key]) for r in usable]
         front = [points[i] for i in pareto(points)]
         if front:
