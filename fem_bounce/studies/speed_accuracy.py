@@ -89,7 +89,7 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
             for (model, level), setting, row in zip(plan, settings, found)]
     names = primary(scene)
     reference = next(r for r in rows if r["reference"])
-    secondary = [n for n in SECONDARY if n not in names and reference.get(n) is not None]
+    secondary = [n for n in SECONDARY if n not in names and reference.get(n)]  # a settling sphere's e is 0
     experiment = measured(scene)
     judged = [n for n in dict.fromkeys(names + ["re_second"]) if n in experiment]  # what the experiment measured
     for r in rows:
