@@ -105,8 +105,7 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
               "reference": {"model": reference_model, "setting": reference["setting"],
                             "step_factor": reference_level.step_factor, "run_dir": reference["run_dir"],
                             "text": reference_text},
-              "reference_run": reference["run_dir"], "reference_model": reference_model, "experiment": experiment,
-              "rows": rows, "recommendations": recommendations,
+              "experiment": experiment, "rows": rows, "recommendations": recommendations,
               "load_average": {"start": load_at_start, "end": os.getloadavg()}}
     study.write_json("speed_accuracy.json", result)
     study.write_csv("speed_accuracy.csv", [{k: v for k, v in r.items() if k != "setting"} | r["setting"]
