@@ -9,6 +9,7 @@ benchmarks/history/YYYY-MM-DD-MACHINE.json, which is committed.
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 import tempfile
@@ -75,9 +76,14 @@ def main(models: list[str]) -> None:
               "python": platform.python_version(), "cases": {}}
     for model in models:
         for case in CASES[model]:
-            record["cases"][case.__name__] = result = case(comm)
+            load_before = os.getloadavg()
+            result = case(comm)
+            # 1, 5 and 15-minute load averages before and after: the machine is shared, and a busy one slows a run
+            result["load_average"] = {"before": load_before, "after": os.getloadavg()}
+            record["cases"][case.__name__] = result
             if comm.rank == 0:
-                print(f"{case.__name__:32s} {result['wall_time_s']:8.2f} s", flush=True)
+                print(f"{case.__name__:32s} {result['wall_time_s']:8.2f} s  (load average {load_before[0]:.2f} "
+                      f"before, {result['load_average']['after'][0]:.2f} after)", flush=True)
     if comm.rank == 0:
         folder = Path(__file__).parent / "history"
         folder.mkdir(exist_ok=True)

@@ -56,7 +56,7 @@ def _parser() -> argparse.ArgumentParser:
                           "too, not only in the run directory's run.log")
     run.add_argument("--accuracy", default=None, metavar="PERCENT",
                      help="pick the cheapest model and resolution that the recorded study says reaches this "
-                          "error on the scene's quantities (1%%, 5%% or 10%%)")
+                          "error on the scene's quantities (1%%, 2%%, 5%% or 10%%)")
 
     cmp_ = sub.add_parser("compare", help="run several models on one scene; one figure and one table")
     cmp_.add_argument("scene", nargs="?", default=None, help=f"preset name or TOML file (default {DEFAULT_SCENE})")
@@ -92,7 +92,11 @@ def _parser() -> argparse.ArgumentParser:
     speed.add_argument("scene")
     speed.add_argument("--models", default="ode", help="comma-separated, e.g. ode,fd,ib")
     speed.add_argument("--levels", action="append", default=[], metavar="MODEL=V1,V2,...",
-                       help="resolutions of one model (default: its ladder); repeat per model")
+                       help="resolutions of one model (default: its ladder); repeat per model; V@F runs the "
+                            "resolution V with F times the time step, e.g. ale=8,8@0.5,12,16")
+    speed.add_argument("--reference-step", type=float, default=None, metavar="FACTOR",
+                       help="the reference run: the finest level of the highest-fidelity model again, with FACTOR "
+                            "times its time step (default 0.25; 1: the finest level as it is)")
     speed.add_argument("--record", action="store_true",
                        help="store the recommendations in --out (default results/) for `run --accuracy`, which reads "
                             "results/accuracy_recommendations.json over the record shipped with the package")
@@ -368,12 +372,16 @@ def _study(args, comm, runner) -> int:
     elif args.kind == "speed-accuracy":
         levels = {}
         for text in args.levels:
-            name, _, values = text.partition("=")
-            if name not in model_names or not values:
+            name = text.partition("=")[0]
+            if name not in model_names:
                 raise scenes.SceneError(f"--levels {text!r}: expected MODEL=V1,V2,... with MODEL one of {args.models}")
-            levels[name] = numbers(values)
+            levels[name] = _speed_levels(text, name)
+        reference_step = studies.speed_accuracy.REFERENCE_STEP if args.reference_step is None else args.reference_step
+        if not (math.isfinite(reference_step) and 0.0 < reference_step <= 1.0):
+            raise scenes.SceneError(f"--reference-step {reference_step:g} is out of range: allowed in (0, 1] "
+                                    "(the reference run's time step as a fraction of its model's)")
         result = studies.speed_accuracy.run(scenes.load(args.scene, changes), model_names, comm, out, levels,
-                                            runner=runner)
+                                            runner=runner, reference_step=reference_step)
         if args.record and comm.rank == 0:
             recorded = studies.speed_accuracy.record(result,
                                                      out if args.out else studies.speed_accuracy.RECORD_DIRECTORY)
@@ -390,6 +398,26 @@ def _study(args, comm, runner) -> int:
     if comm.rank == 0:
         print(f"study written to {out}")
     return 0
+
+
+def _speed_levels(text: str, model: str) -> list:
+    """--levels MODEL=V1,V2@F,...: the speed-accuracy study's levels of one model (V@F: F times the step)."""
+    from .studies.common import LADDERS
+    from .studies.speed_accuracy import Level
+
+    values = text.partition("=")[2]
+    try:
+        found = [Level.parse(value) for value in values.split(",")] if values else []
+    except ValueError:
+        found = []
+    if not found or not all(math.isfinite(level.resolution) and level.resolution > 0.0
+                            and math.isfinite(level.step_factor) and level.step_factor > 0.0 for level in found):
+        raise scenes.SceneError(f"--levels {text!r}: expected MODEL=V1,V2,... with positive numbers, each "
+                                "optionally V@F for F times the time step, e.g. ale=8,8@0.5,12")
+    if LADDERS[model].time_step_key is None and any(lv.step_factor != 1.0 for lv in found):
+        raise scenes.SceneError(f"--levels {text!r}: the {model} model has no time-step setting (its tolerance "
+                                "sets its steps): drop @F")
+    return found
 
 
 def _stability_sweeps(text: str | None, model: str) -> dict:

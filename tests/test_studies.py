@@ -124,3 +124,62 @@ def test_record_writes_where_the_user_says_never_into_the_package(tmp_path, monk
     capsys.readouterr()
     assert cli.main(["run", "li2011-case5", "--accuracy", "10%", "--quiet", "--out", "acc"]) == 0
     assert "--accuracy 10%: ode with {'numerics.ode.rtol'" in capsys.readouterr().err
+
+
+def test_speed_accuracy_reference_is_the_finest_level_at_a_shorter_step(tmp_path, monkeypatch):
+    """A time-step error shared by every run of a model at its scene's step shows against the reference:
+    the finest level run again at reference_step times the step (toy rows: an error of 1/cells^2 in
+    space and of the CFL number in time, so each run's error against it is known)."""
+    sc = scene.load("li2011-case3")
+    cfl = sc.numerics.ale.cfl
+    asked = []
+
+    def toy_measure_all(tasks, study, runner=None):
+        asked.extend(tasks)
+        rows = []
+        for task_scene, model, label in tasks:
+            ale = task_scene.numerics.ale
+            speed = 0.4 * (1.0 + 1.0 / ale.cells_per_diameter**2 + 0.01 * ale.cfl)
+            rows.append({"model": model, "label": label, "run_dir": f"runs/{label}", "status": "completed",
+                         "wall_time_s": ale.cells_per_diameter**2 / ale.cfl, "impact_speed": speed,
+                         "apex_gap": 0.004 * (1.0 + 0.02 * ale.cfl), "restitution": 0.75, "re_second": 48.0})
+        return rows
+
+    monkeypatch.setattr(speed_accuracy, "measure_all", toy_measure_all)
+    levels = {"ale": [8.0, speed_accuracy.Level(8.0, 0.5), 16.0, speed_accuracy.Level(16.0, 0.5)]}
+    result = speed_accuracy.run(sc, ["ale"], MPI.COMM_SELF, tmp_path / "study", levels)
+    # five runs: the four levels and the reference, 16 cells/D at a quarter of the scene's step
+    assert [task[0].numerics.ale.cfl for task in asked] == pytest.approx([cfl, 0.5 * cfl, cfl, 0.5 * cfl,
+                                                                          0.25 * cfl])
+    assert result["reference"]["setting"] == {"numerics.ale.cells_per_diameter": 16.0,
+                                              "numerics.ale.cfl": pytest.approx(0.25 * cfl)}
+    assert result["reference"]["step_factor"] == pytest.approx(0.25)
+    by_label = {r["label"]: r for r in result["rows"]}
+    finest = by_label["numerics.ale.cells_per_diameter = 16"]
+    # the finest level at the scene's step is no longer error-free: its time-step error shows
+    expected = (1 + 1 / 256 + 0.01 * cfl) / (1 + 1 / 256 + 0.0025 * cfl) - 1
+    assert finest["error_impact_speed"] == pytest.approx(expected, rel=1e-9)
+    assert finest["error_apex_gap"] == pytest.approx((1 + 0.02 * cfl) / (1 + 0.005 * cfl) - 1, rel=1e-9)
+    assert finest["error_restitution"] == pytest.approx(0.0, abs=1e-15)  # reported beside, not judged
+    assert result["quantities"] == ["impact_speed", "apex_gap"]
+    assert result["secondary_quantities"] == ["restitution", "re_second"]
+    # half the step at 8 cells/D is more accurate than 8 cells/D at the scene's step
+    halved = by_label[f"numerics.ale.cells_per_diameter = 8, numerics.ale.cfl = {0.5 * cfl:g}"]
+    assert halved["setting"]["numerics.ale.cfl"] == pytest.approx(0.5 * cfl)
+    assert halved["error"] < by_label["numerics.ale.cells_per_diameter = 8"]["error"]
+    # the reference is never recommended; the JSON and the log say what it is
+    assert all(rec is None or rec["setting"] != result["reference"]["setting"]
+               for rec in result["recommendations"].values())
+    assert json.loads((tmp_path / "study" / "speed_accuracy.json").read_text())["reference"]["text"] == (
+        f"ale, numerics.ale.cells_per_diameter = 16, numerics.ale.cfl = {0.25 * cfl:g}")
+    assert "reference: ale, numerics.ale.cells_per_diameter = 16" in (tmp_path / "study" / "progress.log").read_text()
+    assert (tmp_path / "study" / "speed_accuracy.png").exists()
+
+
+def test_speed_accuracy_step_levels_and_reference_step_are_checked(capsys):
+    assert cli.main(["study", "speed-accuracy", "li2011-case1", "--models", "ode", "--levels", "ode=1e-3@0.5"]) == 2
+    assert "the ode model has no time-step setting" in capsys.readouterr().err
+    assert cli.main(["study", "speed-accuracy", "li2011-case1", "--models", "ode,ale", "--levels", "ale=8@x"]) == 2
+    assert "optionally V@F for F times the time step" in capsys.readouterr().err
+    assert cli.main(["study", "speed-accuracy", "li2011-case1", "--models", "ale", "--reference-step", "2"]) == 2
+    assert "--reference-step 2 is out of range: allowed in (0, 1]" in capsys.readouterr().err

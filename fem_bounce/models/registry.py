@@ -103,7 +103,7 @@ MODELS: dict[str, ModelInfo] = {
         sources=("models/ale", "fem")),
 }
 
-BEST_FIRST = ("fd", "ib", "ode")  # the default model: the first of these that imports
+BEST_FIRST = ("ale", "fd", "ib", "ode")  # the default model: the first of these that imports
 FIDELITY = ("ale", "fd", "ib", "ode")  # which model's finest run serves as a study's reference, first found
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -41,6 +42,13 @@ class Ladder:
         factor = cfl / _setting(scene, self.time_step_key)
         return {self.time_step_key: cfl, **{k: factor * _setting(scene, k) for k in self.scaled_with_time_step}}
 
+    def scaled_step(self, scene: scenes.Scene, factor: float) -> dict:
+        """Scene changes that multiply the scene's time step by `factor` (its CFL number and the other
+        step limits alike); {} for a model without a time-step setting (its tolerance sets its steps)."""
+        if self.time_step_key is None:
+            return {}
+        return self.time_step(scene, factor * _setting(scene, self.time_step_key))
+
 
 def _setting(scene: scenes.Scene, key: str) -> float:
     value = scene
@@ -75,8 +83,10 @@ def quantities(scene: scenes.Scene, run_dir: Path) -> dict:
         found["impact_speed"] = impacts[0]["impact_speed"]
     if len(impacts) > 1:
         found["re_second"] = impacts[1]["Re"]
-    if rebounds and rebounds[0]["apex_gap"] is not None:
-        found["apex_gap"] = rebounds[0]["apex_gap"]
+    if rebounds:
+        found["restitution"] = rebounds[0]["restitution"]
+        if rebounds[0]["apex_gap"] is not None:
+            found["apex_gap"] = rebounds[0]["apex_gap"]
     return found
 
 
@@ -200,7 +210,8 @@ def measure_all(tasks: list[tuple[scenes.Scene, str, str]], study: StudyDirector
     for k, run_dir in runner.run([(scene, model) for scene, model, _ in tasks]):
         scene, model, label = tasks[k]
         found = quantities(scene, run_dir)
-        study.log(f"{model} {label}: {found['status']}, {found['wall_time_s']:.1f} s  "
+        study.log(f"{model} {label}: {found['status']}, {found['wall_time_s']:.1f} s "
+                  f"(load average now {os.getloadavg()[0]:.2f})  "
                   + "  ".join(f"{name} = {value:.5g}" for name, value in found.items()
                               if isinstance(value, float) and name != "wall_time_s"))
         rows[k] = {"model": model, "label": label, "run_dir": str(run_dir), **found}
