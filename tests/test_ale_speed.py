@@ -125,7 +125,8 @@ def test_reused_factors_solve_a_changed_matrix_to_the_tolerance_and_mark_themsel
 
 
 @pytest.mark.parametrize("key,value,message", [
-    ("numerics.ale.factorisation", "sometimes", "numerics.ale.factorisation = 'sometimes' is not one of 'reuse', 'every-step'"),
+    ("numerics.ale.factorisation", "sometimes",
+     "numerics.ale.factorisation = 'sometimes' is not one of 'reuse', 'every-step'"),
     ("numerics.ale.krylov_rtol", 0.5, "numerics.ale.krylov_rtol = 0.5 is out of range: allowed in [1e-14, 0.001]"),
     ("numerics.ale.factorisation_cost", -1.0, "numerics.ale.factorisation_cost = -1.0 is out of range"),
     ("numerics.ale.reuse_iterations", 0, "numerics.ale.reuse_iterations = 0 is out of range"),

@@ -268,8 +268,12 @@ def test_a_single_sphere_scene_is_unchanged(tmp_path):
      "second_sphere.gap = 1e-05 m is out of range: allowed > contact.delta_ss * the pair's reduced diameter 2a* = "
      "0.017 * 0.00635 m = 0.000108 m: start outside contact"),
     ({"second_sphere.gap": 1e-8}, "second_sphere.gap = 1e-08 m is out of range: allowed > sphere.roughness"),
-    ({"second_sphere.velocity": 0.0}, "gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity != 0 or a pair set in motion"),
-    ({"second_sphere.mode": "fixed"}, "gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity != 0 or a pair set in motion"),
+    ({"second_sphere.velocity": 0.0},
+     "gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity != 0 or a pair set in "
+     "motion"),
+    ({"second_sphere.mode": "fixed"},
+     "gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity != 0 or a pair set in "
+     "motion"),
     ({"second_sphere.mode": "wobbling"}, "second_sphere.mode = 'wobbling' is not one of"),
     ({"second_sphere.density": -1.0}, "second_sphere.density = -1.0 kg/m3 is out of range"),
     ({"contact.near_wall": "blend"}, "contact.near_wall = 'blend' is not implemented for a pair"),
