@@ -279,7 +279,7 @@ class Controller:
 
     def __init__(self, model: FlowModel, integrator: BodyIntegrator, monitor=None,
                  run_dir: output.RunDirectory | None = None):
-        """`monitor(t, steps, gap, velocity, force=False)` is called after every step (the run's progress
+        """`monitor(t, steps, gaps, velocities, force=False)` is called after every step (the run's progress
         line and stop requests); without `run_dir` nothing is written."""
         self.model, self.integrator, self.comm = model, integrator, model.comm
         self.monitor = monitor or (lambda *args, **kwargs: None)
@@ -310,7 +310,7 @@ class Controller:
                 observers.append(Every(model.checkpoint_every, self.save_checkpoint))
             if model.observe_integrator_steps:
                 integrator.observers.append(
-                    lambda row: self.monitor(row["t"], integrator.steps, integrator.gap, integrator.velocity))
+                    lambda row: self.monitor(row["t"], integrator.steps, integrator.gaps, integrator.velocities))
             start = time.perf_counter()
             if model.steady:
                 model.solve_steady(integrator)
@@ -338,15 +338,15 @@ class Controller:
     def step(self) -> None:
         """One step of the flow and the sphere."""
         model, integrator = self.model, self.integrator
-        prediction = self.predictor.predict(integrator.time, integrator.gap, integrator.velocity, model.time_step())
+        prediction = self.predictor.predict(integrator.time, integrator.gaps, integrator.velocities, model.time_step())
         fluid = model.linearised_force(prediction)
         integrator.advance(model.next_time(), fluid)
-        model.complete(integrator.velocity, integrator.time)
-        self.predictor.push(integrator.velocity)
+        model.complete(integrator.velocities, integrator.time)
+        self.predictor.push(integrator.velocities)
 
     def _progress(self, step: int | None = None, force: bool = False) -> None:
         integrator = self.integrator
-        self.monitor(integrator.time, self.model.step, integrator.gap, integrator.velocity, force=force)
+        self.monitor(integrator.time, self.model.step, integrator.gaps, integrator.velocities, force=force)
 
     def _explain(self, err: BaseException) -> str:
         integrator, name = self.integrator, self.model.name
@@ -357,7 +357,7 @@ class Controller:
             settings = getattr(self.model.scene.numerics, name)
             hint = (f"for a light sphere use numerics.{name}.coupling = \"implicit\"; otherwise "
                     if hasattr(settings, "coupling") else "")
-            speed = ", ".join(f"{v:.3g}" for v in np.atleast_1d(integrator.velocity))
+            speed = ", ".join(f"{v:.3g}" for v in integrator.velocities)
             key = models.info(name).time_step_key
             cause = (f"unstable ({hint}lower {key})" if key else  # the ode model's steps adapt: the inputs are the cause
                      "the scene's numbers are beyond what the force formulas can represent")
@@ -377,7 +377,7 @@ class Controller:
         model, integrator, comm = self.model, self.integrator, self.comm
         flow, arrays = model.checkpoint_state()  # collective; arrays on rank 0
         state = {"step": model.step, "time": integrator.time, "ranks": comm.size,
-                 "velocities": [np.asarray(v).tolist() for v in self.predictor.velocities],  # a pair's: arrays
+                 "velocities": [v.tolist() for v in self.predictor.velocities],
                  "flow": flow, "integrator": integrator.state_dict()}
 
         data, = self.entry.checkpoint_files
@@ -400,7 +400,7 @@ class Controller:
         if failures:
             raise output.CheckpointError(f"the checkpoint in {self.run_dir.path} cannot continue this run: {failures[0]}")
         self.model.step = state["step"]
-        self.predictor.velocities = [np.asarray(v) if isinstance(v, list) else v for v in state["velocities"]]
+        self.predictor = Predictor(state["velocities"])
         self.integrator.load_state_dict(state["integrator"])
         self.last_checkpoint = (state["step"], state["time"])
 
@@ -463,7 +463,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     if writer is not None:
         integrator.observers.append(writer)
     integrator.observers.append(guards)
-    bar = ProgressBar(scene.run.end_time, scene.sphere.diameter, enabled=progress and root)
+    bar = ProgressBar(scene.run.end_time, [body.diameter for body in integrator.bodies], enabled=progress and root)
     monitor = Monitor(bar, comm, interrupts, writer)
 
     status, message, signum = "completed", "", 0

@@ -20,7 +20,7 @@ class Recorded(BodyIntegrator):
     def _film_jump(self):
         start = self._film_pending
         super()._film_jump()
-        self.jumps = getattr(self, "jumps", []) + [(start, self.time, self.gap, self.velocity)]
+        self.jumps = getattr(self, "jumps", []) + [(start, self.time, self.gaps[0], self.velocities[0])]
 
 
 @pytest.fixture(scope="module")

@@ -32,7 +32,7 @@ class OdeModel(FlowModel):
     def linearised_force(self, prediction):
         return None
 
-    def complete(self, velocity: float, time: float) -> None:
+    def complete(self, velocities, time: float) -> None:
         self.step += 1
 
     def sizes(self) -> dict:

@@ -80,11 +80,18 @@ from .flow import SphereFlow
 from .motion import MeshMotion
 from .transfer import DivergenceFreeProjection, SerialField, interpolate_from
 
-FORCE_COLUMNS = ("t", "mesh_gap", "f_variational", "f_surface", "added_mass", "min_quality", "remeshed")
-# a pair: sphere 1's gap to z = 0 and the pair gap of the mesh, per-sphere forces, the added-mass matrix
-PAIR_FORCE_COLUMNS = ("t", "mesh_gap", "mesh_pair_gap", "f_variational_1", "f_variational_2", "f_surface_1",
-                      "f_surface_2", "added_mass_11", "added_mass_12", "added_mass_21", "added_mass_22",
-                      "min_quality", "remeshed")
+
+def force_columns(count: int) -> tuple[str, ...]:
+    """ale_forces.csv's header for `count` spheres, suffixed as the trajectory's columns (one sphere's
+    plain; _1, _2, ... per sphere and _12, ... per matrix entry for more): sphere 1's mesh gap to z = 0,
+    each neighbouring pair's mesh gap, each sphere's variational and surface force, the added-mass
+    matrix row by row, the worst triangle and whether the step remeshed."""
+    one = count == 1
+    spheres = [""] if one else [f"_{k + 1}" for k in range(count)]
+    entries = [""] if one else [f"_{i + 1}{j + 1}" for i in range(count) for j in range(count)]
+    pairs = ["mesh_pair_gap"] if count == 2 else [f"mesh_pair_gap_{k + 1}{k + 2}" for k in range(count - 1)]
+    return ("t", "mesh_gap", *pairs, *(f"f_variational{s}" for s in spheres), *(f"f_surface{s}" for s in spheres),
+            *(f"added_mass{e}" for e in entries), "min_quality", "remeshed")
 
 
 @dataclass
@@ -268,14 +275,14 @@ class AleModel(FlowModel):
             return self._pair_centers(prediction)
         if self.scene.motion.mode == "fixed":
             return self.domain.initial_center, False
-        predicted = prediction.center(self.domain.sphere_radius)
+        predicted = prediction.centers([self.domain.sphere_radius])[0]
         center = self.domain.mesh_center(predicted)
         return center, center > predicted
 
     def _pair_centers(self, prediction: Prediction) -> tuple[np.ndarray, bool]:
         radii = np.array(self.domain.radii)
-        predicted = np.asarray(prediction.gap, dtype=float)
-        gaps = flow_gaps(predicted, self.diameters, *self.holds)
+        predicted = prediction.gaps
+        gaps = flow_gaps(predicted, self.diameters, self.holds)
         held_spheres = np.array([self.scene.motion.mode, self.scene.second_sphere.mode]) == "fixed"
         centers = np.where(held_spheres, self.domain.initial_centers, gaps + radii)
         return centers, bool(np.any(gaps > predicted))
@@ -321,7 +328,7 @@ class AleModel(FlowModel):
             return prediction
         v_now, v_before = (np.asarray(v, dtype=float) for v in k.velocities[:2])
         mean = v_now + 0.5 * self.dt / k.last_step * (v_now - v_before)
-        return replace(prediction, mean_velocity=mean if self.pair else float(mean))
+        return replace(prediction, mean_velocities=np.reshape(mean, -1))
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         k, settings = self.kinematics, self.settings
@@ -361,13 +368,14 @@ class AleModel(FlowModel):
         self.last_force = (force, added_mass)
         self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction)
         self._integrator_start = time.perf_counter()
-        return FluidForce(explicit=force, added_mass=added_mass)
+        count = len(self.diameters)
+        return FluidForce(explicit=np.reshape(force, count), added_mass=np.reshape(added_mass, (count, count)))
 
-    def complete(self, velocity: float, time_now: float) -> None:
+    def complete(self, velocities: np.ndarray, time_now: float) -> None:
         self.stats.integrator_s += time.perf_counter() - self._integrator_start
         t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction = self._pending
-        if self.pair:
-            velocity = np.array(velocity, dtype=float)  # the integrator's, copied
+        # the flow's own values: a pair's as arrays (the integrator's copied), one sphere's as numbers
+        velocity = np.array(velocities, dtype=float) if self.pair else float(velocities[0])
         change = velocity - reference
         self.flow.commit(change)
         if self.settings.adaptive_step:
@@ -380,9 +388,9 @@ class AleModel(FlowModel):
     def _nearest_gap(self, prediction: Prediction) -> float:
         """The sphere's predicted gap to the wall at the step's end (a pair: the nearer of the wall's and the
         pair's) [m]: where the sphere is, not where the mesh holds it."""
+        gaps = prediction.gaps
         if not self.pair:
-            return prediction.gap
-        gaps = np.asarray(prediction.gap, dtype=float)
+            return gaps[0]
         pair_gap = gaps[1] - gaps[0] - self.diameters[0]
         return min(gaps[0], pair_gap) if self.scene.wall.present else pair_gap
 
@@ -404,11 +412,9 @@ class AleModel(FlowModel):
         self._force_rows += 1
         if self._force_file is None:
             return
-        if self.pair:
-            values = [t, gap, self.pair_gap(self.kinematics.centers[0]), *force, *surface,
-                      *np.ravel(added_mass), quality]
-        else:
-            values = [t, gap, force, surface, added_mass, quality]
+        centers, radii = np.reshape(self.kinematics.centers[0], -1), np.array(self.domain.radii)
+        pair_gaps = np.diff(centers) - radii[:-1] - radii[1:]  # the mesh's, between neighbours [m]
+        values = [t, gap, *pair_gaps, *np.ravel(force), *np.ravel(surface), *np.ravel(added_mass), quality]
         self._force_writer.writerow([f"{x:.10g}" for x in values] + [int(remeshed)])
 
     def solve_steady(self, integrator) -> None:
@@ -423,7 +429,9 @@ class AleModel(FlowModel):
         self.stats.min_mesh_gap = self.domain.initial_center - self.domain.sphere_radius
         if self.pair:
             self.stats.min_mesh_pair_gap = self.pair_gap(self.domain.initial_centers)
-        integrator.advance(self.scene.run.end_time, FluidForce(explicit=force, added_mass=no_added_mass))
+        count = len(self.diameters)
+        integrator.advance(self.scene.run.end_time, FluidForce(explicit=np.reshape(force, count),
+                                                               added_mass=np.zeros((count, count))))
         self.kinematics.step = self.step = 1
         self._record_force(integrator.time, self.stats.min_mesh_gap, force, no_added_mass,
                            self.motion.quality(self.motion.shift), False)
@@ -488,7 +496,7 @@ class AleModel(FlowModel):
             else:
                 self._force_file = open(forces, "w", newline="")
                 self._force_writer = csv.writer(self._force_file)
-                self._force_writer.writerow(PAIR_FORCE_COLUMNS if self.pair else FORCE_COLUMNS)
+                self._force_writer.writerow(force_columns(len(self.diameters)))
 
     def write_fields(self, time_now: float) -> None:
         self.writer.write(self.flow.now, time_now)
