@@ -277,7 +277,7 @@ class AleModel(FlowModel):
             return self.domain.initial_center, False
         predicted = prediction.centers([self.domain.sphere_radius])[0]
         center = self.domain.mesh_center(predicted)
-        return center, center > predicted
+        return center, bool(center > predicted)
 
     def _pair_centers(self, prediction: Prediction) -> tuple[np.ndarray, bool]:
         radii = np.array(self.domain.radii)
