@@ -11,8 +11,9 @@ The run controller (fem_bounce.run) owns the time loop; a model owns its flow.  
 Every per-body value is an array over the bodies on the axis (sphere 1 first; one sphere is N = 1),
 every added mass an N x N matrix.
 
-then the observers (progress, trajectory rows, fields, checkpoints) and the stop conditions.  A model
-that holds the sphere at a steady state (`steady`) is solved once by `solve_steady` instead.
+then the observers (progress, trajectory rows, fields, checkpoints) and the stop conditions: that is
+fem_bounce.steppers.CoupledStep.  A model that holds the bodies at a steady state (`steady`) is solved
+once (SteadyStep); the ode model has no flow (OdeStep).
 
 Adding a model means writing one FlowModel and its entry in models/registry.py, nothing else.
 """
@@ -86,32 +87,25 @@ def steps_to(end_time: float, dt: float) -> int:
 
 
 class FlowModel(ABC):
-    """A model of the liquid around the sphere.  Built for one scene (`__init__` checks it against the
-    model and does nothing costly); `build` makes the meshes and solvers; then the controller steps it.
+    """A model of the liquid around the bodies.  Built for one scene (`__init__` checks it against the
+    model and does nothing costly); `build` makes the meshes and solvers; then a stepper
+    (fem_bounce.steppers) advances it: the coupled step calls `linearised_force` and `complete`, the
+    steady one `steady_force` and `complete_steady`; a model without a flow (ode) needs neither.
 
-    Class facts (name, resolution, restarts, colour, ...) live in models/registry.py."""
+    Class facts (name, resolution, restarts, cadences, stepper, colour, ...) live in models/registry.py;
+    the controller reads them there and hands the model what it needs."""
 
     name: str = ""
     resolved: bool = True  # f_sim comes from this flow (False: f_thr everywhere)
-    steady: bool = False  # a held sphere solved for its steady state in one go (solve_steady)
-    observe_integrator_steps: bool = False  # one step is the whole run: observers see every integrator step
+    steady: bool = False  # held bodies solved for their steady state in one go (steppers.SteadyStep)
     divergences: tuple = ()  # exception types of the model's solvers that mean the run diverged
     fields_at_end: bool = False  # the final state also goes to the field files
-    fields_every: int = 0  # field snapshots every N steps (0: none)
-    checkpoint_every: int = 0  # checkpoints every N steps (0: none)
 
     def __init__(self, scene, comm):
-        from .models.registry import MODELS
-
         self.scene = scene
         self.comm = comm
         self.step = 0  # fluid steps completed
-        entry = MODELS[self.name]
         self.settings = getattr(scene.numerics, self.name)  # [numerics.NAME]
-        if entry.fields_key:
-            self.fields_every = entry.setting(scene, entry.fields_key)
-        if entry.checkpoint_every_key:
-            self.checkpoint_every = entry.setting(scene, entry.checkpoint_every_key)
         self.loop_seconds = 0.0  # set by the controller: wall time of this segment's time loop [s]
         self.steps_this_run = 0  # set by the controller: steps taken in this segment (after a restart: since it)
 
@@ -144,25 +138,33 @@ class FlowModel(ABC):
         """No step is left before end_time."""
         return self.step >= steps_to(end_time, self.time_step())
 
-    @abstractmethod
-    def linearised_force(self, prediction: Prediction) -> FluidForce | None:
+    def linearised_force(self, prediction: Prediction) -> FluidForce:
         """Advance the flow to the predicted body positions and return the forces on the bodies over the
-        step, linearised in their accelerations (arrays over the bodies, an N x N added mass; None: no
-        resolved force)."""
+        step, linearised in their accelerations (arrays over the bodies, an N x N added mass)."""
+        raise NotImplementedError(f"the {self.name} model has no coupled step")
 
-    @abstractmethod
     def complete(self, velocities: np.ndarray, time: float) -> None:
         """Finish the step with the velocities the bodies reached at `time` [m/s, s] (an array, sphere 1
         first)."""
+        raise NotImplementedError(f"the {self.name} model has no coupled step")
 
-    def solve_steady(self, integrator) -> None:
-        """For a `steady` model: solve the held sphere's steady state and hold it to the end time."""
+    # -- a steady model (steppers.SteadyStep) ---------------------------------------------------
+    def steady_force(self) -> FluidForce:
+        """The held bodies' steady state, solved once: its force, which holds to the end."""
+        raise NotImplementedError(f"the {self.name} model has no steady solve")
+
+    def steady_end_time(self, end_time: float) -> float:
+        """Where the steady state is held to [s]: the end time."""
+        return end_time
+
+    def complete_steady(self, time: float) -> None:
+        """Record the steady state held to `time` [s] as the run's steps."""
         raise NotImplementedError(f"the {self.name} model has no steady solve")
 
     # -- outputs ----------------------------------------------------------------------------------
-    def open_outputs(self, out_dir: Path, restart: bool) -> None:
-        """Open the model's own files in the run directory (field snapshots when fields_every); collective.
-        `restart`: continue what an earlier segment wrote."""
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+        """Open the model's own files in the run directory (field snapshots when `fields`: the controller
+        writes them on the scene's cadence); collective.  `restart`: continue what an earlier segment wrote."""
 
     def write_fields(self, time: float) -> None:
         """One snapshot of the flow now (collective)."""

@@ -417,23 +417,25 @@ class AleModel(FlowModel):
         values = [t, gap, *pair_gaps, *np.ravel(force), *np.ravel(surface), *np.ravel(added_mass), quality]
         self._force_writer.writerow([f"{x:.10g}" for x in values] + [int(remeshed)])
 
-    def solve_steady(self, integrator) -> None:
-        """The held sphere's steady state; the integrator then holds it to end_time with that force."""
+    def steady_force(self) -> FluidForce:
+        """The held spheres' steady state (SphereFlow.steady), held from the start to the end time."""
         start = time.perf_counter()
         # a held pair: sphere 1's surface at motion.velocity (as one held sphere's), the second at rest
         surfaces = np.array(start_velocities(self.scene)) if self.pair else self.scene.motion.velocity
         force = self.flow.steady(surfaces, convection=is_stream(self.scene))
         self.stats.factorisation_s += time.perf_counter() - start
-        no_added_mass = np.zeros((2, 2)) if self.pair else 0.0
+        count = len(self.diameters)
+        no_added_mass = np.zeros((count, count)) if self.pair else 0.0
         self.last_force = (force, no_added_mass)
         self.stats.min_mesh_gap = self.domain.initial_center - self.domain.sphere_radius
         if self.pair:
             self.stats.min_mesh_pair_gap = self.pair_gap(self.domain.initial_centers)
-        count = len(self.diameters)
-        integrator.advance(self.scene.run.end_time, FluidForce(explicit=np.reshape(force, count),
-                                                               added_mass=np.zeros((count, count))))
+        return FluidForce(explicit=np.reshape(force, count), added_mass=np.zeros((count, count)))
+
+    def complete_steady(self, time_now: float) -> None:
         self.kinematics.step = self.step = 1
-        self._record_force(integrator.time, self.stats.min_mesh_gap, force, no_added_mass,
+        force, no_added_mass = self.last_force
+        self._record_force(time_now, self.stats.min_mesh_gap, force, no_added_mass,
                            self.motion.quality(self.motion.shift), False)
 
     # -- checkpoints: the mesh's reference centre (remade by gmsh on restart), the flow's history by dof
@@ -482,8 +484,8 @@ class AleModel(FlowModel):
         self._force_rows = state["force_rows"]
 
     # -- outputs ----------------------------------------------------------------------------------
-    def open_outputs(self, out_dir: Path, restart: bool) -> None:
-        if self.fields_every:
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+        if fields:
             path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
             self.writer = MovingFieldWriter(self.comm, path)
         if self.comm.rank == 0:

@@ -280,14 +280,17 @@ class FictitiousDomainModel(FlowModel):
         self.history.push(velocity, interior)
         self.step += 1
 
-    def solve_steady(self, integrator) -> None:
-        """Jump to the steady Stokes state of the step (steady.SteadyStokes) at the end time."""
-        force = self.steady_forces()
-        n_steps = steps_to(self.scene.run.end_time, self.dt)
+    def steady_force(self) -> FluidForce:
+        """The steady Stokes state of the step (steady.SteadyStokes), held from the start."""
         count = len(self.scene.spheres)
-        integrator.advance(n_steps * self.dt, FluidForce(explicit=np.reshape(force, count),
-                                                         added_mass=np.zeros((count, count))))
-        self.step = n_steps
+        return FluidForce(explicit=np.reshape(self.steady_forces(), count), added_mass=np.zeros((count, count)))
+
+    def steady_end_time(self, end_time: float) -> float:
+        """The end of the step that reaches end_time [s]."""
+        return steps_to(end_time, self.dt) * self.dt
+
+    def complete_steady(self, time_now: float) -> None:
+        self.step = steps_to(self.scene.run.end_time, self.dt)
 
     def steady_velocities(self):
         """The held spheres' surface velocities [m/s]: motion.velocity, and for a held pair also
@@ -356,8 +359,8 @@ class FictitiousDomainModel(FlowModel):
             return
         self.history = History(self.flow.bdf, list(state["velocities"]), list(state["interiors"]))
 
-    def open_outputs(self, out_dir: Path, restart: bool) -> None:
-        if not self.fields_every:
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+        if not fields:
             return
         path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
         self.fields = FieldWriter(self.comm, self.mesh, self.flow.W, path)
