@@ -212,10 +212,10 @@ class AleModel(FlowModel):
         try:
             mesh, motion, flow = self.build_mesh(center, cache=False)
         except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception; the run ends cleanly
-            delta = (np.min(center) - self.domain.sphere_radius) / self.scene.sphere.diameter
-            where = f"pair gap {self.pair_gap(center) / self.scene.sphere.diameter:.4g} D" if self.pair else \
-                f"gap {delta:.4g} D"
-            raise RunDiverged(f"remeshing at {where} failed: {err}") from err
+            diameter = self.scene.sphere.diameter
+            delta = (np.min(center) - self.domain.sphere_radius) / diameter
+            between = "".join(f", pair gap {gap / diameter:.4g} D" for gap in self.mesh_pair_gaps(center))
+            raise RunDiverged(f"remeshing at gap {delta:.4g} D{between} failed: {err}") from err
         tolerance = 1e-9 * self.scene.sphere.diameter
         momenta = []
         volumes = [self.sphere_volume(old_flow), self.sphere_volume(flow)]
@@ -252,15 +252,17 @@ class AleModel(FlowModel):
             step=k.step, time=k.time, gap=float(np.min(center) - self.domain.sphere_radius), quality=quality,
             cells=mesh.topology.index_map(2).size_global, momentum_old=momenta[0][0],
             momentum_interpolated=momenta[0][1], momentum_projected=momenta[0][2], sphere_volume_old=volumes[0],
-            sphere_volume=volumes[1], seconds=seconds, pair_gap=self.pair_gap(center) if self.pair else None))
+            sphere_volume=volumes[1], seconds=seconds, pair_gap=min(self.mesh_pair_gaps(center), default=None)))
 
     def resolved_top(self) -> float:
         """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
         return self.domain.refined.z_max
 
-    def pair_gap(self, centers) -> float:
-        """The gap between the two surfaces of a pair whose centres are `centers` [m]."""
-        return float(centers[1] - centers[0] - self.domain.radii[0] - self.domain.radii[1])
+    def mesh_pair_gaps(self, centers) -> np.ndarray:
+        """The gaps between neighbouring surfaces of the mesh's spheres centred at `centers` [m], lowest
+        first (none for one sphere)."""
+        radii = np.array(self.domain.radii)
+        return np.diff(np.reshape(centers, -1)) - radii[:-1] - radii[1:]
 
     def sphere_volume(self, flow: SphereFlow) -> float:
         """The volume of the mesh's polygonal sphere: the domain's cylinder less the liquid [m^3]."""
@@ -335,13 +337,12 @@ class AleModel(FlowModel):
         t_next = self.next_time()
         prediction = self._over_step(prediction)
         center, held = self.next_center(prediction)
-        gap = center - self.domain.sphere_radius if not self.pair else float(center[0] - self.domain.sphere_radius)
+        gap = float(np.reshape(center, -1)[0] - self.domain.sphere_radius)  # sphere 1's, to the wall
         if gap <= 0.0:
             raise RunDiverged(f"the mesh cannot follow the sphere: the step to t = {t_next:.6g} s would put it "
                               f"{-gap:.3g} m into the wall (smallest mesh gap reached "
                               f"{self.stats.min_mesh_gap / self.scene.sphere.diameter:.4g} D)")
-        if self.pair:
-            pair_gap = self.pair_gap(center)
+        for pair_gap in self.mesh_pair_gaps(center):
             if pair_gap <= 0.0:  # flow_gaps keeps the hold: only with both holds 0
                 raise RunDiverged(f"the mesh cannot follow the pair: the step to t = {t_next:.6g} s would put the "
                                   f"spheres {-pair_gap:.3g} m into each other")
@@ -386,13 +387,11 @@ class AleModel(FlowModel):
                            quality if remeshed else self.motion.quality(self.motion.shift), remeshed)
 
     def _nearest_gap(self, prediction: Prediction) -> float:
-        """The sphere's predicted gap to the wall at the step's end (a pair: the nearer of the wall's and the
-        pair's) [m]: where the sphere is, not where the mesh holds it."""
+        """The spheres' predicted nearest gap at the step's end [m]: each neighbouring pair's and sphere 1's to
+        the wall (to z = 0 for one sphere without a wall); where they are, not where the mesh holds them."""
         gaps = prediction.gaps
-        if not self.pair:
-            return gaps[0]
-        pair_gap = gaps[1] - gaps[0] - self.diameters[0]
-        return min(gaps[0], pair_gap) if self.scene.wall.present else pair_gap
+        between = list(np.diff(gaps) - self.diameters[:-1])
+        return min(between + [gaps[0]]) if self.scene.wall.present or not between else min(between)
 
     def _next_step(self, velocity, gap: float) -> float:
         """The coming step [s] (domain.next_time_step) from the step just made, which ends at `velocity`
@@ -412,9 +411,7 @@ class AleModel(FlowModel):
         self._force_rows += 1
         if self._force_file is None:
             return
-        centers, radii = np.reshape(self.kinematics.centers[0], -1), np.array(self.domain.radii)
-        pair_gaps = np.diff(centers) - radii[:-1] - radii[1:]  # the mesh's, between neighbours [m]
-        values = [t, gap, *pair_gaps, *np.ravel(force), *np.ravel(surface), *np.ravel(added_mass), quality]
+        values = [t, gap, *self.mesh_pair_gaps(self.kinematics.centers[0]), *np.ravel(force), *np.ravel(surface), *np.ravel(added_mass), quality]
         self._force_writer.writerow([f"{x:.10g}" for x in values] + [int(remeshed)])
 
     def steady_force(self) -> FluidForce:
@@ -428,8 +425,7 @@ class AleModel(FlowModel):
         no_added_mass = np.zeros((count, count)) if self.pair else 0.0
         self.last_force = (force, no_added_mass)
         self.stats.min_mesh_gap = self.domain.initial_center - self.domain.sphere_radius
-        if self.pair:
-            self.stats.min_mesh_pair_gap = self.pair_gap(self.domain.initial_centers)
+        self.stats.min_mesh_pair_gap = min(self.mesh_pair_gaps(self.domain.initial_centers), default=math.inf)
         return FluidForce(explicit=np.reshape(force, count), added_mass=np.zeros((count, count)))
 
     def complete_steady(self, time_now: float) -> None:
