@@ -83,10 +83,11 @@ class ModelInfo:
             cells = self.resolution(scene)
             across, needed = cells * scene.contact.delta_sl, self.min_cells_across_blend_gap
             if across < needed:
-                found.append(f"numerics.{self.name}.cells_per_diameter = {cells:g} puts {across:.2g} fine cells across "
-                             f"the delta_sl gap ({scene.contact.delta_sl:g} D); below {needed:g} the {self.name} model's "
-                             "force near the wall is off by more than 5 % (stability study): expect impact speed and "
-                             f"apex errors of 10 % or more; use at least {needed / scene.contact.delta_sl:g} cells/D")
+                found.append(f"numerics.{self.name}.cells_per_diameter = {cells:g} puts {across:.2g} fine cells "
+                             f"across the delta_sl gap ({scene.contact.delta_sl:g} D); below {needed:g} the "
+                             f"{self.name} model's force near the wall is off by more than 5 % (stability study): "
+                             "expect impact speed and apex errors of 10 % or more; use at least "
+                             f"{needed / scene.contact.delta_sl:g} cells/D")
         return found
 
     def resolution(self, scene) -> float:
@@ -109,8 +110,8 @@ class ModelInfo:
 
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
 CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "bodies.py", "integrator.py", "bounces.py", "motion.py",
-                "flow_model.py", "steppers.py", "run.py", "errors.py", "output.py", "models/__init__.py", "pair_contact.py",
-                "pair_theory.py")
+                "flow_model.py", "steppers.py", "run.py", "errors.py", "output.py", "models/__init__.py",
+                "pair_contact.py", "pair_theory.py")
 MANY = 1000  # the ode model's sphere count has no limit of its own
 # The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh
 # grows without telling anything new: a sphere reaches its terminal speed within ~10-20 D of its release.

@@ -411,7 +411,8 @@ class AleModel(FlowModel):
         self._force_rows += 1
         if self._force_file is None:
             return
-        values = [t, gap, *self.mesh_pair_gaps(self.kinematics.centers[0]), *np.ravel(force), *np.ravel(surface), *np.ravel(added_mass), quality]
+        values = [t, gap, *self.mesh_pair_gaps(self.kinematics.centers[0]), *np.ravel(force), *np.ravel(surface),
+                  *np.ravel(added_mass), quality]
         self._force_writer.writerow([f"{x:.10g}" for x in values] + [int(remeshed)])
 
     def steady_force(self) -> FluidForce:
