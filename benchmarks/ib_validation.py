@@ -177,6 +177,7 @@ def cost_at(cells: int, steps: int = 40) -> dict:
     projected cost of case 3's first bounce there (steps scale with cells per diameter)."""
     from fem_bounce.models.ib import ImmersedBoundaryModel
     from fem_bounce.run import Controller
+    from fem_bounce.models.registry import MODELS
     from fem_bounce.integrator import BodyIntegrator
 
     sc = scene.load("li2011-case3", {"numerics.ib.cells_per_diameter": cells})
@@ -185,7 +186,7 @@ def cost_at(cells: int, steps: int = 40) -> dict:
     sc_short = sc.replace(**{"run.end_time": steps * model.dt})
     model = ImmersedBoundaryModel(sc_short, COMM)
     integrator = BodyIntegrator(sc_short, resolved=True)
-    result = Controller(model, integrator).run()
+    result = Controller(model, MODELS["ib"], integrator).run()
     wall = time.perf_counter() - start
     return {"cells_per_diameter": cells, "unknowns": result["sizes"]["unknowns"], "dt": model.dt,
             "steps_measured": result["steps"], "wall_time_s": round(wall, 2),

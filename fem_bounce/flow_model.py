@@ -1,15 +1,19 @@
-"""What a model is to the run: the FlowModel interface, and the sphere's predicted motion it is given.
+"""What a model is to the run: the FlowModel interface, and the bodies' predicted motion it is given.
 
 The run controller (fem_bounce.run) owns the time loop; a model owns its flow.  One step of length dt:
 
-    prediction = predictor.predict(integrator, model.time_step())   # AB2: where the sphere will be
-    fluid = model.linearised_force(prediction)   # advance the flow; f_sim = F* - m_a dV/dt (or None: f_thr)
-    integrator.advance(model.next_time(), fluid) # the shared sphere integrator sub-cycles to t_{n+1}
-    model.complete(integrator.velocity)          # the step's flow for the velocity the sphere reached
-    predictor.push(integrator.velocity)
+    prediction = predictor.predict(t, integrator.gaps, integrator.velocities, dt)  # AB2: where they will be
+    fluid = model.linearised_force(prediction)   # advance the flow; f_sim = F* - M_a dV/dt (or None: f_thr)
+    integrator.advance(model.next_time(), fluid) # the shared body integrator sub-cycles to t_{n+1}
+    model.complete(integrator.velocities, t)     # the step's flow for the velocities the bodies reached
+    predictor.push(integrator.velocities)
 
-then the observers (progress, trajectory rows, fields, checkpoints) and the stop conditions.  A model
-that holds the sphere at a steady state (`steady`) is solved once by `solve_steady` instead.
+Every per-body value is an array over the bodies on the axis (sphere 1 first; one sphere is N = 1),
+every added mass an N x N matrix.
+
+then the observers (progress, trajectory rows, fields, checkpoints) and the stop conditions: that is
+fem_bounce.steppers.CoupledStep.  A model that holds the bodies at a steady state (`steady`) is solved
+once (SteadyStep); the ode model has no flow (OdeStep).
 
 Adding a model means writing one FlowModel and its entry in models/registry.py, nothing else.
 """
@@ -27,55 +31,54 @@ from .integrator import FluidForce
 
 @dataclass(frozen=True)
 class Prediction:
-    """Where the sphere will be at the end of the coming fluid step: from its gap now, the step and its
-    mean velocity over the step, 1.5 V_n - 0.5 V_{n-1} (Adams-Bashforth 2) [SI].
+    """Where the bodies will be at the end of the coming fluid step: from their gaps now, the step and
+    their mean velocities over the step, 1.5 V_n - 0.5 V_{n-1} (Adams-Bashforth 2) [SI].
 
-    For a pair (scene.pair) gap_now, velocity_now and mean_velocity are arrays, one entry per sphere
-    (sphere 1 first): each sphere's lowest point above z = 0 and its velocity; `flow_gaps` says where a
-    resolved flow places them."""
+    Every per-body value is an array over the bodies on the axis, sphere 1 (the lowest) first: each
+    one's lowest point above z = 0 and its velocity; `flow_gaps` says where a resolved flow places them."""
 
     time: float  # t_n [s]
-    gap_now: float  # h(t_n) [m]
-    velocity_now: float  # V(t_n) [m/s]
+    gaps_now: np.ndarray  # h_i(t_n) [m]
+    velocities_now: np.ndarray  # V_i(t_n) [m/s]
     dt: float  # [s]
-    mean_velocity: float  # over [t_n, t_n + dt] [m/s]
+    mean_velocities: np.ndarray  # over [t_n, t_n + dt] [m/s]
 
     @property
-    def gap(self) -> float:
-        """h(t_n + dt) [m]."""
-        return self.gap_now + self.dt * self.mean_velocity
+    def gaps(self) -> np.ndarray:
+        """h_i(t_n + dt) [m]."""
+        return self.gaps_now + self.dt * self.mean_velocities
 
-    def center(self, radius: float) -> float:
-        """The sphere centre's height at t_n + dt [m]."""
-        return radius + self.gap_now + self.dt * self.mean_velocity
+    def centers(self, radii) -> np.ndarray:
+        """The sphere centres' heights at t_n + dt [m], for the spheres' `radii` [m]."""
+        return np.asarray(radii, dtype=float) + self.gaps_now + self.dt * self.mean_velocities
 
 
-def flow_gaps(gaps, diameters, wall_hold: float, pair_hold: float) -> np.ndarray:
-    """Where a resolved flow places the spheres of a pair: their lowest points above z = 0 [m], the
-    predicted `gaps` with sphere 1 kept at least `wall_hold` above the wall and sphere 2 at least
-    `pair_hold` above sphere 1's flow position (the near-wall correction holds the flow's geometry at
-    delta_sl and adds what it misses; contact.py).  A hold of 0 places them where predicted."""
+def flow_gaps(gaps, diameters, holds) -> np.ndarray:
+    """Where a resolved flow places the bodies: their lowest points above z = 0 [m], the predicted `gaps`
+    with sphere 1 kept at least holds[0] above the wall and each sphere k + 1 at least holds[k + 1] above
+    sphere k's flow position (the near-wall correction holds the flow's geometry at delta_sl and adds
+    what it misses; contact.py; BodyIntegrator.hold_gaps).  A hold of 0 places them where predicted."""
     placed = np.array(gaps, dtype=float)
-    placed[0] = max(placed[0], wall_hold)
-    if len(placed) > 1:
-        placed[1] = max(placed[1], placed[0] + diameters[0] + pair_hold)
+    placed[0] = max(placed[0], holds[0])
+    for k in range(1, len(placed)):
+        placed[k] = max(placed[k], placed[k - 1] + diameters[k - 1] + holds[k])
     return placed
 
 
 class Predictor:
-    """The sphere's last velocities, newest first (order 2: AB2; order 1: the last velocity held).  For a
-    pair each is an array (sphere 1 first), and so is the Prediction's; checkpoints store them as lists."""
+    """The bodies' last velocities, newest first (order 2: AB2; order 1: the last velocities held), each
+    an array over the bodies [m/s]; checkpoints store them as lists."""
 
-    def __init__(self, velocities: list[float]):
-        self.velocities = list(velocities)
+    def __init__(self, velocities: list[np.ndarray]):
+        self.velocities = [np.array(v, dtype=float) for v in velocities]
 
-    def predict(self, time: float, gap: float, velocity: float, dt: float) -> Prediction:
+    def predict(self, time: float, gaps: np.ndarray, velocities: np.ndarray, dt: float) -> Prediction:
         v = self.velocities
-        mean_velocity = 1.5 * v[0] - 0.5 * v[1] if len(v) > 1 else v[0]
-        return Prediction(time, gap, velocity, dt, mean_velocity)
+        mean_velocities = 1.5 * v[0] - 0.5 * v[1] if len(v) > 1 else v[0]
+        return Prediction(time, gaps, velocities, dt, mean_velocities)
 
-    def push(self, velocity: float) -> None:
-        self.velocities = [velocity] + self.velocities[:-1]
+    def push(self, velocities: np.ndarray) -> None:
+        self.velocities = [np.array(velocities, dtype=float)] + self.velocities[:-1]
 
 
 def steps_to(end_time: float, dt: float) -> int:
@@ -84,32 +87,25 @@ def steps_to(end_time: float, dt: float) -> int:
 
 
 class FlowModel(ABC):
-    """A model of the liquid around the sphere.  Built for one scene (`__init__` checks it against the
-    model and does nothing costly); `build` makes the meshes and solvers; then the controller steps it.
+    """A model of the liquid around the bodies.  Built for one scene (`__init__` checks it against the
+    model and does nothing costly); `build` makes the meshes and solvers; then a stepper
+    (fem_bounce.steppers) advances it: the coupled step calls `linearised_force` and `complete`, the
+    steady one `steady_force` and `complete_steady`; a model without a flow (ode) needs neither.
 
-    Class facts (name, resolution, restarts, colour, ...) live in models/registry.py."""
+    Class facts (name, resolution, restarts, cadences, stepper, colour, ...) live in models/registry.py;
+    the controller reads them there and hands the model what it needs."""
 
     name: str = ""
     resolved: bool = True  # f_sim comes from this flow (False: f_thr everywhere)
-    steady: bool = False  # a held sphere solved for its steady state in one go (solve_steady)
-    observe_integrator_steps: bool = False  # one step is the whole run: observers see every integrator step
+    steady: bool = False  # held bodies solved for their steady state in one go (steppers.SteadyStep)
     divergences: tuple = ()  # exception types of the model's solvers that mean the run diverged
     fields_at_end: bool = False  # the final state also goes to the field files
-    fields_every: int = 0  # field snapshots every N steps (0: none)
-    checkpoint_every: int = 0  # checkpoints every N steps (0: none)
 
     def __init__(self, scene, comm):
-        from .models.registry import MODELS
-
         self.scene = scene
         self.comm = comm
         self.step = 0  # fluid steps completed
-        entry = MODELS[self.name]
         self.settings = getattr(scene.numerics, self.name)  # [numerics.NAME]
-        if entry.fields_key:
-            self.fields_every = entry.setting(scene, entry.fields_key)
-        if entry.checkpoint_every_key:
-            self.checkpoint_every = entry.setting(scene, entry.checkpoint_every_key)
         self.loop_seconds = 0.0  # set by the controller: wall time of this segment's time loop [s]
         self.steps_this_run = 0  # set by the controller: steps taken in this segment (after a restart: since it)
 
@@ -123,14 +119,11 @@ class FlowModel(ABC):
         """Make the meshes and solvers and set the liquid at rest (or in its stream); collective.  The
         shared sphere integrator is given for what the flow needs of it (its contact model's hold gap)."""
 
-    def initial_velocities(self) -> list:
-        """The predictor's history at the start, newest first [m/s]; for a pair, arrays (one entry per
-        sphere: each starts at rest, or the second at its velocity)."""
-        if self.scene.pair:
-            from .motion import start_velocities
+    def initial_velocities(self) -> list[np.ndarray]:
+        """The predictor's history at the start, newest first, each an array over the bodies [m/s]."""
+        from .bodies import scene_bodies
 
-            return [np.array(start_velocities(self.scene))]
-        return [0.0]
+        return [np.array([body.start_velocity for body in scene_bodies(self.scene)])]
 
     # -- one step ---------------------------------------------------------------------------------
     def time_step(self) -> float:
@@ -145,24 +138,33 @@ class FlowModel(ABC):
         """No step is left before end_time."""
         return self.step >= steps_to(end_time, self.time_step())
 
-    @abstractmethod
-    def linearised_force(self, prediction: Prediction) -> FluidForce | None:
-        """Advance the flow to the predicted sphere position and return the force on the sphere over the
-        step, linearised in its acceleration (None: no resolved force)."""
+    def linearised_force(self, prediction: Prediction) -> FluidForce:
+        """Advance the flow to the predicted body positions and return the forces on the bodies over the
+        step, linearised in their accelerations (arrays over the bodies, an N x N added mass)."""
+        raise NotImplementedError(f"the {self.name} model has no coupled step")
 
-    @abstractmethod
-    def complete(self, velocity: float, time: float) -> None:
-        """Finish the step with the velocity the sphere reached at `time` [m/s, s] (a pair: an array of
-        the two velocities, sphere 1 first)."""
+    def complete(self, velocities: np.ndarray, time: float) -> None:
+        """Finish the step with the velocities the bodies reached at `time` [m/s, s] (an array, sphere 1
+        first)."""
+        raise NotImplementedError(f"the {self.name} model has no coupled step")
 
-    def solve_steady(self, integrator) -> None:
-        """For a `steady` model: solve the held sphere's steady state and hold it to the end time."""
+    # -- a steady model (steppers.SteadyStep) ---------------------------------------------------
+    def steady_force(self) -> FluidForce:
+        """The held bodies' steady state, solved once: its force, which holds to the end."""
+        raise NotImplementedError(f"the {self.name} model has no steady solve")
+
+    def steady_end_time(self, end_time: float) -> float:
+        """Where the steady state is held to [s]: the end time."""
+        return end_time
+
+    def complete_steady(self, time: float) -> None:
+        """Record the steady state held to `time` [s] as the run's steps."""
         raise NotImplementedError(f"the {self.name} model has no steady solve")
 
     # -- outputs ----------------------------------------------------------------------------------
-    def open_outputs(self, out_dir: Path, restart: bool) -> None:
-        """Open the model's own files in the run directory (field snapshots when fields_every); collective.
-        `restart`: continue what an earlier segment wrote."""
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+        """Open the model's own files in the run directory (field snapshots when `fields`: the controller
+        writes them on the scene's cadence); collective.  `restart`: continue what an earlier segment wrote."""
 
     def write_fields(self, time: float) -> None:
         """One snapshot of the flow now (collective)."""

@@ -71,11 +71,11 @@ TURNING_OFFSET = 1e-9
 
 @dataclass(frozen=True)
 class FluidForce:
-    """A resolved model's force on the spheres over one fluid step [N, kg]:
-    f_sim,i = explicit_i - sum_j added_mass_ij dV_j/dt (one sphere: two numbers)."""
+    """A resolved model's forces on the N bodies over one fluid step [N, kg]:
+    f_sim,i = explicit_i - sum_j added_mass_ij dV_j/dt, `explicit` of shape (N,), `added_mass` (N, N)."""
 
-    explicit: float | np.ndarray
-    added_mass: float | np.ndarray = 0.0
+    explicit: np.ndarray
+    added_mass: np.ndarray
 
 
 class PenetrationError(RuntimeError):
@@ -129,8 +129,7 @@ class BodyIntegrator:
     """Advances the scene's bodies; the same object serves the ODE, fd, ib and ale models.
 
     `gaps` and `velocities` are arrays over the spheres (sphere 1 first): each one's lowest point above
-    z = 0 and its velocity; `gap` and `velocity` are what the flow models read (numbers for one sphere,
-    the arrays otherwise)."""
+    z = 0 and its velocity."""
 
     _film_pending: tuple[float, float] | None = None  # ehd: (t, V) where the gap reached h0
 
@@ -315,9 +314,7 @@ class BodyIntegrator:
         f = terms or self._terms(t, y)
         count = len(self.bodies)
         blend = f["blend"]
-        explicit = np.reshape(np.asarray(self.fluid.explicit, dtype=float), count) if self.resolved else 0.0
-        added_mass = (np.reshape(np.asarray(self.fluid.added_mass, dtype=float), (count, count)) if self.resolved
-                      else 0.0)
+        explicit, added_mass = self.fluid.explicit, self.fluid.added_mass  # zero without a resolved flow
         mass = (np.diag(self.masses + blend * f["c_m"] + f["correction_mass"]) + blend[:, None] * f["pair_mass"]
                 + (1.0 - blend)[:, None] * added_mass)
         theory = f["drag"] + f["am_velocity"] + f["pair"] + f["pair_am_velocity"] + f["history"]
@@ -562,9 +559,7 @@ class BodyIntegrator:
         theory = f["drag"] + f["pair"] + added_mass + f["history"]
         count, blend = len(self.bodies), f["blend"]
         if self.resolved:
-            fluid = self.fluid
-            sim = (np.reshape(np.asarray(fluid.explicit, dtype=float), count)
-                   - np.reshape(np.asarray(fluid.added_mass, dtype=float), (count, count)) @ accel)
+            sim = self.fluid.explicit - self.fluid.added_mass @ accel
         else:
             sim = theory
         correction = f["correction"] - f["correction_mass"] * accel
@@ -620,17 +615,6 @@ class BodyIntegrator:
     def velocities(self) -> np.ndarray:
         """Each sphere's velocity, positive upward [m/s]."""
         return self._state()[1:2 * len(self.bodies):2].copy()
-
-    @property
-    def gap(self):
-        """The flow models' view (until they take arrays for any number of spheres): one sphere's gap as
-        a number, else `gaps`."""
-        return float(self.gaps[0]) if len(self.bodies) == 1 else self.gaps
-
-    @property
-    def velocity(self):
-        """The flow models' view: one sphere's velocity as a number, else `velocities`."""
-        return float(self.velocities[0]) if len(self.bodies) == 1 else self.velocities
 
     def _post_step_initial(self) -> None:
         """Log and report the initial state as the first row."""

@@ -42,6 +42,8 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from . import __version__
 from . import scene as scenes
 from .errors import Error
@@ -680,9 +682,9 @@ def read_summary(run_dir: Path) -> dict:
 # -- the summary ----------------------------------------------------------------------------------
 
 
-def _plain(value):
-    """A number, or a pair's array as a list (JSON)."""
-    return value.tolist() if hasattr(value, "tolist") and getattr(value, "ndim", 0) else value
+def _per_body(values: np.ndarray):
+    """A per-body array as summary.json has it: one sphere's value as a number, more as a list."""
+    return float(values[0]) if len(values) == 1 else values.tolist()
 
 
 def _versions() -> dict:
@@ -709,7 +711,8 @@ def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: 
         "sphere_steps": integrator.steps,
         "ranks": ranks,
         "sizes": sizes or {},
-        "final": {"time": integrator.time, "gap": _plain(integrator.gap), "velocity": _plain(integrator.velocity)},
+        "final": {"time": integrator.time, "gap": _per_body(integrator.gaps),
+                  "velocity": _per_body(integrator.velocities)},
         **({"collisions": integrator.collisions()} if scene.pair else {}),
         "versions": _versions(),
         "command": command,

@@ -1,7 +1,7 @@
 """What a run shows while it runs, and how it is asked to stop between two steps.
 
-    bar = ProgressBar(end_time=0.2, diameter=0.012, enabled=comm.rank == 0)
-    monitor = Monitor(bar, comm, interrupts, writer)   # a model calls monitor(t, steps, gap, velocity)
+    bar = ProgressBar(end_time=0.2, diameters=[0.012], enabled=comm.rank == 0)
+    monitor = Monitor(bar, comm, interrupts, writer)   # the run calls monitor(t, steps, gaps, velocities)
 
 The bar is one status line on stderr (rank 0); the monitor draws it after every step and ends the run
 on every rank together when a signal has arrived (run.Interrupts) or rank 0 could not write the
@@ -19,18 +19,19 @@ from .errors import RunFailed, RunInterrupted
 
 
 class ProgressBar:
-    """One status line on stderr (rank 0): model time, steps, gap, speed and the remaining wall time."""
+    """One status line on stderr (rank 0): model time, steps, gaps, speeds and the remaining wall time."""
 
-    def __init__(self, end_time: float, diameter: float, enabled: bool = True, every: float = 1.0):
-        """end_time and diameter [s, m] scale the bar and the gap; `every` [s of wall time] thins the
-        lines written to a log (a terminal's line is redrawn every 0.2 s)."""
-        self.end_time, self.diameter, self.enabled, self.every = end_time, diameter, enabled, every
+    def __init__(self, end_time: float, diameters, enabled: bool = True, every: float = 1.0):
+        """end_time [s] scales the bar, the bodies' `diameters` [m] (sphere 1 first) the gaps; `every` [s of
+        wall time] thins the lines written to a log (a terminal's line is redrawn every 0.2 s)."""
+        self.end_time, self.enabled, self.every = end_time, enabled, every
+        self.diameters = np.asarray(diameters, dtype=float)
         self.start = time.perf_counter()
         self._last = -float("inf")
         self._tty = sys.stderr.isatty()
 
-    def __call__(self, t: float, steps: int, gap, velocity, force: bool = False) -> None:
-        """t [s]; gap [m] and velocity [m/s] of the sphere, or arrays (sphere 1, sphere 2) for a pair."""
+    def __call__(self, t: float, steps: int, gaps: np.ndarray, velocities: np.ndarray, force: bool = False) -> None:
+        """t [s]; the bodies' gaps above z = 0 [m] and velocities [m/s], arrays with sphere 1 first."""
         now = time.perf_counter()
         if not self.enabled or (now - self._last < (0.2 if self._tty else self.every) and not force):
             return
@@ -40,12 +41,13 @@ class ProgressBar:
         left = f"~{elapsed * (1.0 - fraction) / fraction:4.0f} s left" if fraction > 0.01 else ""
         width = 24
         bar = "#" * int(width * fraction) + "-" * (width - int(width * fraction))
-        if getattr(gap, "ndim", 0):  # a pair: sphere 1's gap to z = 0 and the pair gap, both velocities
-            where = (f"gap_1/D {gap[0] / self.diameter:7.4f}  pair gap/D "
-                     f"{(gap[1] - gap[0] - self.diameter) / self.diameter:8.5f}  "
-                     f"V {velocity[0]:+.4f}, {velocity[1]:+.4f} m/s")
-        else:
-            where = f"gap/D {gap / self.diameter:7.4f}  V {velocity:+.4f} m/s"
+        # sphere 1's gap to z = 0, then each neighbouring pair's surface gap over the lower sphere's D
+        d = self.diameters
+        where = f"gap/D {gaps[0] / d[0]:7.4f}"
+        if len(gaps) > 1:
+            between = (np.diff(gaps) - d[:-1]) / d[:-1]
+            where += "  pair gap/D " + ", ".join(f"{s:8.5f}" for s in between)
+        where += "  V " + ", ".join(f"{v:+.4f}" for v in velocities) + " m/s"
         line = f"[{bar}] t = {t:.4f}/{self.end_time:g} s  step {steps}  {where}  {elapsed:5.0f} s elapsed {left}"
         print(("\r" + line) if self._tty else line, end="" if self._tty else "\n", file=sys.stderr, flush=True)
 
@@ -64,9 +66,9 @@ class Monitor:
         self.bar, self.comm, self.interrupts, self.writer = bar, comm, interrupts, writer
         self.steps = 0
 
-    def __call__(self, t: float, steps: int, gap, velocity, force: bool = False) -> None:
+    def __call__(self, t: float, steps: int, gaps: np.ndarray, velocities: np.ndarray, force: bool = False) -> None:
         self.steps = steps
-        self.bar(t, steps, gap, velocity, force=force)
+        self.bar(t, steps, gaps, velocities, force=force)
         flags = np.array([self.interrupts.signum if self.interrupts is not None else 0,
                           int(self.writer is not None and self.writer.failure is not None)])
         if self.comm.size > 1:

@@ -40,15 +40,13 @@ from petsc4py import PETSc
 from . import models, output
 from . import scene as scenes
 from .errors import RunDiverged, RunFailed, RunInterrupted
-from .flow_model import FlowModel, Predictor
+from .flow_model import FlowModel
 from .integrator import BodyIntegrator, PenetrationError
 from .progress import Monitor, ProgressBar
+from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
 ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error before a gain stops the run
-# The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh
-# grows without telling anything new: a sphere reaches its terminal speed within ~10-20 D of its release.
-RESOLVED_MAX_GAP = 100.0
 
 
 class StopNow(KeyboardInterrupt):
@@ -135,9 +133,9 @@ class _RunIntegrator(BodyIntegrator):
 
 
 class _RunRecord:
-    def __init__(self, scene, model: str, writer: output.TrajectoryWriter | None, previous_wall: list):
+    def __init__(self, scene, model_name: str, writer: output.TrajectoryWriter | None, previous_wall: list):
         self.scene_text = scenes.dumps(scene)
-        self.model = model
+        self.model_name = model_name
         self.writer = writer
         self.previous_wall = list(previous_wall)  # earlier segments, each up to its last checkpoint [s]
         self.start = time.perf_counter()
@@ -152,7 +150,7 @@ class _RunRecord:
                 rows = self.writer.sync()
             except output.OutputError as err:
                 error = str(err)  # RunDirectory.commit_checkpoint refuses to commit then
-        return {"scene": self.scene_text, "model": self.model, "trajectory_rows": rows, "trajectory_error": error,
+        return {"scene": self.scene_text, "model": self.model_name, "trajectory_rows": rows, "trajectory_error": error,
                 "wall_time_s": self.previous_wall + [self.elapsed()]}
 
 
@@ -167,8 +165,9 @@ class _Safeguards:
     prescription, so the bound is not checked then.  Spheres all lighter than the liquid are stopped
     where sphere 1 can no longer be followed (they never reach the wall)."""
 
-    def __init__(self, scene, integrator: BodyIntegrator, model: str, resolved_top: float):
-        self.scene, self.integrator, self.model = scene, integrator, model
+    def __init__(self, scene, integrator: BodyIntegrator, info, resolved_top: float):
+        """`info`: the model's models.registry.ModelInfo; `resolved_top` [m]: FlowModel.resolved_top."""
+        self.scene, self.integrator, self.info = scene, integrator, info
         bodies = integrator.bodies
         self.free = all(body.free for body in bodies)
         self.masses = np.array([body.mass for body in bodies])
@@ -185,7 +184,7 @@ class _Safeguards:
         if not scene.container.unbounded:
             limits.append((scene.container.height - d, "reached the container's lid"))
         if math.isfinite(resolved_top):
-            limits.append((resolved_top - d, f"reached the top of the {model} model's refined region"))
+            limits.append((resolved_top - d, f"reached the top of the {info.name} model's refined region"))
         self.ceiling, self.where = min(limits)
         self.stop_reason: str | None = None
 
@@ -196,13 +195,7 @@ class _Safeguards:
         h, v, d = integrator.gaps, integrator.velocities, integrator.bodies[0].diameter
         excess = 0.5 * self.masses @ (v * v) + self.weights @ h - self.release_energy
         if excess > self.tolerance:
-            settings, entry = getattr(self.scene.numerics, self.model), models.info(self.model)
-            if not entry.resolved:
-                hint = f"tighten {entry.resolution_key}"
-            elif getattr(settings, "coupling", "implicit") == "explicit":
-                hint = f"numerics.{self.model}.coupling = \"explicit\" fails here: use \"implicit\""
-            else:
-                hint = f"use a smaller {entry.time_step_key}"
+            hint = self.info.unstable_hint(self.scene)
             where = ", ".join(f"{x / d:.3g}" for x in h)
             speeds = ", ".join(f"{x:+.3g}" for x in v)
             what = "the sphere" if len(h) == 1 else "the spheres"
@@ -220,36 +213,22 @@ class _Safeguards:
 # -- before the run: warnings and restarts ---------------------------------------------------------
 
 
-def _warnings(scene, model: str, comm, guards: _Safeguards) -> list[str]:
+def _warnings(scene, info, guards: _Safeguards) -> list[str]:
     found = []
     d = scene.sphere.diameter
     if guards.light:
         found.append(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
                      f"{scene.liquid.density:g} kg/m3: the sphere rises and never reaches the wall; the run stops "
                      f"when it has {guards.where} (gap {guards.ceiling / d:.3g} D)")
-    entry = models.info(model)
-    if not entry.resolved and not scene.container.unbounded:
-        found.append(f"the {model} model's forces are those of an unbounded liquid: it ignores [container] "
-                     f"(radius {scene.container.radius:g} m, height {scene.container.height:g} m); a resolved "
-                     "model (fd, ib, ale) meshes the container")
-    if entry.min_cells_across_blend_gap is not None:
-        cells = entry.resolution(scene)
-        across, needed = cells * scene.contact.delta_sl, entry.min_cells_across_blend_gap
-        if across < needed:
-            found.append(f"numerics.{model}.cells_per_diameter = {cells:g} puts {across:.2g} fine cells across the "
-                         f"delta_sl gap ({scene.contact.delta_sl:g} D); below {needed:g} the {model} model's force "
-                         "near the wall is off by more than 5 % (stability study): expect impact speed and apex "
-                         f"errors of 10 % or more; use at least {needed / scene.contact.delta_sl:g} cells/D")
-    return found
+    return found + info.scene_warnings(scene)
 
 
-def _interruption_note(run_dir: output.RunDirectory, model: str) -> str:
+def _interruption_note(run_dir: output.RunDirectory, info) -> str:
     """What the user can do after an interruption (rank 0)."""
-    entry = models.info(model)
-    if not entry.restarts:
-        return f"; the {model} model writes no checkpoints: run it again"
+    if not info.restarts:
+        return f"; the {info.name} model writes no checkpoints: run it again"
     if run_dir.checkpoint is None:
-        return f"; no checkpoint was written yet ({entry.checkpoint_every_key}), so it cannot be continued"
+        return f"; no checkpoint was written yet ({info.checkpoint_every_key}), so it cannot be continued"
     state = run_dir.checkpoint.state
     return (f"; continue from its last checkpoint (step {state.get('step')}, t = {state.get('time', 0.0):.6g} s) "
             f"with: fem-bounce run --restart {run_dir.path}")
@@ -270,137 +249,120 @@ class Every:
 
 
 class Controller:
-    """The one time loop every model runs under: it builds the model, predicts the sphere's motion over
-    each step (AB2, flow_model.Predictor), lets the model advance its flow and hand over its linearised
-    force, advances the shared sphere integrator, and after each step calls the observers (progress, and
-    on their cadence field snapshots and checkpoints); it stops at the end time or when the integrator
-    is done (bounce limit, safeguards), and turns the model's failures into one RunDiverged that says
-    where the run can be continued from.  The trajectory rows are an observer of the integrator."""
+    """The one time loop every model runs under: it builds the flow model, lets the stepper the registry
+    names for it (fem_bounce.steppers) advance the flow and the bodies, and after each step calls the
+    observers (progress and stop requests, and on their cadences field snapshots and checkpoints); it
+    stops at the end time or when the integrator is done (bounce limit, safeguards), and turns the
+    model's failures into one RunDiverged that says where the run can be continued from.  The
+    trajectory rows are an observer of the integrator.  What a model is comes in resolved (`info`, its
+    models.registry.ModelInfo); the controller knows nothing of pairs, time-step keys or meshes."""
 
-    def __init__(self, model: FlowModel, integrator: BodyIntegrator, monitor=None,
+    def __init__(self, flow_model: FlowModel, info, integrator: BodyIntegrator, monitor=None,
                  run_dir: output.RunDirectory | None = None):
-        """`monitor(t, steps, gap, velocity, force=False)` is called after every step (the run's progress
+        """`monitor(t, steps, gaps, velocities, force=False)` is called after every step (the run's progress
         line and stop requests); without `run_dir` nothing is written."""
-        self.model, self.integrator, self.comm = model, integrator, model.comm
+        self.flow_model, self.info, self.integrator, self.comm = flow_model, info, integrator, flow_model.comm
         self.monitor = monitor or (lambda *args, **kwargs: None)
         self.run_dir = run_dir
-        self.entry = models.info(model.name)
+        self.fields_every, checkpoint_every = info.cadences(flow_model.scene)
+        self.checkpoint_every = checkpoint_every if run_dir is not None else 0
         self.last_checkpoint: tuple[int, float] | None = None
-        self.checkpoints = run_dir is not None and bool(model.checkpoint_every)
+        self.stepper: Stepper | None = None
 
     def run(self, resumed: output.Checkpoint | None = None) -> dict:
         """The run from its start, or from `resumed` (a restart: the checkpoint RunDirectory.resume chose)."""
-        model, integrator, run_dir = self.model, self.integrator, self.run_dir
+        flow_model, integrator, run_dir = self.flow_model, self.integrator, self.run_dir
         restart = resumed is not None
-        end = model.scene.run.end_time
+        fields_every = self.fields_every if run_dir is not None else 0
         try:
-            model.build(integrator)
-            self.predictor = Predictor(model.initial_velocities())
+            flow_model.build(integrator)
+            self.stepper = stepper = stepper_for(self.info, flow_model, integrator)
             if restart:
                 self._restore(resumed)
-            first_step = model.step
+            first_step = flow_model.step
             observers = [self._progress]
             if run_dir is not None:
-                model.open_outputs(run_dir.path, restart)
-                if model.fields_every:
+                flow_model.open_outputs(run_dir.path, restart, fields=bool(fields_every))
+                if fields_every:
                     if not restart:
-                        model.write_fields(integrator.time)
-                    observers.append(Every(model.fields_every, lambda: model.write_fields(integrator.time)))
-            if self.checkpoints:
-                observers.append(Every(model.checkpoint_every, self.save_checkpoint))
-            if model.observe_integrator_steps:
-                integrator.observers.append(
-                    lambda row: self.monitor(row["t"], integrator.steps, integrator.gap, integrator.velocity))
+                        flow_model.write_fields(integrator.time)
+                    observers.append(Every(fields_every, lambda: flow_model.write_fields(integrator.time)))
+            if self.checkpoint_every:
+                observers.append(Every(self.checkpoint_every, self.save_checkpoint))
             start = time.perf_counter()
-            if model.steady:
-                model.solve_steady(integrator)
-                self._progress(force=True)
-            else:
-                while not model.finished(end) and not integrator.done:
-                    self.step()
-                    for observer in observers:
-                        observer(model.step)
-            model.loop_seconds = time.perf_counter() - start
-            model.steps_this_run = model.step - first_step
-            if (run_dir is not None and model.fields_every and model.fields_at_end
-                    and (model.steady or model.step % model.fields_every)):
-                model.write_fields(integrator.time)
-            steps = integrator.steps if model.observe_integrator_steps else model.step
-            report = model.report()
-            return {"steps": steps, "sizes": model.sizes(), "extra": {model.name: report} if report else {}}
-        except (PenetrationError, ArithmeticError, PETSc.Error, *model.divergences) as err:
+
+            def after_step() -> None:
+                for observer in observers:
+                    observer(stepper.steps)
+
+            stepper.run(flow_model.scene.run.end_time, after_step)
+            self._progress(force=True)
+            flow_model.loop_seconds = time.perf_counter() - start
+            flow_model.steps_this_run = flow_model.step - first_step
+            if (fields_every and flow_model.fields_at_end
+                    and (flow_model.steady or flow_model.step % fields_every)):
+                flow_model.write_fields(integrator.time)
+            report = flow_model.report()
+            return {"steps": stepper.steps, "sizes": flow_model.sizes(),
+                    "extra": {flow_model.name: report} if report else {}}
+        except (PenetrationError, ArithmeticError, PETSc.Error, *flow_model.divergences) as err:
             raise RunDiverged(f"{self._explain(err)} ({self._where()})") from err
         finally:
             if run_dir is not None:
-                model.close_outputs()
-            model.destroy()
-
-    def step(self) -> None:
-        """One step of the flow and the sphere."""
-        model, integrator = self.model, self.integrator
-        prediction = self.predictor.predict(integrator.time, integrator.gap, integrator.velocity, model.time_step())
-        fluid = model.linearised_force(prediction)
-        integrator.advance(model.next_time(), fluid)
-        model.complete(integrator.velocity, integrator.time)
-        self.predictor.push(integrator.velocity)
+                flow_model.close_outputs()
+            flow_model.destroy()
 
     def _progress(self, step: int | None = None, force: bool = False) -> None:
         integrator = self.integrator
-        self.monitor(integrator.time, self.model.step, integrator.gap, integrator.velocity, force=force)
+        self.monitor(integrator.time, self.stepper.steps, integrator.gaps, integrator.velocities, force=force)
 
     def _explain(self, err: BaseException) -> str:
-        integrator, name = self.integrator, self.model.name
+        integrator = self.integrator
         if isinstance(err, PETSc.Error):
             return (f"t = {integrator.time:.5g} s: a solver failed (PETSc error {err.ierr}): the coupling or the "
                     "time step went unstable")
         if isinstance(err, ArithmeticError) and not isinstance(err, FloatingPointError):
-            settings = getattr(self.model.scene.numerics, name)
-            hint = (f"for a light sphere use numerics.{name}.coupling = \"implicit\"; otherwise "
-                    if hasattr(settings, "coupling") else "")
-            speed = ", ".join(f"{v:.3g}" for v in np.atleast_1d(integrator.velocity))
-            key = models.info(name).time_step_key
-            cause = (f"unstable ({hint}lower {key})" if key else  # the ode model's steps adapt: the inputs are the cause
-                     "the scene's numbers are beyond what the force formulas can represent")
+            speed = ", ".join(f"{v:.3g}" for v in integrator.velocities)
             return (f"the coupled step broke down ({type(err).__name__}: {err}) near t = {integrator.time:.6g} s "
-                    f"with the sphere at {speed} m/s: {cause}")
+                    f"with the sphere at {speed} m/s: {self.info.breakdown_cause(self.flow_model.scene)}")
         return str(err)
 
     def _where(self) -> str:
-        if not self.checkpoints:
-            return f"at step {self.model.step}"
+        if not self.checkpoint_every:
+            return f"at step {self.flow_model.step}"
         if self.last_checkpoint is None:
             return "no checkpoint yet"
         return f"last checkpoint at step {self.last_checkpoint[0]}, t = {self.last_checkpoint[1]:.6g} s"
 
-    # -- checkpoints: the model's flow, the predictor, the integrator (which carries the run record) --
+    # -- checkpoints: the flow, the stepper (its predictor), the integrator (which carries the run record) --
     def save_checkpoint(self) -> None:
-        model, integrator, comm = self.model, self.integrator, self.comm
-        flow, arrays = model.checkpoint_state()  # collective; arrays on rank 0
-        state = {"step": model.step, "time": integrator.time, "ranks": comm.size,
-                 "velocities": [np.asarray(v).tolist() for v in self.predictor.velocities],  # a pair's: arrays
+        flow_model, integrator, comm = self.flow_model, self.integrator, self.comm
+        flow, arrays = flow_model.checkpoint_state()  # collective; arrays on rank 0
+        state = {"step": flow_model.step, "time": integrator.time, "ranks": comm.size, **self.stepper.state(),
                  "flow": flow, "integrator": integrator.state_dict()}
 
-        data, = self.entry.checkpoint_files
-        on_root(comm, lambda: self.run_dir.commit_checkpoint(model.name, state, data, arrays))
-        self.last_checkpoint = (model.step, integrator.time)
+        data, = self.info.checkpoint_files
+        on_root(comm, lambda: self.run_dir.commit_checkpoint(flow_model.name, state, data, arrays))
+        self.last_checkpoint = (flow_model.step, integrator.time)
 
     def _restore(self, resumed: output.Checkpoint) -> None:
         """Continue from `resumed` (RunDirectory.resume has checked it and cut the trajectory back)."""
-        data, = self.entry.checkpoint_files
+        data, = self.info.checkpoint_files
         arrays, state = resumed.arrays(data), resumed.state
         if not isinstance(state.get("flow"), dict) or "velocities" not in state:
             raise output.CheckpointError(f"the checkpoint in {self.run_dir.path} is unreadable: it was written by an "
                                          "older version; start a new run")
         failure = None
         try:
-            self.model.restore(state["flow"], arrays)
+            self.flow_model.restore(state["flow"], arrays)
         except output.CheckpointError as err:  # on one rank (a dof of its part that fits no stored one)
             failure = str(err)
         failures = [f for f in self.comm.allgather(failure) if f]
         if failures:
-            raise output.CheckpointError(f"the checkpoint in {self.run_dir.path} cannot continue this run: {failures[0]}")
-        self.model.step = state["step"]
-        self.predictor.velocities = [np.asarray(v) if isinstance(v, list) else v for v in state["velocities"]]
+            raise output.CheckpointError(f"the checkpoint in {self.run_dir.path} cannot continue this run: "
+                                         f"{failures[0]}")
+        self.flow_model.step = state["step"]
+        self.stepper.restore(state)
         self.integrator.load_state_dict(state["integrator"])
         self.last_checkpoint = (state["step"], state["time"])
 
@@ -408,68 +370,61 @@ class Controller:
 # -- the run --------------------------------------------------------------------------------------
 
 
-def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: bool = False,
+def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force: bool = False,
              restart: bool = False, command: str = "", progress: bool = True, plots: bool = True,
              interrupts: Interrupts | None = None) -> dict:
-    """Run `model` on `scene`; write DIR/{scene.toml,trajectory.csv,summary.json,*.png} if out_dir is given.
+    """Run the model named `model_name` on `scene`; write DIR/{scene.toml,trajectory.csv,summary.json,*.png}
+    if out_dir is given.
     Raises RunDiverged, RunInterrupted or RunFailed after writing the summary when the run ends early."""
-    if models.info(model).serial and comm.size > 1:
-        return _serial_on_root(scene, model, comm, out_dir, force=force, restart=restart, command=command,
+    info = models.info(model_name)  # what the model is, resolved once and handed down
+    if info.serial and comm.size > 1:
+        return _serial_on_root(scene, model_name, comm, out_dir, force=force, restart=restart, command=command,
                                progress=progress, plots=plots, interrupts=interrupts)
-    spheres, most = len(scene.spheres), models.info(model).max_spheres
-    if spheres > most:
-        what = "a pair of spheres ([second_sphere])" if spheres == 2 else f"{spheres} spheres ([[further_spheres]])"
-        raise models.ModelError(f"the {model} model cannot run {what}: it runs at most {most}; use one of "
-                                f"{', '.join(models.registry.running(spheres))}")
-    model_cls = models.get(model)
+    # Everything that can refuse the run comes before anything is written.
+    models.check_scene(info, scene)
+    model_cls = models.flow_model_class(info)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active
     out_dir = None if out_dir is None else Path(out_dir)
     if restart:
-        if not models.info(model).restarts:
-            raise models.ModelError(f"the {model} model writes no checkpoints, so it cannot --restart: run it again")
+        if not info.restarts:
+            raise models.ModelError(f"the {model_name} model writes no checkpoints, so it cannot --restart: run it "
+                                    "again")
         if out_dir is None:
             raise output.OutputError("a restart needs the run directory it continues")
-    # Everything that can refuse the run comes before anything is written.
-    if model_cls.resolved and scene.initial_gap > RESOLVED_MAX_GAP * scene.sphere.diameter:
-        raise scenes.SceneError(
-            f"initial_gap = {scene.initial_gap:.4g} m is {scene.initial_gap / scene.sphere.diameter:.3g} D: the {model} "
-            f"model meshes the whole path, allowed up to {RESOLVED_MAX_GAP:g} D (a sphere reaches its terminal speed "
-            "within ~10-20 D); start it lower, or use the ode model")
-    flow = model_cls(scene, comm)
+    flow_model = model_cls(scene, comm)
     integrator = _RunIntegrator(scene, resolved=model_cls.resolved)
-    guards = _Safeguards(scene, integrator, model, flow.resolved_top())
+    guards = _Safeguards(scene, integrator, info, flow_model.resolved_top())
     if root:
-        for message in _warnings(scene, model, comm, guards):
+        for message in _warnings(scene, info, guards):
             warnings.warn(message, stacklevel=2)
     resumed = None  # the checkpoint a restart continues from (rank 0 checks it; every rank restores it)
     run_dir = None if out_dir is None else output.RunDirectory(out_dir)
     if run_dir is not None and restart:
-        files = models.info(model).checkpoint_files
-        resumed = comm.bcast(on_root(comm, lambda: run_dir.resume(scene, model, files)), root=0)
+        resumed = comm.bcast(on_root(comm, lambda: run_dir.resume(scene, model_name, info.checkpoint_files)), root=0)
     elif run_dir is not None:
         on_root(comm, lambda: run_dir.prepare(force, scene))
     if run_dir is not None:
         on_root(comm, run_dir.reserve)
-    interval_key = models.info(model).trajectory_interval_key
-    interval = models.info(model).setting(scene, interval_key) if interval_key else 0.0
+    interval_key = info.trajectory_interval_key
+    interval = info.setting(scene, interval_key) if interval_key else 0.0
     writer = None
     if run_dir is not None:
         columns = output.trajectory_columns(len(scene.spheres))
         writer = on_root(comm, lambda: run_dir.trajectory(interval, columns))
     earlier_wall = resumed.wall_time_s if resumed is not None else []  # [s], one per earlier segment
-    record = _RunRecord(scene, model, writer, earlier_wall)
+    record = _RunRecord(scene, model_name, writer, earlier_wall)
     integrator.record = record
     if writer is not None:
         integrator.observers.append(writer)
     integrator.observers.append(guards)
-    bar = ProgressBar(scene.run.end_time, scene.sphere.diameter, enabled=progress and root)
+    bar = ProgressBar(scene.run.end_time, [body.diameter for body in integrator.bodies], enabled=progress and root)
     monitor = Monitor(bar, comm, interrupts, writer)
 
     status, message, signum = "completed", "", 0
     result: dict = {}
     try:
-        result = Controller(flow, integrator, monitor, run_dir).run(resumed)
+        result = Controller(flow_model, info, integrator, monitor, run_dir).run(resumed)
     except output.CheckpointError:
         # the restart could not load its checkpoint: no summary for a run that never continued
         bar.close()
@@ -513,7 +468,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     extra = {**(result.get("extra") or {}), "stop_reason": stop_reason}
     if earlier_wall:
         extra["wall_time_segments_s"] = earlier_wall + [wall]
-    data = output.summary(scene, model, integrator, sum(earlier_wall) + wall,
+    data = output.summary(scene, model_name, integrator, sum(earlier_wall) + wall,
                           result.get("steps", monitor.steps or integrator.steps), comm.size, command, status=status,
                           sizes=result.get("sizes"), extra=extra)
     integrator.destroy()
@@ -523,7 +478,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 _draw(out_dir)  # not after an interruption (mpirun kills 1 s after its SIGTERM) nor a failure
-            return _interruption_note(run_dir, model) if status == "interrupted" else ""
+            return _interruption_note(run_dir, info) if status == "interrupted" else ""
 
         try:
             message += on_root(comm, write_outputs) or ""  # rank 0's note; only rank 0 prints it
@@ -542,7 +497,7 @@ def simulate(scene, model: str, comm, out_dir: Path | None = None, *, force: boo
     raise RunFailed(f"{message}{kept}{unwritten}")
 
 
-def _serial_on_root(scene, model: str, comm, out_dir: Path | None, **options) -> dict:
+def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **options) -> dict:
     """A serial model under mpirun: rank 0 runs it on COMM_SELF while the other ranks wait without
     spinning, then every rank gets rank 0's summary, or its exception, so that no rank repeats the same
     serial solve and every rank ends the same way."""
@@ -550,11 +505,11 @@ def _serial_on_root(scene, model: str, comm, out_dir: Path | None, **options) ->
 
     result, error, own = None, None, None
     if comm.rank == 0:
-        warnings.warn(f"the {model} model is serial: under mpirun it runs on rank 0 alone and the other "
+        warnings.warn(f"the {model_name} model is serial: under mpirun it runs on rank 0 alone and the other "
                       f"{comm.size - 1} rank(s) wait (no speed-up); run it without mpirun, or spread a study's "
                       "runs with --jobs N or --executor mpi", stacklevel=3)
         try:
-            result = simulate(scene, model, MPI.COMM_SELF, out_dir, **options)
+            result = simulate(scene, model_name, MPI.COMM_SELF, out_dir, **options)
         except Exception as err:  # noqa: BLE001 -- re-raised on every rank below
             error = err
         except KeyboardInterrupt as err:  # a second signal: the other ranks stop as interrupted

@@ -20,7 +20,7 @@ class Recorded(BodyIntegrator):
     def _film_jump(self):
         start = self._film_pending
         super()._film_jump()
-        self.jumps = getattr(self, "jumps", []) + [(start, self.time, self.gap, self.velocity)]
+        self.jumps = getattr(self, "jumps", []) + [(start, self.time, self.gaps[0], self.velocities[0])]
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +81,7 @@ def test_a_collision_without_rebound_leaves_the_sphere_at_rest(run):
     assert last.film_outcome in ("stopped", "held") and last.film_restitution == 0.0
     assert run.rebounds[-1].restitution == 0.0 and run.rebounds[-1].apex_gap is None
     assert "came to rest on the wall in the film" in run.stop_reason
-    assert run.velocity == 0.0 and 0.0 < run.time < run.scene.run.end_time
+    assert run.velocities[0] == 0.0 and 0.0 < run.time < run.scene.run.end_time
     assert run.wall.record.resting
 
 
@@ -92,8 +92,8 @@ def test_above_the_handover_the_run_is_lubricated_hertz(run):
     try:
         reference.advance(t0)
         assert reference.impacts == []
-        assert reference.velocity == pytest.approx(v0, rel=1e-4)
-        assert reference.gap == pytest.approx(run.scene.contact.ehd_handover, rel=2e-2)
+        assert reference.velocities[0] == pytest.approx(v0, rel=1e-4)
+        assert reference.gaps[0] == pytest.approx(run.scene.contact.ehd_handover, rel=2e-2)
     finally:
         reference.destroy()
 

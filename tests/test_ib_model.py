@@ -67,13 +67,14 @@ def test_the_implicit_coupling_keeps_a_light_sphere_stable():
     sc = toy("tencate2002-e4", **{"sphere.density": 9.6, "initial_gap": 0.03, "run.end_time": 0.25,
                                   "container": {"radius": 0.05, "height": 0.16}})
     from fem_bounce.models.ib import ImmersedBoundaryModel
+    from fem_bounce.models.registry import MODELS
     from fem_bounce.run import Controller
     from fem_bounce.integrator import BodyIntegrator
 
     integrator = BodyIntegrator(sc, resolved=True)
     steps = []
-    Controller(ImmersedBoundaryModel(sc, MPI.COMM_SELF), integrator,
-               monitor=lambda t, n, gap, v, force=False: steps.append(v)).run()
+    Controller(ImmersedBoundaryModel(sc, MPI.COMM_SELF), MODELS["ib"], integrator,
+               monitor=lambda t, n, gaps, velocities, force=False: steps.append(velocities[0])).run()
     velocity = np.array(steps)
     assert np.all(np.isfinite(velocity))
     assert 0.7 * sc.terminal_speed() < velocity[-1] < 1.05 * sc.terminal_speed()

@@ -53,11 +53,11 @@ def test_momentum_is_conserved_through_a_dry_contact_and_nothing_is_lost(model):
     integrator = run_to_end(scene)
     (collision,) = integrator.collisions()
     assert collision["kind"] == "pair" and collision["rebounded"]
-    momentum = masses @ integrator.velocity
+    momentum = masses @ integrator.velocities
     assert abs(momentum - start) < 1e-7 * abs(start)  # integrator tolerance rtol 1e-5: measured ~1e-12
     # the paper's f_ss with W_o fixed is conservative: a dry collision returns the relative speed (e = 1,
     # not e_d, which only scales the force: docs/physics.md section 2); the damped Hertz law returns e_d
-    relative = integrator.velocity[1] - integrator.velocity[0]
+    relative = integrator.velocities[1] - integrator.velocities[0]
     expected = 1.0 if model == "li2011" else scene.contact.dry_restitution
     assert relative == pytest.approx(-expected * scene.second_sphere.velocity, rel=1e-4)  # measured 2.5e-5 (rtol 1e-5)
     assert collision["restitution"] == pytest.approx(expected, abs=1e-4)
@@ -136,7 +136,7 @@ def test_the_pairs_history_is_each_spheres_own():
         alone["wall"].update(youngs_modulus=200e9, poisson_ratio=0.33)  # ContactModel reads them; no wall here
         single = BodyIntegrator(scenes.from_dict(alone))
         single.advance(end)
-        slowed[history] = (integrator.velocity[1], single.velocity)
+        slowed[history] = (integrator.velocities[1], single.velocities[0])
         assert integrator.n == 4 + (2 * single.theories[0].n_history if history != "off" else 0)
         integrator.destroy()
         single.destroy()
@@ -231,7 +231,7 @@ def test_the_correction_is_the_held_flows_missing_increment():
     try:
         assert integrator.hold_gaps == (0.0, pytest.approx(scene.contact.delta_sl * scenes.pair_diameter(
             scene.sphere, scene.second_sphere)))
-        placed = flow_gaps(integrator.gap - [0.0, 0.0127], [s.diameter for s in scene.spheres], *integrator.hold_gaps)
+        placed = flow_gaps(integrator.gaps - [0.0, 0.0127], [s.diameter for s in scene.spheres], integrator.hold_gaps)
         assert placed[1] - placed[0] - scene.sphere.diameter == pytest.approx(integrator.hold_gaps[1])
     finally:
         integrator.destroy()
@@ -242,8 +242,19 @@ def test_predictor_carries_arrays():
     predictor = Predictor([np.array([0.0, -0.3])] * 2)  # order 2 (AB2)
     predictor.push(np.array([0.1, -0.2]))
     prediction = predictor.predict(0.0, np.array([0.05, 0.07]), np.array([0.1, -0.2]), 1e-3)
-    assert np.allclose(prediction.mean_velocity, [0.15, -0.15])
-    assert json.loads(json.dumps([np.asarray(v).tolist() for v in predictor.velocities])) == [[0.1, -0.2], [0.0, -0.3]]
+    assert np.allclose(prediction.mean_velocities, [0.15, -0.15])
+    assert np.allclose(prediction.gaps, [0.05 + 1e-3 * 0.15, 0.07 - 1e-3 * 0.15])
+    assert json.loads(json.dumps([v.tolist() for v in predictor.velocities])) == [[0.1, -0.2], [0.0, -0.3]]
+
+
+def test_one_sphere_is_one_entry_everywhere():
+    """N = 1 is no special case: the prediction, the predictor's history and the flow's placement are
+    arrays of one entry, the flow held at the wall's hold gap."""
+    predictor = Predictor([np.array([-0.2])])  # order 1: the last velocity held
+    prediction = predictor.predict(0.0, np.array([1e-4]), np.array([-0.2]), 1e-3)
+    assert prediction.gaps.shape == (1,) and prediction.gaps[0] == pytest.approx(1e-4 - 2e-4)
+    assert prediction.centers([0.01])[0] == pytest.approx(0.01 - 1e-4)
+    assert flow_gaps(prediction.gaps, [0.02], (5e-5,)) == pytest.approx([5e-5])
 
 
 def test_a_single_sphere_scene_is_unchanged(tmp_path):

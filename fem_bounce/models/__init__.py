@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 
 from ..errors import Error
+from . import registry
 from .registry import BEST_FIRST, MODELS, ModelInfo
 
 
@@ -26,11 +27,34 @@ def info(name: str) -> ModelInfo:
 
 def get(name: str):
     """The model class for a --model value."""
-    entry = info(name)
+    return flow_model_class(info(name))
+
+
+def flow_model_class(entry: ModelInfo):
+    """The FlowModel class of a registry entry (imported on demand)."""
+    name = entry.name
     try:
         return getattr(importlib.import_module(entry.module), entry.class_name)
     except ModuleNotFoundError as err:
         raise ModelError(f"model {name!r} needs {err.name}, which is not installed (see README.md)") from None
+
+
+def check_scene(entry: ModelInfo, scene) -> None:
+    """Refuse a scene the model cannot run at all, before anything is written: more spheres than it runs
+    (ModelError), or a release above what it meshes (scene.SceneError)."""
+    spheres = len(scene.spheres)
+    if spheres > entry.max_spheres:
+        what = "a pair of spheres ([second_sphere])" if spheres == 2 else f"{spheres} spheres ([[further_spheres]])"
+        raise ModelError(f"the {entry.name} model cannot run {what}: it runs at most {entry.max_spheres}; use one of "
+                         f"{', '.join(registry.running(spheres))}")
+    d = scene.sphere.diameter
+    if entry.max_initial_gap is not None and scene.initial_gap > entry.max_initial_gap * d:
+        from ..scene import SceneError
+
+        raise SceneError(
+            f"initial_gap = {scene.initial_gap:.4g} m is {scene.initial_gap / d:.3g} D: the {entry.name} model meshes "
+            f"the whole path, allowed up to {entry.max_initial_gap:g} D (a sphere reaches its terminal speed within "
+            "~10-20 D); start it lower, or use the ode model")
 
 
 def available() -> list[str]:

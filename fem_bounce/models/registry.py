@@ -35,6 +35,8 @@ class ModelInfo:
     colour: str = "k"  # the same in every chart
     sources: tuple = ()  # package paths whose code decides its numbers (the study cache's key)
     max_spheres: int = 1  # the most spheres on the axis it runs (scene.second_sphere, further_spheres)
+    stepper: str = "coupled"  # how time advances (fem_bounce.steppers.STEPPERS); a held steady model: "steady"
+    max_initial_gap: float | None = None  # [diameters] the highest release it meshes (None: no limit)
 
     @property
     def restarts(self) -> bool:
@@ -45,6 +47,48 @@ class ModelInfo:
         for part in key.split("."):
             value = getattr(value, part)
         return value
+
+    def cadences(self, scene) -> tuple[int, int]:
+        """(field snapshots, checkpoints): every how many steps the scene asks for them (0: never)."""
+        fields = self.setting(scene, self.fields_key) if self.fields_key else 0
+        checkpoints = self.setting(scene, self.checkpoint_every_key) if self.checkpoint_every_key else 0
+        return fields, checkpoints
+
+    def unstable_hint(self, scene) -> str:
+        """What to change when this model's coupled step gained energy it cannot have."""
+        coupling = getattr(getattr(scene.numerics, self.name), "coupling", "implicit")
+        if not self.resolved:
+            return f"tighten {self.resolution_key}"
+        if coupling == "explicit":
+            return f"numerics.{self.name}.coupling = \"explicit\" fails here: use \"implicit\""
+        return f"use a smaller {self.time_step_key}"
+
+    def breakdown_cause(self, scene) -> str:
+        """Why a coupled step broke down with an arithmetic error, and what to change."""
+        if not self.time_step_key:  # the ode model's steps adapt: the inputs are the cause
+            return "the scene's numbers are beyond what the force formulas can represent"
+        hint = (f"for a light sphere use numerics.{self.name}.coupling = \"implicit\"; otherwise "
+                if hasattr(getattr(scene.numerics, self.name), "coupling") else "")
+        return f"unstable ({hint}lower {self.time_step_key})"
+
+    def scene_warnings(self, scene) -> list[str]:
+        """What this model does not do well for the scene: an unbounded liquid's forces in a container, too
+        few cells across the blend gap."""
+        found = []
+        if not self.resolved and not scene.container.unbounded:
+            found.append(f"the {self.name} model's forces are those of an unbounded liquid: it ignores [container] "
+                         f"(radius {scene.container.radius:g} m, height {scene.container.height:g} m); a resolved "
+                         "model (fd, ib, ale) meshes the container")
+        if self.min_cells_across_blend_gap is not None:
+            cells = self.resolution(scene)
+            across, needed = cells * scene.contact.delta_sl, self.min_cells_across_blend_gap
+            if across < needed:
+                found.append(f"numerics.{self.name}.cells_per_diameter = {cells:g} puts {across:.2g} fine cells "
+                             f"across the delta_sl gap ({scene.contact.delta_sl:g} D); below {needed:g} the "
+                             f"{self.name} model's force near the wall is off by more than 5 % (stability study): "
+                             "expect impact speed and apex errors of 10 % or more; use at least "
+                             f"{needed / scene.contact.delta_sl:g} cells/D")
+        return found
 
     def resolution(self, scene) -> float:
         return self.setting(scene, self.resolution_key)
@@ -66,9 +110,12 @@ class ModelInfo:
 
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
 CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "bodies.py", "integrator.py", "bounces.py", "motion.py",
-                "flow_model.py", "run.py", "errors.py", "output.py", "models/__init__.py", "pair_contact.py",
-                "pair_theory.py")
+                "flow_model.py", "steppers.py", "run.py", "errors.py", "output.py", "models/__init__.py",
+                "pair_contact.py", "pair_theory.py")
 MANY = 1000  # the ode model's sphere count has no limit of its own
+# The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh
+# grows without telling anything new: a sphere reaches its terminal speed within ~10-20 D of its release.
+RESOLVED_MAX_GAP = 100.0
 
 MODELS: dict[str, ModelInfo] = {
     "ode": ModelInfo(
@@ -76,7 +123,7 @@ MODELS: dict[str, ModelInfo] = {
         liquid="nothing: the near-wall theory force f_thr everywhere", resolved=False,
         resolution_key="numerics.ode.rtol", resolution_unit="", ladder=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
         serial=True, trajectory_interval_key="numerics.ode.output_interval", colour="C0",
-        sources=("models/ode.py",), max_spheres=MANY),
+        sources=("models/ode.py",), max_spheres=MANY, stepper="ode"),
     "fd": ModelInfo(
         name="fd", module="fem_bounce.models.fd", class_name="FictitiousDomainModel",
         liquid="axisymmetric Taylor-Hood Navier-Stokes (FEniCSx), diffuse-interface sphere", resolved=True,
@@ -84,7 +131,7 @@ MODELS: dict[str, ModelInfo] = {
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.fd.cfl",
         scaled_with_time_step=("numerics.fd.forcing_number",), checkpoint_every_key="numerics.fd.checkpoint_every",
         checkpoint_files=("flow.npz",), min_cells_across_blend_gap=1.0, fields_key="numerics.fd.output_every",
-        colour="C1", sources=("models/fd", "fem"), max_spheres=2),
+        colour="C1", sources=("models/fd", "fem"), max_spheres=2, max_initial_gap=RESOLVED_MAX_GAP),
     "ib": ModelInfo(
         name="ib", module="fem_bounce.models.ib", class_name="ImmersedBoundaryModel",
         liquid="the paper's IB projection method on a staggered grid", resolved=True,
@@ -92,7 +139,7 @@ MODELS: dict[str, ModelInfo] = {
         ladder=(16.0, 24.0, 32.0, 48.0, 64.0), time_step_key="numerics.ib.cfl",
         checkpoint_every_key="numerics.ib.checkpoint_every", checkpoint_files=("flow.npz",), serial=True,
         min_cells_across_blend_gap=2.0, fields_key="numerics.ib.output_every", colour="C2",
-        sources=("models/ib",)),
+        sources=("models/ib",), max_initial_gap=RESOLVED_MAX_GAP),
     "ale": ModelInfo(
         name="ale", module="fem_bounce.models.ale", class_name="AleModel",
         liquid="moving mesh with the sphere as a hole: the accuracy reference", resolved=True,
@@ -100,7 +147,7 @@ MODELS: dict[str, ModelInfo] = {
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.ale.cfl",
         checkpoint_every_key="numerics.ale.checkpoint_every", checkpoint_files=("flow.npz",),
         fields_key="numerics.ale.output_every", colour="C3", max_spheres=2,
-        sources=("models/ale", "fem")),
+        sources=("models/ale", "fem"), max_initial_gap=RESOLVED_MAX_GAP),
 }
 
 BEST_FIRST = ("ale", "fd", "ib", "ode")  # the default model: the first of these that imports

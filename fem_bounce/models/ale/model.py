@@ -80,11 +80,18 @@ from .flow import SphereFlow
 from .motion import MeshMotion
 from .transfer import DivergenceFreeProjection, SerialField, interpolate_from
 
-FORCE_COLUMNS = ("t", "mesh_gap", "f_variational", "f_surface", "added_mass", "min_quality", "remeshed")
-# a pair: sphere 1's gap to z = 0 and the pair gap of the mesh, per-sphere forces, the added-mass matrix
-PAIR_FORCE_COLUMNS = ("t", "mesh_gap", "mesh_pair_gap", "f_variational_1", "f_variational_2", "f_surface_1",
-                      "f_surface_2", "added_mass_11", "added_mass_12", "added_mass_21", "added_mass_22",
-                      "min_quality", "remeshed")
+
+def force_columns(count: int) -> tuple[str, ...]:
+    """ale_forces.csv's header for `count` spheres, suffixed as the trajectory's columns (one sphere's
+    plain; _1, _2, ... per sphere and _12, ... per matrix entry for more): sphere 1's mesh gap to z = 0,
+    each neighbouring pair's mesh gap, each sphere's variational and surface force, the added-mass
+    matrix row by row, the worst triangle and whether the step remeshed."""
+    one = count == 1
+    spheres = [""] if one else [f"_{k + 1}" for k in range(count)]
+    entries = [""] if one else [f"_{i + 1}{j + 1}" for i in range(count) for j in range(count)]
+    pairs = ["mesh_pair_gap"] if count == 2 else [f"mesh_pair_gap_{k + 1}{k + 2}" for k in range(count - 1)]
+    return ("t", "mesh_gap", *pairs, *(f"f_variational{s}" for s in spheres), *(f"f_surface{s}" for s in spheres),
+            *(f"added_mass{e}" for e in entries), "min_quality", "remeshed")
 
 
 @dataclass
@@ -205,10 +212,10 @@ class AleModel(FlowModel):
         try:
             mesh, motion, flow = self.build_mesh(center, cache=False)
         except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception; the run ends cleanly
-            delta = (np.min(center) - self.domain.sphere_radius) / self.scene.sphere.diameter
-            where = f"pair gap {self.pair_gap(center) / self.scene.sphere.diameter:.4g} D" if self.pair else \
-                f"gap {delta:.4g} D"
-            raise RunDiverged(f"remeshing at {where} failed: {err}") from err
+            diameter = self.scene.sphere.diameter
+            delta = (np.min(center) - self.domain.sphere_radius) / diameter
+            between = "".join(f", pair gap {gap / diameter:.4g} D" for gap in self.mesh_pair_gaps(center))
+            raise RunDiverged(f"remeshing at gap {delta:.4g} D{between} failed: {err}") from err
         tolerance = 1e-9 * self.scene.sphere.diameter
         momenta = []
         volumes = [self.sphere_volume(old_flow), self.sphere_volume(flow)]
@@ -245,15 +252,17 @@ class AleModel(FlowModel):
             step=k.step, time=k.time, gap=float(np.min(center) - self.domain.sphere_radius), quality=quality,
             cells=mesh.topology.index_map(2).size_global, momentum_old=momenta[0][0],
             momentum_interpolated=momenta[0][1], momentum_projected=momenta[0][2], sphere_volume_old=volumes[0],
-            sphere_volume=volumes[1], seconds=seconds, pair_gap=self.pair_gap(center) if self.pair else None))
+            sphere_volume=volumes[1], seconds=seconds, pair_gap=min(self.mesh_pair_gaps(center), default=None)))
 
     def resolved_top(self) -> float:
         """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
         return self.domain.refined.z_max
 
-    def pair_gap(self, centers) -> float:
-        """The gap between the two surfaces of a pair whose centres are `centers` [m]."""
-        return float(centers[1] - centers[0] - self.domain.radii[0] - self.domain.radii[1])
+    def mesh_pair_gaps(self, centers) -> np.ndarray:
+        """The gaps between neighbouring surfaces of the mesh's spheres centred at `centers` [m], lowest
+        first (none for one sphere)."""
+        radii = np.array(self.domain.radii)
+        return np.diff(np.reshape(centers, -1)) - radii[:-1] - radii[1:]
 
     def sphere_volume(self, flow: SphereFlow) -> float:
         """The volume of the mesh's polygonal sphere: the domain's cylinder less the liquid [m^3]."""
@@ -268,14 +277,14 @@ class AleModel(FlowModel):
             return self._pair_centers(prediction)
         if self.scene.motion.mode == "fixed":
             return self.domain.initial_center, False
-        predicted = prediction.center(self.domain.sphere_radius)
+        predicted = prediction.centers([self.domain.sphere_radius])[0]
         center = self.domain.mesh_center(predicted)
-        return center, center > predicted
+        return center, bool(center > predicted)
 
     def _pair_centers(self, prediction: Prediction) -> tuple[np.ndarray, bool]:
         radii = np.array(self.domain.radii)
-        predicted = np.asarray(prediction.gap, dtype=float)
-        gaps = flow_gaps(predicted, self.diameters, *self.holds)
+        predicted = prediction.gaps
+        gaps = flow_gaps(predicted, self.diameters, self.holds)
         held_spheres = np.array([self.scene.motion.mode, self.scene.second_sphere.mode]) == "fixed"
         centers = np.where(held_spheres, self.domain.initial_centers, gaps + radii)
         return centers, bool(np.any(gaps > predicted))
@@ -321,20 +330,19 @@ class AleModel(FlowModel):
             return prediction
         v_now, v_before = (np.asarray(v, dtype=float) for v in k.velocities[:2])
         mean = v_now + 0.5 * self.dt / k.last_step * (v_now - v_before)
-        return replace(prediction, mean_velocity=mean if self.pair else float(mean))
+        return replace(prediction, mean_velocities=np.reshape(mean, -1))
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         k, settings = self.kinematics, self.settings
         t_next = self.next_time()
         prediction = self._over_step(prediction)
         center, held = self.next_center(prediction)
-        gap = center - self.domain.sphere_radius if not self.pair else float(center[0] - self.domain.sphere_radius)
+        gap = float(np.reshape(center, -1)[0] - self.domain.sphere_radius)  # sphere 1's, to the wall
         if gap <= 0.0:
             raise RunDiverged(f"the mesh cannot follow the sphere: the step to t = {t_next:.6g} s would put it "
                               f"{-gap:.3g} m into the wall (smallest mesh gap reached "
                               f"{self.stats.min_mesh_gap / self.scene.sphere.diameter:.4g} D)")
-        if self.pair:
-            pair_gap = self.pair_gap(center)
+        for pair_gap in self.mesh_pair_gaps(center):
             if pair_gap <= 0.0:  # flow_gaps keeps the hold: only with both holds 0
                 raise RunDiverged(f"the mesh cannot follow the pair: the step to t = {t_next:.6g} s would put the "
                                   f"spheres {-pair_gap:.3g} m into each other")
@@ -361,13 +369,14 @@ class AleModel(FlowModel):
         self.last_force = (force, added_mass)
         self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction)
         self._integrator_start = time.perf_counter()
-        return FluidForce(explicit=force, added_mass=added_mass)
+        count = len(self.diameters)
+        return FluidForce(explicit=np.reshape(force, count), added_mass=np.reshape(added_mass, (count, count)))
 
-    def complete(self, velocity: float, time_now: float) -> None:
+    def complete(self, velocities: np.ndarray, time_now: float) -> None:
         self.stats.integrator_s += time.perf_counter() - self._integrator_start
         t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction = self._pending
-        if self.pair:
-            velocity = np.array(velocity, dtype=float)  # the integrator's, copied
+        # the flow's own values: a pair's as arrays (the integrator's copied), one sphere's as numbers
+        velocity = np.array(velocities, dtype=float) if self.pair else float(velocities[0])
         change = velocity - reference
         self.flow.commit(change)
         if self.settings.adaptive_step:
@@ -378,13 +387,11 @@ class AleModel(FlowModel):
                            quality if remeshed else self.motion.quality(self.motion.shift), remeshed)
 
     def _nearest_gap(self, prediction: Prediction) -> float:
-        """The sphere's predicted gap to the wall at the step's end (a pair: the nearer of the wall's and the
-        pair's) [m]: where the sphere is, not where the mesh holds it."""
-        if not self.pair:
-            return prediction.gap
-        gaps = np.asarray(prediction.gap, dtype=float)
-        pair_gap = gaps[1] - gaps[0] - self.diameters[0]
-        return min(gaps[0], pair_gap) if self.scene.wall.present else pair_gap
+        """The spheres' predicted nearest gap at the step's end [m]: each neighbouring pair's and sphere 1's to
+        the wall (to z = 0 for one sphere without a wall); where they are, not where the mesh holds them."""
+        gaps = prediction.gaps
+        between = list(np.diff(gaps) - self.diameters[:-1])
+        return min(between + [gaps[0]]) if self.scene.wall.present or not between else min(between)
 
     def _next_step(self, velocity, gap: float) -> float:
         """The coming step [s] (domain.next_time_step) from the step just made, which ends at `velocity`
@@ -404,28 +411,28 @@ class AleModel(FlowModel):
         self._force_rows += 1
         if self._force_file is None:
             return
-        if self.pair:
-            values = [t, gap, self.pair_gap(self.kinematics.centers[0]), *force, *surface,
-                      *np.ravel(added_mass), quality]
-        else:
-            values = [t, gap, force, surface, added_mass, quality]
+        values = [t, gap, *self.mesh_pair_gaps(self.kinematics.centers[0]), *np.ravel(force), *np.ravel(surface),
+                  *np.ravel(added_mass), quality]
         self._force_writer.writerow([f"{x:.10g}" for x in values] + [int(remeshed)])
 
-    def solve_steady(self, integrator) -> None:
-        """The held sphere's steady state; the integrator then holds it to end_time with that force."""
+    def steady_force(self) -> FluidForce:
+        """The held spheres' steady state (SphereFlow.steady), held from the start to the end time."""
         start = time.perf_counter()
         # a held pair: sphere 1's surface at motion.velocity (as one held sphere's), the second at rest
         surfaces = np.array(start_velocities(self.scene)) if self.pair else self.scene.motion.velocity
         force = self.flow.steady(surfaces, convection=is_stream(self.scene))
         self.stats.factorisation_s += time.perf_counter() - start
-        no_added_mass = np.zeros((2, 2)) if self.pair else 0.0
+        count = len(self.diameters)
+        no_added_mass = np.zeros((count, count)) if self.pair else 0.0
         self.last_force = (force, no_added_mass)
         self.stats.min_mesh_gap = self.domain.initial_center - self.domain.sphere_radius
-        if self.pair:
-            self.stats.min_mesh_pair_gap = self.pair_gap(self.domain.initial_centers)
-        integrator.advance(self.scene.run.end_time, FluidForce(explicit=force, added_mass=no_added_mass))
+        self.stats.min_mesh_pair_gap = min(self.mesh_pair_gaps(self.domain.initial_centers), default=math.inf)
+        return FluidForce(explicit=np.reshape(force, count), added_mass=np.zeros((count, count)))
+
+    def complete_steady(self, time_now: float) -> None:
         self.kinematics.step = self.step = 1
-        self._record_force(integrator.time, self.stats.min_mesh_gap, force, no_added_mass,
+        force, no_added_mass = self.last_force
+        self._record_force(time_now, self.stats.min_mesh_gap, force, no_added_mass,
                            self.motion.quality(self.motion.shift), False)
 
     # -- checkpoints: the mesh's reference centre (remade by gmsh on restart), the flow's history by dof
@@ -474,8 +481,8 @@ class AleModel(FlowModel):
         self._force_rows = state["force_rows"]
 
     # -- outputs ----------------------------------------------------------------------------------
-    def open_outputs(self, out_dir: Path, restart: bool) -> None:
-        if self.fields_every:
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+        if fields:
             path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
             self.writer = MovingFieldWriter(self.comm, path)
         if self.comm.rank == 0:
@@ -488,7 +495,7 @@ class AleModel(FlowModel):
             else:
                 self._force_file = open(forces, "w", newline="")
                 self._force_writer = csv.writer(self._force_file)
-                self._force_writer.writerow(PAIR_FORCE_COLUMNS if self.pair else FORCE_COLUMNS)
+                self._force_writer.writerow(force_columns(len(self.diameters)))
 
     def write_fields(self, time_now: float) -> None:
         self.writer.write(self.flow.now, time_now)

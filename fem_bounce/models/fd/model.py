@@ -121,10 +121,7 @@ class FictitiousDomainModel(FlowModel):
     def build(self, integrator) -> None:
         start = time.perf_counter()
         scene, domain, fd = self.scene, self.domain, self.settings
-        if scene.pair:
-            self.hold_gaps = tuple(integrator.hold_gaps)  # (wall, pair) [m]
-        else:
-            self.hold_gap = integrator.hold_gaps[0]  # above the wall [m]
+        self.hold_gaps = tuple(integrator.hold_gaps)  # (above the wall, each pair's) [m]
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
         self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
@@ -161,8 +158,8 @@ class FictitiousDomainModel(FlowModel):
         # interior liquid moving without taking that momentum from the sphere (a rigid sphere has none)
         self.history = History(self.flow.bdf, [velocity] * order, [np.zeros_like(velocity)] * order)
 
-    def initial_velocities(self) -> list[float]:
-        return list(self.history.velocities)
+    def initial_velocities(self) -> list[np.ndarray]:
+        return [np.atleast_1d(v) for v in self.history.velocities]
 
     # -- one step -------------------------------------------------------------------------
     def predicted_center(self, prediction: Prediction) -> float:
@@ -171,7 +168,7 @@ class FictitiousDomainModel(FlowModel):
         if self.scene.motion.mode == "fixed":
             return self.domain.center
         radius = self.scene.sphere.radius
-        return radius + max(prediction.center(radius) - radius, self.hold_gap, 0.0)
+        return radius + max(prediction.centers([radius])[0] - radius, self.hold_gaps[0], 0.0)
 
     def predicted_centers(self, prediction: Prediction) -> np.ndarray:
         """Where the flow's pair will be at t_{n+1} [m]: held spheres stay put, the others as predicted
@@ -179,12 +176,12 @@ class FictitiousDomainModel(FlowModel):
         held one stops at the pair's hold gap below it."""
         scene, held = self.scene, self.held
         diameters = [sphere.diameter for sphere in scene.spheres]
-        wall_hold, pair_hold = self.hold_gaps
-        gaps = np.array(prediction.gap, dtype=float)
+        pair_hold = self.hold_gaps[1]
+        gaps = np.array(prediction.gaps, dtype=float)
         gaps[held] = np.array(scene.initial_gaps)[held]
         if held[1] and not held[0]:
             gaps[0] = min(gaps[0], gaps[1] - diameters[0] - pair_hold)
-        gaps = flow_gaps(gaps, diameters, wall_hold, pair_hold)
+        gaps = flow_gaps(gaps, diameters, self.hold_gaps)
         return gaps + np.array([sphere.radius for sphere in scene.spheres])
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
@@ -201,7 +198,7 @@ class FictitiousDomainModel(FlowModel):
         self.last_force = linear
         self._integrator_start = time.perf_counter()
         added_mass = linear.added_mass if self.settings.coupling == "implicit" else 0.0
-        return FluidForce(explicit=linear.explicit, added_mass=added_mass)
+        return FluidForce(explicit=np.array([linear.explicit]), added_mass=np.array([[added_mass]]))
 
     def _linearised_pair_force(self, prediction: Prediction) -> FluidForce:
         """Both spheres: their forces and the 2 x 2 added mass (pair.ImmersedPair, coupling.linearise_pair)."""
@@ -258,12 +255,12 @@ class FictitiousDomainModel(FlowModel):
         added_mass = -(g * constraint.unit_force() + rho * c * volume) / c
         return coupling.Linearised(explicit, added_mass, reference)
 
-    def complete(self, velocity: float, time_now: float) -> None:
+    def complete(self, velocities: np.ndarray, time_now: float) -> None:
         self.timings["integrator"] += time.perf_counter() - self._integrator_start
         flow, sphere = self.flow, self.sphere
         t_next = (self.step + 1) * self.dt
+        velocity = np.array(velocities, dtype=float) if self.pair is not None else float(velocities[0])
         if self.pair is not None:
-            velocity = np.array(velocity, dtype=float)
             new = self.pair.field(flow.predicted, coupling.rigid_amplitudes(self.integrals, velocity), flow.work)
             interior = velocity * self.integrals.volume
         elif self.constraint is not None:
@@ -283,13 +280,17 @@ class FictitiousDomainModel(FlowModel):
         self.history.push(velocity, interior)
         self.step += 1
 
-    def solve_steady(self, integrator) -> None:
-        """Jump to the steady Stokes state of the step (steady.SteadyStokes) at the end time."""
-        force = self.steady_forces()
-        n_steps = steps_to(self.scene.run.end_time, self.dt)
-        added_mass = np.zeros((2, 2)) if self.pair is not None else 0.0
-        integrator.advance(n_steps * self.dt, FluidForce(explicit=force, added_mass=added_mass))
-        self.step = n_steps
+    def steady_force(self) -> FluidForce:
+        """The steady Stokes state of the step (steady.SteadyStokes), held from the start."""
+        count = len(self.scene.spheres)
+        return FluidForce(explicit=np.reshape(self.steady_forces(), count), added_mass=np.zeros((count, count)))
+
+    def steady_end_time(self, end_time: float) -> float:
+        """The end of the step that reaches end_time [s]."""
+        return steps_to(end_time, self.dt) * self.dt
+
+    def complete_steady(self, time_now: float) -> None:
+        self.step = steps_to(self.scene.run.end_time, self.dt)
 
     def steady_velocities(self):
         """The held spheres' surface velocities [m/s]: motion.velocity, and for a held pair also
@@ -358,8 +359,8 @@ class FictitiousDomainModel(FlowModel):
             return
         self.history = History(self.flow.bdf, list(state["velocities"]), list(state["interiors"]))
 
-    def open_outputs(self, out_dir: Path, restart: bool) -> None:
-        if not self.fields_every:
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+        if not fields:
             return
         path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
         self.fields = FieldWriter(self.comm, self.mesh, self.flow.W, path)

@@ -142,10 +142,10 @@ class ImmersedBoundaryModel(FlowModel):
         self.warm = WarmStarts(self.surface.n_points)
         self.drag_history: list[tuple[float, float]] = []
         self.time = integrator.time
-        self._start_velocity = integrator.velocity
+        self._start_velocity = float(integrator.velocities[0])  # the one sphere's (registry: max_spheres 1)
 
-    def initial_velocities(self) -> list[float]:
-        return [self._start_velocity, self.warm.v_old]
+    def initial_velocities(self) -> list[np.ndarray]:
+        return [np.array([self._start_velocity]), np.array([self.warm.v_old])]
 
     def time_step(self) -> float:
         return self.solver.dt
@@ -161,10 +161,11 @@ class ImmersedBoundaryModel(FlowModel):
         linearised in the sphere's acceleration."""
         scene, opts, grid, solver = self.scene, self.opts, self.grid, self.solver
         mode = scene.motion.mode
-        t, v, gap, dt = prediction.time, prediction.velocity_now, prediction.gap_now, solver.dt
+        # the one sphere's (registry: max_spheres 1)
+        t, v, gap, dt = prediction.time, prediction.velocities_now[0], prediction.gaps_now[0], solver.dt
         # 1. the points where the sphere will be
         # a free sphere's flow stops at the contact model's hold gap (it adds what the flow misses below)
-        gap_next = gap if mode == "fixed" else max(prediction.gap, self.hold_gap)
+        gap_next = gap if mode == "fixed" else max(prediction.gaps[0], self.hold_gap)
         r_pts, z_pts = self.surface.positions(gap_next)
         self._check_inside(r_pts, z_pts, t, gap_next)
         active = self.surface.active(gap_next)
@@ -195,19 +196,19 @@ class ImmersedBoundaryModel(FlowModel):
         to_newton = 2.0 * math.pi * scene.liquid.density  # kinematic ring forces / 2 pi -> N
         explicit = -to_newton * base.forces[n_act:].sum()
         if mode == "fixed":
-            fluid = FluidForce(explicit=explicit, added_mass=0.0)
+            added = 0.0
         elif unit is None:  # explicit coupling: only the rigid interior liquid is implicit
-            fluid = FluidForce(explicit=explicit, added_mass=-scene.displaced_mass)
+            added = -scene.displaced_mass
         else:
             added = to_newton * unit.forces[n_act:].sum() * dt - scene.displaced_mass
-            fluid = FluidForce(explicit=explicit, added_mass=added)
-        self._pending = (prediction_flow, E, sel, base, unit, v_ref, v, fluid)
-        return fluid
+        self._pending = (prediction_flow, E, sel, base, unit, v_ref, v, explicit)
+        return FluidForce(explicit=np.array([explicit]), added_mass=np.array([[added]]))
 
-    def complete(self, velocity: float, time_now: float) -> None:
+    def complete(self, velocities: np.ndarray, time_now: float) -> None:
         """Step 5: the flow for the velocity the sphere actually reached; then the time step's adaptation."""
         solver, stats = self.solver, self.stats
-        prediction_flow, E, sel, base, unit, v_ref, v, fluid = self._pending
+        prediction_flow, E, sel, base, unit, v_ref, v, explicit = self._pending
+        velocity = velocities[0]
         change = velocity - v_ref
         forces, psi = base.forces, base.psi
         if unit is not None:
@@ -219,7 +220,7 @@ class ImmersedBoundaryModel(FlowModel):
             raise RunDiverged(f"t = {self.time:.5g} s: the flow or the sphere became NaN")
         self.time = time_now
         self.step = stats.steps
-        self.drag_history.append((time_now, fluid.explicit))
+        self.drag_history.append((time_now, explicit))
         self._adapt_time_step(solver, self.preconditioner, stats)
 
     # -- checkpoints: everything the next step reads, so a restart continues to the same numbers --
@@ -255,8 +256,8 @@ class ImmersedBoundaryModel(FlowModel):
         self.drag_history = [tuple(row) for row in arrays["drag_history"]]
         self.time = state["time"]
 
-    def open_outputs(self, out_dir: Path, restart: bool) -> None:
-        if self.fields_every and self.comm.rank == 0:
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+        if fields and self.comm.rank == 0:
             self.writer = SnapshotWriter(out_dir, self.grid.R, self.grid.Z,
                                          continue_until=self.time if restart else None)
 

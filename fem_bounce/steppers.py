@@ -1,0 +1,106 @@
+"""How time advances in a run: one small interface, one kind per way a model steps.
+
+    stepper = stepper_for(info, flow_model, integrator)    # after flow_model.build(integrator)
+    stepper.run(end_time, after_step)                       # after_step(): the controller's observers
+
+- CoupledStep (the registry's stepper = "coupled": fd, ib, ale): the resolved flow and the bodies, one
+  fluid step at a time.  The bodies' motion over the step is predicted (AB2, flow_model.Predictor), the
+  flow advanced to it hands over its force linearised in the accelerations, the integrator sub-cycles
+  to the step's end, and the flow is completed for the velocities the bodies reached.
+- OdeStep ("ode"): no flow; the integrator takes the whole run with its adaptive steps, each an
+  observed step.
+- SteadyStep (a model whose scene holds the bodies at a steady state, FlowModel.steady): the steady
+  flow solved once; the integrator holds its force to the end.
+
+A stepper owns only how time advances; the controller (fem_bounce.run) owns the observers, their
+cadences, the stop requests, the checkpoints and the run's status.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+from .flow_model import FlowModel, Predictor
+from .integrator import BodyIntegrator
+
+
+class Stepper:
+    """Advances a built flow model and the bodies' integrator to the end time."""
+
+    def __init__(self, flow_model: FlowModel, integrator: BodyIntegrator):
+        self.flow_model, self.integrator = flow_model, integrator
+
+    def run(self, end_time: float, after_step: Callable[[], None]) -> None:
+        """Advance to end_time [s] (or until the integrator is done), calling after_step() after each step."""
+        raise NotImplementedError
+
+    @property
+    def steps(self) -> int:
+        """The steps taken, as the summary counts them."""
+        return self.flow_model.step
+
+    def state(self) -> dict:
+        """What a checkpoint needs to continue this stepper exactly (JSON-able)."""
+        return {}
+
+    def restore(self, state: dict) -> None:
+        """Continue from a checkpoint's state."""
+
+
+class CoupledStep(Stepper):
+    """One fluid step of the flow and the bodies at a time (module docstring)."""
+
+    def __init__(self, flow_model: FlowModel, integrator: BodyIntegrator):
+        super().__init__(flow_model, integrator)
+        self.predictor = Predictor(flow_model.initial_velocities())
+
+    def run(self, end_time: float, after_step: Callable[[], None]) -> None:
+        while not self.flow_model.finished(end_time) and not self.integrator.done:
+            self.step()
+            after_step()
+
+    def step(self) -> None:
+        """One step of the flow and the bodies."""
+        flow_model, integrator = self.flow_model, self.integrator
+        prediction = self.predictor.predict(integrator.time, integrator.gaps, integrator.velocities,
+                                            flow_model.time_step())
+        fluid = flow_model.linearised_force(prediction)
+        integrator.advance(flow_model.next_time(), fluid)
+        flow_model.complete(integrator.velocities, integrator.time)
+        self.predictor.push(integrator.velocities)
+
+    def state(self) -> dict:
+        """The predictor's velocities, newest first, one list over the bodies each [m/s]."""
+        return {"velocities": [v.tolist() for v in self.predictor.velocities]}
+
+    def restore(self, state: dict) -> None:
+        self.predictor = Predictor(state["velocities"])
+
+
+class OdeStep(Stepper):
+    """The integrator alone, with its adaptive steps (module docstring)."""
+
+    def run(self, end_time: float, after_step: Callable[[], None]) -> None:
+        self.integrator.observers.append(lambda row: after_step())
+        self.integrator.advance(end_time)
+
+    @property
+    def steps(self) -> int:
+        return self.integrator.steps
+
+
+class SteadyStep(Stepper):
+    """The held bodies' steady flow, solved once and held to the end (module docstring)."""
+
+    def run(self, end_time: float, after_step: Callable[[], None]) -> None:
+        force = self.flow_model.steady_force()
+        self.integrator.advance(self.flow_model.steady_end_time(end_time), force)
+        self.flow_model.complete_steady(self.integrator.time)
+
+
+STEPPERS: dict[str, type[Stepper]] = {"coupled": CoupledStep, "ode": OdeStep, "steady": SteadyStep}
+
+
+def stepper_for(info, flow_model: FlowModel, integrator: BodyIntegrator) -> Stepper:
+    """The stepper the registry names for the model (`info`, a models.registry.ModelInfo), or the steady
+    one when the scene holds the bodies at a steady state; the flow model is built."""
+    return STEPPERS["steady" if flow_model.steady else info.stepper](flow_model, integrator)
