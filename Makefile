@@ -1,6 +1,6 @@
 # Two commands for a fresh Debian 12 machine (see README.md):
 #   make demo   install everything, then run the default scene
-#   make test   install everything, then run the tests serial and under mpirun -n 2
+#   make test   install everything, then lint (ruff) and run the tests serial and under mpirun -n 2
 # Re-running either is fast: each install step is skipped when nothing changed.
 
 APT_PACKAGES := python3-dolfinx python3-gmsh python3-meshio python3-matplotlib python3-scipy \
@@ -11,6 +11,7 @@ SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # OpenMPI refuses to start as root unless told; CI and containers run as root.
 MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 mpirun
 PYTEST_ARGS ?=
+RUFF   := ruff==0.17.6
 
 .PHONY: demo test install system-packages clean
 
@@ -24,6 +25,7 @@ FRESH_CACHE = $(if $(CI),rm -rf .ci-cache/$(1) && XDG_CACHE_HOME=$(CURDIR)/.ci-c
 
 # The MPI subset first, so that the last line CI reads is the whole serial suite's summary.
 test: install
+	$(VENV)/bin/ruff check --no-cache .
 	$(call FRESH_CACHE,mpi) $(MPIRUN) -n 2 $(PY) tests/mpirun_pytest.py -q --color=no -m mpi $(PYTEST_ARGS)
 	$(call FRESH_CACHE,serial) $(PY) -m pytest -q $(PYTEST_ARGS)
 
@@ -41,6 +43,7 @@ system-packages: .apt-stamp
 $(VENV)/.installed: .apt-stamp pyproject.toml
 	@[ -x $(PY) ] || /usr/bin/python3 -m venv --system-site-packages $(VENV)
 	$(PY) -m pip install -q --no-build-isolation --no-deps -e .
+	$(PY) -m pip install -q "$(RUFF)"
 	@touch $@
 
 clean:

@@ -445,7 +445,8 @@ class BodyIntegrator:
         motion = self.scene.motion
         path = f"motion.series = {motion.series!r}" if motion.series else f"motion.velocity = {motion.velocity:g} m/s"
         raise PenetrationError(f"the {motion.mode} motion ({path}) drives the sphere into the wall at t = {t:.6g} s: "
-                               f"an imposed path must keep the gap above 0 (initial_gap = {self.scene.initial_gap:g} m); "
+                               "an imposed path must keep the gap above 0 "
+                               f"(initial_gap = {self.scene.initial_gap:g} m); "
                                "change the path or end the run earlier (run.end_time)")
 
     def _film_jump(self) -> None:
@@ -539,8 +540,8 @@ class BodyIntegrator:
                 count = len(self.bodies)
                 everyone = {1: "the sphere", 2: "both spheres"}.get(count, f"all {count} spheres")
                 self.stop_reason = f"{everyone} came to rest on the wall at t = {t:.6g} s"
-        elif all(abs(c.rate(rates)) < self._stall_speed and not c.record.in_contact and y[c.gap_index] < c.model.blend_gap
-                 for c in contacts):
+        elif all(abs(c.rate(rates)) < self._stall_speed and not c.record.in_contact
+                 and y[c.gap_index] < c.model.blend_gap for c in contacts):
             for c in contacts:
                 c.record.rest(t, y[c.gap_index])
             self.stop_reason = (f"the sphere stalled in the lubrication film at t = {t:.6g} s (gap "

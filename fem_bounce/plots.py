@@ -13,12 +13,12 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from . import reference  # noqa: E402
-from .contact import REBOUND_MIN_APEX  # noqa: E402
-from .output import read_summary, read_trajectory  # noqa: E402,F401 -- also read from here by older scripts
-from .scene import reduced_radius  # noqa: E402
+from . import reference
+from .contact import REBOUND_MIN_APEX
+from .output import read_summary, read_trajectory
+from .scene import reduced_radius
 
 
 def units(scene: dict) -> tuple[float, float, float]:

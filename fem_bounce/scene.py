@@ -439,7 +439,8 @@ class Scene:
                 raise SceneError(f"sphere.density = {self.sphere.density:g} kg/m3 equals liquid.density: a neutrally "
                                  "buoyant sphere released from rest never moves; make it heavier or lighter")
             raise SceneError(f"sphere.density = {self.sphere.density:.8g} kg/m3 is within {NEUTRAL_BUOYANCY:g} of "
-                             f"liquid.density = {self.liquid.density:.8g} kg/m3 (density ratio {self.density_ratio:.8g}): "
+                             f"liquid.density = {self.liquid.density:.8g} kg/m3 "
+                             f"(density ratio {self.density_ratio:.8g}): "
                              "so nearly neutrally buoyant a sphere barely moves and its integration crawls; make "
                              f"|density ratio - 1| at least {NEUTRAL_BUOYANCY:g}")
         if self.container.unbounded and self.initial_gap > MAX_GAP_DIAMETERS * diameter:
@@ -531,7 +532,8 @@ class Scene:
         if isinstance(cav, str):
             if cav != "off":
                 raise SceneError(f"contact.ehd_cavitation = {cav!r} is not \"off\" nor a pressure: allowed \"off\" or "
-                                 f"a number in [{EHD_CAVITATION_MIN:g}, 0] Pa (gauge: the film's most negative pressure)")
+                                 f"a number in [{EHD_CAVITATION_MIN:g}, 0] Pa "
+                                 "(gauge: the film's most negative pressure)")
         elif not (math.isfinite(cav) and EHD_CAVITATION_MIN <= cav <= 0.0):
             raise SceneError(f"contact.ehd_cavitation = {cav!r} Pa is out of range: allowed \"off\" or a number in "
                              f"[{EHD_CAVITATION_MIN:g}, 0] Pa (gauge: e.g. -101325 for a film that cavitates at zero "
@@ -740,7 +742,8 @@ def read_scene_file(path: Path) -> str:
         raise SceneError(f"scene file {str(path)!r} does not exist"
                          + (" (a symbolic link to a missing file)" if path.is_symlink() else ""))
     if not path.is_file():
-        raise SceneError(f"scene file {str(path)!r} is not a regular file (a directory, FIFO or device): give a TOML file")
+        raise SceneError(f"scene file {str(path)!r} is not a regular file (a directory, FIFO or device): "
+                         "give a TOML file")
     try:
         data = path.read_bytes()
     except OSError as err:
@@ -748,7 +751,8 @@ def read_scene_file(path: Path) -> str:
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
-        raise SceneError(f"scene file {str(path)!r} is not UTF-8 text (byte {err.start}): save it as UTF-8 TOML") from None
+        raise SceneError(f"scene file {str(path)!r} is not UTF-8 text (byte {err.start}): "
+                         "save it as UTF-8 TOML") from None
 
 
 def load(source: str | Path, overrides: dict[str, Any] | None = None) -> Scene:

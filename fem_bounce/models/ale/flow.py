@@ -98,7 +98,8 @@ class SphereFlow:
             raise ValueError(f"numerics.ale.factorisation = {factorisation!r} is not one of {FACTORISATIONS}")
         self.factorisation, self.reuse_iterations, self.krylov_rtol = factorisation, reuse_iterations, krylov_rtol
         self.factorisation_cost = factorisation_cost
-        self.assembly_s = self.factorise_s = self.solve_s = 0.0  # [s] this flow's matrix assembly, factorisations, solves
+        # [s] this flow's matrix assembly, factorisations, solves
+        self.assembly_s = self.factorise_s = self.solve_s = 0.0
         self._direct_factorisations = 0
         self.mesh, self.density, self.viscosity = mesh, density, viscosity
         self.order = order
@@ -138,7 +139,8 @@ class SphereFlow:
                                                        - ufl.action(L, phi))) for phi in self.phis]
         self.force_slope_forms = [[fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, unit), phi))
                                    for unit in self.units] for phi in self.phis]
-        self.surface_force_forms = [fem.form(surface_force(self.solution, self.mu, r, ds(tag))) for tag in self.sphere_tags]
+        self.surface_force_forms = [fem.form(surface_force(self.solution, self.mu, r, ds(tag)))
+                                    for tag in self.sphere_tags]
 
         self.matrix = assemble_matrix(self.a, bcs=self.bcs)
         self.matrix.assemble()

@@ -211,7 +211,7 @@ class AleModel(FlowModel):
         old_motion, old_flow = self.motion, self.flow
         try:
             mesh, motion, flow = self.build_mesh(center, cache=False)
-        except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception; the run ends cleanly
+        except Exception as err:  # gmsh raises plain Exception: the run ends as diverged, cleanly
             diameter = self.scene.sphere.diameter
             delta = (np.min(center) - self.domain.sphere_radius) / diameter
             between = "".join(f", pair gap {gap / diameter:.4g} D" for gap in self.mesh_pair_gaps(center))
@@ -532,7 +532,8 @@ class AleModel(FlowModel):
                     "holds_m": list(self.holds)}
         return {
             "solver": "steady" if self.steady else "march",
-            "timings_s": {"setup": stats.setup_s, "steps": self.loop_seconds, "factorise_and_solve": stats.factorisation_s,
+            "timings_s": {"setup": stats.setup_s, "steps": self.loop_seconds,
+                          "factorise_and_solve": stats.factorisation_s,
                           "integrator": stats.integrator_s, "remesh": stats.remesh_s,
                           "assembly": stats.assembly_s + flow.assembly_s,
                           "factorisation": stats.factorise_s + flow.factorise_s,
