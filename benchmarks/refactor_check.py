@@ -5,6 +5,10 @@ rebounds, final state, step count and a hash of trajectory.csv (rows to 10 digit
     python benchmarks/refactor_check.py --compare before.json   # on the new code: lists what moved
     python benchmarks/refactor_check.py --size 0d4af21          # the package's size then and now (no runs)
 
+Records in benchmarks/history/: refactor_check_before_issue25.json (at 0d4af21) and
+refactor_check_after_issue25.json (after its items 1-4, at c16a6dd: the same within 1.1e-11 but for
+ode-pair-wall's one added wall record, a column at rest closing its last approach as one sphere does).
+
 --compare prints each run's largest relative difference and lists the numbers that moved by more than
 --rtol (1e-10 by default); numbers both below ZERO (1e-12, SI) in size are round-off zeros and compare
 equal.  Two machines of the same kind differ by round-off (2e-15 relative in the ode
