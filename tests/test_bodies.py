@@ -12,6 +12,7 @@ from mpi4py import MPI
 from fem_bounce import models, output
 from fem_bounce import scene as scenes
 from fem_bounce.bodies import scene_bodies
+from fem_bounce.flow_model import Predictor, flow_gaps
 from fem_bounce.integrator import BodyIntegrator
 from fem_bounce.run import simulate
 
@@ -61,12 +62,44 @@ def test_further_spheres_need_a_second_sphere():
         scenes.from_dict(data)
 
 
-@pytest.mark.parametrize("model", ["fd", "ale", "ib"])
-def test_a_resolved_model_refuses_three_spheres_before_writing(model, tmp_path):
+@pytest.mark.parametrize("model,spheres", [("ib", 2), ("fd", 3), ("ale", 3), ("ib", 3)])
+def test_a_model_that_runs_fewer_spheres_refuses_before_writing(model, spheres, tmp_path):
+    """A pair for the model that runs one sphere, three for every resolved model: refused by name, with the
+    models that can run it, before the run directory exists."""
+    assert models.MODELS[model].max_spheres < spheres
+    preset, what = {2: ("yang-hunt2006-pair", "a pair of spheres"), 3: (THREE, "3 spheres")}[spheres]
     with pytest.raises(models.ModelError) as err:
-        simulate(scenes.load(THREE), model, MPI.COMM_SELF, tmp_path / "run", progress=False)
-    assert f"the {model} model cannot run 3 spheres" in str(err.value) and "ode" in str(err.value)
+        simulate(scenes.load(preset), model, MPI.COMM_SELF, tmp_path / "run", progress=False)
+    assert f"the {model} model cannot run {what}" in str(err.value)
+    assert "ode" in str(err.value) and "\n" not in str(err.value)
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_the_prediction_and_the_flows_placement_are_arrays_over_the_bodies(n, order):
+    """N = 1 is no special case: the predictor's history (order 1 holds the last velocities, order 2 is
+    AB2), the prediction and the flow's placement are arrays of N entries, and the history goes through
+    JSON as lists (the integrator's checkpoint state for any number of spheres: test_checkpoint_state_round_trip).
+    Sphere 1 is predicted below the wall and held at its hold gap, sphere 2 held above sphere 1, sphere 3
+    placed where predicted."""
+    before = np.array([-0.2, -0.3, 0.0])[:n]  # V_{n-1} [m/s]
+    now = np.array([-0.2, -0.2, 0.1])[:n]  # V_n [m/s]
+    mean = {1: [-0.2, -0.2, 0.1], 2: [-0.2, -0.15, 0.15]}[order][:n]  # 1.5 V_n - 0.5 V_{n-1} for AB2
+    gaps_now = np.array([1e-4, 0.0203, 0.0405])[:n]  # [m], spheres of diameter 0.02 m
+    dt = 1e-3
+    predictor = Predictor([before] * order)
+    predictor.push(now)
+    prediction = predictor.predict(0.0, gaps_now, now, dt)
+    predicted = gaps_now + dt * np.array(mean)
+    assert prediction.mean_velocities.shape == (n,) and prediction.gaps.shape == (n,)
+    assert prediction.mean_velocities == pytest.approx(mean, rel=1e-12)
+    assert prediction.gaps == pytest.approx(predicted, rel=1e-12)
+    assert prediction.centers([0.01] * n) == pytest.approx(0.01 + predicted, rel=1e-12)
+    assert json.loads(json.dumps([v.tolist() for v in predictor.velocities])) == [now.tolist(), before.tolist()][:order]
+    holds = (5e-5, 2e-4, 1e-4)[:n]
+    placed = [5e-5, 5e-5 + 0.02 + 2e-4, predicted[-1]][:n]  # sphere 3's bound, 0.04035 m, lies below it
+    assert flow_gaps(prediction.gaps, [0.02] * n, holds) == pytest.approx(placed, rel=1e-12)
 
 
 @pytest.mark.parametrize("preset,changes,pause,end", [
