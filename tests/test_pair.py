@@ -2,7 +2,6 @@
 outputs.  Toy-sized: each test takes about a second or less (the ODE model)."""
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -10,10 +9,10 @@ import pytest
 from mpi4py import MPI
 from scipy.integrate import quad
 
-from fem_bounce import cli, models, output
+from fem_bounce import cli, output
 from fem_bounce import scene as scenes
 from fem_bounce.contact import ContactModel, hertz_contact_time, hertz_peak_force
-from fem_bounce.flow_model import Predictor, flow_gaps
+from fem_bounce.flow_model import flow_gaps
 from fem_bounce.integrator import BodyIntegrator
 from fem_bounce.pair_contact import PairContactModel
 from fem_bounce.run import simulate
@@ -42,25 +41,6 @@ def run_to_end(scene) -> BodyIntegrator:
     integrator.advance(scene.run.end_time)
     integrator.finish()
     return integrator
-
-
-@pytest.mark.parametrize("model", ["li2011", "lubricated-hertz"])
-def test_momentum_is_conserved_through_a_dry_contact_and_nothing_is_lost(model):
-    scene = pair_scene(**NO_LIQUID, **{"second_sphere.density": 2500.0, "second_sphere.youngs_modulus": 70e9,
-                                       "contact.model": model})
-    masses = np.array([s.mass for s in scene.spheres])
-    start = masses @ np.array([0.0, scene.second_sphere.velocity])
-    integrator = run_to_end(scene)
-    (collision,) = integrator.collisions()
-    assert collision["kind"] == "pair" and collision["rebounded"]
-    momentum = masses @ integrator.velocities
-    assert abs(momentum - start) < 1e-7 * abs(start)  # integrator tolerance rtol 1e-5: measured ~1e-12
-    # the paper's f_ss with W_o fixed is conservative: a dry collision returns the relative speed (e = 1,
-    # not e_d, which only scales the force: docs/physics.md section 2); the damped Hertz law returns e_d
-    relative = integrator.velocities[1] - integrator.velocities[0]
-    expected = 1.0 if model == "li2011" else scene.contact.dry_restitution
-    assert relative == pytest.approx(-expected * scene.second_sphere.velocity, rel=1e-4)  # measured 2.5e-5 (rtol 1e-5)
-    assert collision["restitution"] == pytest.approx(expected, abs=1e-4)
 
 
 def test_an_inviscid_pair_keeps_its_impulse_and_energy_with_the_liquids_added_mass():
@@ -237,26 +217,6 @@ def test_the_correction_is_the_held_flows_missing_increment():
         integrator.destroy()
 
 
-def test_predictor_carries_arrays():
-    """(The integrator's checkpoint state for any number of spheres: test_bodies.py.)"""
-    predictor = Predictor([np.array([0.0, -0.3])] * 2)  # order 2 (AB2)
-    predictor.push(np.array([0.1, -0.2]))
-    prediction = predictor.predict(0.0, np.array([0.05, 0.07]), np.array([0.1, -0.2]), 1e-3)
-    assert np.allclose(prediction.mean_velocities, [0.15, -0.15])
-    assert np.allclose(prediction.gaps, [0.05 + 1e-3 * 0.15, 0.07 - 1e-3 * 0.15])
-    assert json.loads(json.dumps([v.tolist() for v in predictor.velocities])) == [[0.1, -0.2], [0.0, -0.3]]
-
-
-def test_one_sphere_is_one_entry_everywhere():
-    """N = 1 is no special case: the prediction, the predictor's history and the flow's placement are
-    arrays of one entry, the flow held at the wall's hold gap."""
-    predictor = Predictor([np.array([-0.2])])  # order 1: the last velocity held
-    prediction = predictor.predict(0.0, np.array([1e-4]), np.array([-0.2]), 1e-3)
-    assert prediction.gaps.shape == (1,) and prediction.gaps[0] == pytest.approx(1e-4 - 2e-4)
-    assert prediction.centers([0.01])[0] == pytest.approx(0.01 - 1e-4)
-    assert flow_gaps(prediction.gaps, [0.02], (5e-5,)) == pytest.approx([5e-5])
-
-
 def test_a_single_sphere_scene_is_unchanged(tmp_path):
     """Pinned before the pair work (benchmarks/refactor_check.py ode-case3).  To 1e-10 relative, not bit for
     bit: another CPU of the same kind gives the adaptive integrator's numbers 2e-15 apart (up to 1e-12 for
@@ -303,17 +263,6 @@ def test_compare_refuses_a_pair_before_running(tmp_path, capsys):
     assert cli.main(["compare", PRESET, "--models", "ode", "--out", str(tmp_path / "cmp")]) == 2
     assert "has a second sphere" in capsys.readouterr().err
     assert not (tmp_path / "cmp").exists()
-
-
-def test_a_model_without_pairs_refuses_before_writing(tmp_path):
-    unable = [name for name, entry in models.MODELS.items() if entry.max_spheres < 2]
-    if not unable:
-        pytest.skip("every model runs pairs")
-    with pytest.raises(models.ModelError) as err:
-        simulate(pair_scene(), unable[0], MPI.COMM_SELF, tmp_path / "run", progress=False)
-    assert f"the {unable[0]} model cannot run a pair of spheres" in str(err.value)
-    assert "ode" in str(err.value) and "\n" not in str(err.value)
-    assert not (tmp_path / "run").exists()
 
 
 def test_cli_runs_the_pair_preset_and_writes_its_outputs(tmp_path, capsys, monkeypatch):

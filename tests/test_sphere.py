@@ -60,22 +60,6 @@ def test_elastic_contact_conserves_energy_without_liquid(model):
     assert impact.contact_speed == pytest.approx(math.sqrt(2 * 9.81 * (sc.initial_gap - impact.contact_gap)), rel=1e-5)
 
 
-@pytest.mark.parametrize("dry", [0.97, 0.5])
-def test_dry_restitution_in_a_vacuum_is_e_d(dry):
-    """The integrator with the liquid switched off rebounds at e_d times the impact speed, at several
-    speeds (the law's own test is in test_contact.py; this one goes through the events and sub-cycling)."""
-    for speed in (0.01, 0.4, 4.0):  # launched without gravity, which would act during the contact
-        sc = scene.load("li2011-case3", {"liquid.density": 1e-9, "liquid.viscosity": 1e-12, "run.bounces": 1,
-                                         "contact.dry_restitution": dry, "gravity": 0.0, "initial_velocity": -speed,
-                                         "run.end_time": 2 * 0.0152 / speed})
-        integrator, _ = run(sc)
-        rebound = integrator.rebounds[0]
-        assert integrator.impacts[0].peak_speed == pytest.approx(speed, rel=1e-9)
-        assert rebound.peak_rebound_speed / speed == pytest.approx(dry, abs=1e-4)
-        # the 2 ms means: their window also holds the second half of the 50-120 us contact (1-3 % of it)
-        assert rebound.restitution == pytest.approx(dry, abs=2e-3)
-
-
 def test_no_rebound_without_the_elastic_force():
     """Without f_ss nothing returns the sphere (paper section 4.4).  Lubrication alone lets the gap
     shrink exponentially, below 1e-8 D here, until it passes what the integrator resolves."""
