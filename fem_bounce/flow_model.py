@@ -2,7 +2,7 @@
 
 The run controller (fem_bounce.run) owns the time loop; a model owns its flow.  One step of length dt:
 
-    prediction = predictor.predict(t, integrator.gaps, integrator.velocities, dt)  # AB2: where they will be
+    prediction = predictor.predict(t, integrator.gaps, integrator.velocities, dt, previous_dt)  # AB2
     fluid = model.linearised_force(prediction)   # advance the flow; f_sim = F* - M_a dV/dt (or None: f_thr)
     integrator.advance(model.next_time(), fluid) # the shared body integrator sub-cycles to t_{n+1}
     model.complete(integrator.velocities, t)     # the step's flow for the velocities the bodies reached
@@ -72,9 +72,17 @@ class Predictor:
     def __init__(self, velocities: list[np.ndarray]):
         self.velocities = [np.array(v, dtype=float) for v in velocities]
 
-    def predict(self, time: float, gaps: np.ndarray, velocities: np.ndarray, dt: float) -> Prediction:
+    def predict(self, time: float, gaps: np.ndarray, velocities: np.ndarray, dt: float,
+                previous_dt: float | None = None) -> Prediction:
+        """The bodies at the end of a step dt [s]; `previous_dt` [s]: the step before, when it differed
+        (FlowModel.previous_time_step): the mean velocity is then V_n + (dt / 2) (V_n - V_{n-1}) / dt_{n-1}."""
         v = self.velocities
-        mean_velocities = 1.5 * v[0] - 0.5 * v[1] if len(v) > 1 else v[0]
+        if len(v) == 1:
+            mean_velocities = v[0]
+        elif previous_dt is None:
+            mean_velocities = 1.5 * v[0] - 0.5 * v[1]
+        else:
+            mean_velocities = v[0] + 0.5 * dt / previous_dt * (v[0] - v[1])
         return Prediction(time, gaps, velocities, dt, mean_velocities)
 
     def push(self, velocities: np.ndarray) -> None:
@@ -129,6 +137,10 @@ class FlowModel(ABC):
     def time_step(self) -> float:
         """The length of the coming step [s] (a model with a fixed step sets self.dt)."""
         return self.dt
+
+    def previous_time_step(self) -> float | None:
+        """The length of the step before the coming one [s] when the steps vary, else None (equal steps)."""
+        return None
 
     def next_time(self) -> float:
         """The end of the coming step [s]."""

@@ -62,7 +62,7 @@ class CoupledStep(Stepper):
         """One step of the flow and the bodies."""
         flow_model, integrator = self.flow_model, self.integrator
         prediction = self.predictor.predict(integrator.time, integrator.gaps, integrator.velocities,
-                                            flow_model.time_step())
+                                            flow_model.time_step(), flow_model.previous_time_step())
         fluid = flow_model.linearised_force(prediction)
         integrator.advance(flow_model.next_time(), fluid)
         flow_model.complete(integrator.velocities, integrator.time)

@@ -182,6 +182,17 @@ def test_variable_step_bdf2_is_exact_for_a_quadratic_and_its_extrapolation_for_a
     assert np.dot(ext, times[1:]) == pytest.approx(dt, rel=1e-12)  # the line t at t_{n+1}
 
 
+@pytest.mark.parametrize("ratio", [0.25, 2.0])
+def test_the_prediction_over_an_unequal_step_is_exact_for_a_constant_acceleration(ratio):
+    from fem_bounce.flow_model import Predictor
+
+    acceleration, dt = -9.0, 1e-3  # V = V_0 + a t: the mean over [t_n, t_n + dt] is V_n + a dt / 2
+    before = dt / ratio
+    predictor = Predictor([np.array([0.3 + acceleration * before]), np.array([0.3])])  # V_n, V_{n-1}
+    prediction = predictor.predict(0.0, np.array([0.01]), np.array([0.3 + acceleration * before]), dt, before)
+    assert prediction.mean_velocities[0] == pytest.approx(0.3 + acceleration * (before + 0.5 * dt), rel=1e-12)
+
+
 def test_the_adaptive_step_stays_within_its_bounds_and_shortens_near_the_wall():
     from fem_bounce.models.ale.domain import GROWTH, next_time_step, time_step
 

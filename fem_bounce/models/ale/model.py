@@ -59,7 +59,7 @@ import csv
 import math
 import resource
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -322,20 +322,13 @@ class AleModel(FlowModel):
             return self.kinematics.time >= end_time - 1e-9 * self.cfl_step
         return super().finished(end_time)
 
-    def _over_step(self, prediction: Prediction) -> Prediction:
-        """The controller's AB2 mean velocity 1.5 V_n - 0.5 V_{n-1} assumes two equal steps; after a step of
-        another length (adaptive_step) it is V_n + (dt / 2) (V_n - V_{n-1}) / dt_{n-1}."""
+    def previous_time_step(self) -> float | None:
         k = self.kinematics
-        if not (self.settings.adaptive_step and k.last_step):
-            return prediction
-        v_now, v_before = (np.asarray(v, dtype=float) for v in k.velocities[:2])
-        mean = v_now + 0.5 * self.dt / k.last_step * (v_now - v_before)
-        return replace(prediction, mean_velocities=np.reshape(mean, -1))
+        return k.last_step if self.settings.adaptive_step and k.last_step else None
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         k, settings = self.kinematics, self.settings
         t_next = self.next_time()
-        prediction = self._over_step(prediction)
         center, held = self.next_center(prediction)
         gap = float(np.reshape(center, -1)[0] - self.domain.sphere_radius)  # sphere 1's, to the wall
         if gap <= 0.0:
@@ -354,7 +347,7 @@ class AleModel(FlowModel):
                 self.remesh(center, quality)
                 remeshed = True
         self.stats.held_steps += held
-        self.flow.set_time_step(self.dt, k.last_step if settings.adaptive_step and k.last_step else None)
+        self.flow.set_time_step(self.dt, self.previous_time_step())
         self.motion.move_to(center)
         self.motion.set_rates(k.center_rate(center, self.flow.bdf, self.dt))
         self.stats.min_mesh_gap = min(self.stats.min_mesh_gap, gap)
