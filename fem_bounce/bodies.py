@@ -58,7 +58,7 @@ class Body:
 
     @property
     def held(self) -> bool:
-        """Fixed at its initial gap (sphere 1's surface may still move: a quasi-steady approach)."""
+        """Fixed at its initial gap (its surface may still move at its velocity: a quasi-steady approach)."""
         return self.mode == "fixed"
 
     @property
@@ -81,9 +81,9 @@ def scene_bodies(scene: Scene) -> tuple[Body, ...]:
 
 
 def _constant_motion(sphere) -> Callable[[float], tuple[float, float]]:
-    """An upper sphere's imposed motion: its `velocity` when prescribed, at rest when fixed."""
-    velocity = sphere.velocity if sphere.mode == "prescribed" else 0.0
-    return lambda t: (velocity, 0.0)
+    """An upper sphere's imposed motion: its `velocity`, moving when prescribed, the surface's when fixed
+    (held in place with its surface moving, as sphere 1 with motion.mode = "fixed")."""
+    return lambda t: (sphere.velocity, 0.0)
 
 
 def sphere_scene(scene: Scene, k: int) -> Scene:

@@ -1,6 +1,6 @@
-"""The fd model with two spheres on the axis (issue 14), at toy size: the pair's coupling algebra, one
-step's 2 x 2 added mass, the indicators kept apart, and a held pair's steady drag against Stimson &
-Jeffery (1926).  The single-sphere path is covered, unchanged, by the other test_fd_*.py."""
+"""The fd model with two spheres on the axis (issue 14), at toy size: one step's 2 x 2 added mass, the
+indicators kept apart, and a held pair's steady drag against Stimson & Jeffery (1926).  The coupling
+algebra for one, two and three spheres is in test_fd_coupling.py."""
 import math
 import warnings
 from types import SimpleNamespace
@@ -11,14 +11,7 @@ from mpi4py import MPI
 
 from fem_bounce import pair_theory, scene
 from fem_bounce.flow_model import Prediction
-from fem_bounce.models.fd import coupling
 from fem_bounce.models.fd.model import FictitiousDomainModel
-
-RHO, C = 1200.0, 6000.0
-PAIR = coupling.PairIntegrals(volume=np.array([4.0e-7, 5.0e-7]), predicted=np.array([-3.0e-8, 1.0e-8]),
-                              forced=np.array([1.0e-8, -2.0e-9]),
-                              unit=np.array([[2.4e-7, -1.0e-8], [-1.0e-8, 3.1e-7]]))
-
 
 class HoldingIntegrator:
     """What FictitiousDomainModel.build asks of the sphere integrator: a pair's (wall, pair) hold gaps
@@ -40,32 +33,6 @@ def pair_scene(preset: str, changes: dict, gap: float, velocity: float, mode: st
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return scene.load(preset, {**second, **changes})
-
-
-# -- the algebra ------------------------------------------------------------------------------------
-def test_pair_linearisation_reproduces_the_forces_at_any_velocities():
-    history, reference = 0.05 * PAIR.volume, np.array([-0.12, 0.3])
-    linear = coupling.linearise_pair(PAIR, RHO, C, history, reference)
-    for velocities in ([-0.4, 0.1], [-0.12, 0.3], [0.3, -0.2]):
-        exact = coupling.pair_forces(PAIR, velocities, RHO, C, history)
-        predicted = linear.explicit - C * linear.added_mass @ (np.array(velocities) - reference)
-        assert predicted == pytest.approx(exact, rel=1e-12)
-    amplitudes = coupling.rigid_amplitudes(PAIR, [0.2, -0.1])
-    interior = PAIR.predicted + PAIR.forced + PAIR.unit @ amplitudes
-    assert interior == pytest.approx(np.array([0.2, -0.1]) * PAIR.volume, rel=1e-12)
-
-
-def test_uncoupled_spheres_reduce_to_the_single_sphere_formulas():
-    """With G diagonal (spheres far apart) each row is the single sphere's algebra."""
-    uncoupled = coupling.PairIntegrals(PAIR.volume, PAIR.predicted, PAIR.forced, np.diag(np.diag(PAIR.unit)))
-    matrix = coupling.added_mass_matrix(uncoupled, RHO)
-    forces = coupling.pair_forces(uncoupled, [0.1, -0.2], RHO, C, 0.05 * PAIR.volume)
-    for i, velocity in enumerate((0.1, -0.2)):
-        alone = coupling.InteriorIntegrals(PAIR.volume[i], PAIR.predicted[i], PAIR.forced[i], PAIR.unit[i, i])
-        assert matrix[i, i] == pytest.approx(coupling.added_mass(alone, RHO), rel=1e-12)
-        assert matrix[i, 1 - i] == 0.0
-        assert forces[i] == pytest.approx(coupling.fluid_force(alone, velocity, RHO, C, 0.05 * PAIR.volume[i]),
-                                          rel=1e-12)
 
 
 # -- one step on a toy mesh -------------------------------------------------------------------------
@@ -104,7 +71,7 @@ def test_a_pair_step_has_a_symmetric_positive_added_mass(falling_pair):
     assert -1.4 * 1.5 / distance**3 < matrix[0, 1] < -0.6 * 1.5 / distance**3
     reached = np.array([-0.01, -0.09])
     fd.complete(reached, fd.dt)
-    for sphere, velocity in zip(fd.pair.spheres, reached):
+    for sphere, velocity in zip(fd.bodies.spheres, reached):
         assert sphere.interior(fd.flow.now.vector) == pytest.approx(velocity * sphere.volume, rel=1e-9)
     assert fd.history.velocity == pytest.approx(reached)
 

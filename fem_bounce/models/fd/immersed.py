@@ -1,4 +1,4 @@
-"""The sphere in the fixed mesh: a smoothed indicator and the forcing responses of one step.
+"""The spheres in the fixed mesh: each a smoothed indicator, and the forcing responses of one step.
 
     phi(x) = S((a_h - |x - X_p|) / w),   S(x) = x^2 (3 - 2 x) on [0, 1], 0 below, 1 above,
 
@@ -20,6 +20,14 @@ assembled here by a small vectorised loop over the cells that meet the sphere
 forms of the same quantities (`indicator`, `reference_forms`) are the plain
 reference the tests compare it with.  I(w) = 2 pi b_phi . w is every weighted
 interior integral.
+
+Every sphere on the axis has its own indicator phi_i (ImmersedSphere) and unit response y1_i; the
+forcing of -u~ is one vector over all of them, with one response y0 (ImmersedBodies; the algebra is
+coupling.py's).  The indicators' supports |x - X_i| < a_h,i must not overlap (the forcing would count
+the liquid between them twice and tie two interiors together): neighbouring surfaces must stay at least
+(a_h,i - a_i) + (a_h,i+1 - a_i+1) apart, one fine cell with the default radius_offset.  A pair's hold
+gap (flow_model.flow_gaps) keeps the flow's spheres that far apart; `check_hold` refuses a scene whose
+hold does not.
 """
 from __future__ import annotations
 
@@ -32,6 +40,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ...scene import SceneError
 from .coupling import InteriorIntegrals
 from .fluid import FlowSolver
 
@@ -114,8 +123,8 @@ class BandAssembler:
 
 
 class ImmersedSphere:
-    """Forcing responses of one sphere in `flow`; radius (outer edge of phi), width [m] of the
-    indicator's band, center [m] of its first placement."""
+    """One sphere's indicator in `flow` and its unit response y1; radius (outer edge of phi), width [m] of
+    the indicator's band, center [m] of its first placement."""
 
     def __init__(self, flow: FlowSolver, radius: float, width: float, center: float):
         self.flow = flow
@@ -123,7 +132,6 @@ class ImmersedSphere:
         self.center = math.nan
         self.b_phi = flow.rhs.duplicate()
         self.force = flow.rhs.duplicate()
-        self.forced = fem.Function(flow.W)  # y0
         self.unit = fem.Function(flow.W)  # y1
         self._unit_at: float | None = None  # where y1 was computed
         self.volume = 0.0
@@ -158,18 +166,87 @@ class ImmersedSphere:
         self._unit_at = self.center
         return flow.force_rhs(out)
 
-    def forcing(self, predicted: fem.Function) -> PETSc.Vec:
-        """-rho c phi u~, ready for the flow solver; its response y0 goes to `self.forced`."""
-        flow = self.flow
-        with self.force.localForm() as local:
-            local.set(0.0)
-            self.band.forcing(local.array, predicted.x.array, -flow.density * flow.c)
-        return flow.force_rhs(self.force)
-
-    def integrals(self, predicted: fem.Function) -> InteriorIntegrals:
-        return InteriorIntegrals(volume=self.volume, predicted=self.interior(predicted.vector),
-                                 forced=self.interior(self.forced.vector), unit=self.interior(self.unit.vector))
-
     def destroy(self) -> None:
         self.b_phi.destroy()
         self.force.destroy()
+
+
+def check_hold(min_gap: float, pair_hold: float, what: str) -> None:
+    """Refuse a hold gap [m] below min_gap: the flow's spheres could come so close that their
+    indicators overlap.  `what` says where the hold comes from, for the message."""
+    if pair_hold < min_gap:
+        raise SceneError(
+            f"numerics.fd: neighbouring spheres' indicators overlap when their surfaces are closer than "
+            f"{min_gap:.4g} m (radius_offset x fine size each), but the flow places them down to "
+            f"{pair_hold:.4g} m apart ({what}): raise numerics.fd.cells_per_diameter or contact.delta_sl "
+            f"(contact.near_wall = \"correction\" holds a pair at its delta_sl gap)")
+
+
+class ImmersedBodies:
+    """The spheres on the axis in `flow` (fluid.FlowSolver): outer radii a_h,i and true radii a_i [m],
+    the band width [m] and the centres [m] of their first placement, sphere 1 (lowest) first."""
+
+    def __init__(self, flow: FlowSolver, radii, true_radii, width: float, centers):
+        self.flow = flow
+        self.spheres = [ImmersedSphere(flow, radius, width, center) for radius, center in zip(radii, centers)]
+        offsets = [max(a_h - a, 0.0) for a_h, a in zip(radii, true_radii)]
+        self.min_gaps = np.add(offsets[:-1], offsets[1:])  # each neighbouring pair's [m]
+        self._contact_distances = np.add(true_radii[:-1], true_radii[1:])  # centre distances at touching [m]
+        self.forced = fem.Function(flow.W)  # y0, the response to every sphere's forcing of -u~
+        self._force = flow.rhs.duplicate()
+        self.check_separation([sphere.center for sphere in self.spheres])
+
+    @property
+    def volumes(self) -> np.ndarray:
+        return np.array([sphere.volume for sphere in self.spheres])
+
+    def check_separation(self, centers) -> None:
+        gaps = np.diff(centers) - self._contact_distances
+        for k in np.flatnonzero(gaps < self.min_gaps * (1.0 - 1e-12)):
+            raise SceneError(f"numerics.fd: the surfaces of spheres {k + 1} and {k + 2} are {gaps[k]:.4g} m apart, "
+                             f"closer than {self.min_gaps[k]:.4g} m where their indicators start to overlap")
+
+    def place(self, centers) -> None:
+        """Put the indicators' centres at z = centers [m] (each re-assembled only if it moved)."""
+        self.check_separation(centers)
+        for sphere, center in zip(self.spheres, centers):
+            if center != sphere.center:
+                sphere.place(center)
+
+    def stale_units(self) -> tuple[list, list]:
+        """The unit forcings rho c phi_j e_z of the spheres that moved since their y1_j, and the functions
+        y1_j goes to: the time loop solves them with its predictor in one pass over the factors."""
+        stale = [sphere for sphere in self.spheres if sphere.unit_stale]
+        return [sphere.unit_forcing() for sphere in stale], [sphere.unit for sphere in stale]
+
+    def forcing(self, predicted: fem.Function) -> PETSc.Vec:
+        """-rho c sum_i phi_i u~, ready for the flow solver; its response y0 goes to `self.forced`."""
+        flow = self.flow
+        with self._force.localForm() as local:
+            local.set(0.0)
+            for sphere in self.spheres:
+                sphere.band.forcing(local.array, predicted.x.array, -flow.density * flow.c)
+        return flow.force_rhs(self._force)
+
+    def interiors(self, vector: PETSc.Vec) -> np.ndarray:
+        """I_i of a mixed-space vector, one per sphere [m^4/s for a velocity]."""
+        return np.array([sphere.interior(vector) for sphere in self.spheres])
+
+    def integrals(self, predicted: fem.Function) -> InteriorIntegrals:
+        return InteriorIntegrals(volume=self.volumes, predicted=self.interiors(predicted.vector),
+                                 forced=self.interiors(self.forced.vector),
+                                 unit=np.array([[sphere.interior(other.unit.vector) for other in self.spheres]
+                                                for sphere in self.spheres]))
+
+    def field(self, predicted: fem.Function, amplitudes, out: PETSc.Vec) -> PETSc.Vec:
+        """u = u~ + y0 + sum_j s_j y1_j as a W-vector."""
+        predicted.vector.copy(out)
+        out.axpy(1.0, self.forced.vector)
+        for sphere, s in zip(self.spheres, amplitudes):
+            out.axpy(float(s), sphere.unit.vector)
+        return out
+
+    def destroy(self) -> None:
+        self._force.destroy()
+        for sphere in self.spheres:
+            sphere.destroy()

@@ -1,32 +1,29 @@
-"""The steady state of the fd time step for a held sphere in Stokes flow, found without marching.
+"""The steady state of the fd time step for held spheres in Stokes flow, found without marching.
 
-For a held sphere (motion.mode = "fixed") at Re -> 0 the time loop converges to a
+For held spheres (mode = "fixed") at Re -> 0 the time loop converges to a
 fixed point of its own step map, but only after a viscous time (domain size)^2 / nu,
 hundreds of thousands of steps at the time step the immersed forcing needs.  The
 fixed point can be written down instead.  With S = A - rho c M the steady Stokes
 operator (A the step's matrix, M the r-weighted velocity mass), the step
 
-    u~ = A^-1 (rho c M u),  f = rho c Phi (s e_z - u~),  u = u~ + A^-1 f
+    u~ = A^-1 (rho c M u),  f = rho c sum_i Phi_i (s_i e_z - u~),  u = u~ + A^-1 f
 
 is at rest when S u = f, so the immersed force f solves
 
-    J f = f + rho c Phi A^-1 rho c M S^-1 f = s rho c Phi e_z,
+    J f = f + rho c Phi A^-1 rho c M S^-1 f = sum_j s_j rho c Phi_j e_z,
 
-where Phi is the phi-weighted mass and s the amplitude that gives the interior the
+where Phi = sum_i Phi_i is the phi-weighted mass and s_j the amplitudes that give each interior its
 sphere's mean velocity.  J is badly conditioned (rho c / (mu k^2) is large for the
 smooth modes), so GMRES is right-preconditioned with the exact inverse of its
 Brinkman-like part I + rho c Phi S^-1, namely S (S + rho c Phi)^-1: the
 preconditioned operator is I - rho c Phi A^-1 S (S + rho c Phi)^-1, close to the
-identity, and converges in a few dozen iterations.  Then u = S^-1 f and the force
-is the step's, F = -rho c (s V_phi - I(u~)).  This is the state marching would
-reach at the same dt, so it checks the forcing the bouncing runs use (Brenner's
-wall drag) at the cost of three extra factorisations.  Convection is left out.
-
-A held pair (models/fd/pair.py) has Phi = Phi_1 + Phi_2 and one amplitude per sphere: J f_j =
-rho c Phi_j e_z is solved for each sphere j (two GMRES solves), u_j = S^-1 f_j, and the amplitudes
-s = K^-1 (U_i V_i) with K_ij = I_i(u_j) give every interior its sphere's mean velocity; the state is
-u = sum_j s_j u_j and each sphere's force F_i = -rho c (s_i V_i - I_i(u~)) (Stimson & Jeffery's and
-Cooley & O'Neill's drags, benchmarks/pair_stokes.py).
+identity, and converges in a few dozen iterations.  J f_j = rho c Phi_j e_z is solved for each sphere
+j, u_j = S^-1 f_j, and the amplitudes s = K^-1 (U_i V_i) with K_ij = I_i(u_j) give every interior its
+sphere's mean velocity; the state is u = sum_j s_j u_j and each sphere's force the step's,
+F_i = -rho c (s_i V_i - I_i(u~)).  This is the state marching would reach at the same dt, so it checks
+the forcing the bouncing runs use (Brenner's wall drag; Stimson & Jeffery's and Cooley & O'Neill's
+pair drags, benchmarks/pair_stokes.py) at the cost of three extra factorisations.  Convection is left
+out.
 """
 from __future__ import annotations
 
@@ -41,17 +38,16 @@ from petsc4py import PETSc
 
 from ...fem import forms
 from ...fem.solver import FactorizedOperator, SolverError
-from .coupling import InteriorIntegrals, PairIntegrals
+from .coupling import InteriorIntegrals
 from .immersed import indicator
 
 
 class SteadyStokes:
-    """The steady Stokes state of a FictitiousDomainModel's step for its held sphere, or (`spheres`: the
-    ImmersedSpheres of a held pair) for its held pair."""
+    """The steady Stokes state of a FictitiousDomainModel's step for its held spheres (immersed.ImmersedSphere,
+    sphere 1 first)."""
 
-    def __init__(self, flow, sphere, prefix: str = "fd_steady_", spheres: list | None = None):
-        self.flow, self.sphere = flow, sphere
-        self.spheres = spheres if spheres is not None else [sphere]
+    def __init__(self, flow, spheres: list, prefix: str = "fd_steady_"):
+        self.flow, self.spheres = flow, spheres
         (u, p), (v, q) = ufl.TrialFunctions(flow.W), ufl.TestFunctions(flow.W)
         rho_c, r, dx = flow.density * flow.c, flow.r, flow.dx
         x = ufl.SpatialCoordinate(flow.mesh)
@@ -124,36 +120,9 @@ class SteadyStokes:
             raise SolverError(f"steady Stokes GMRES did not converge (reason {reason}, {iterations} iterations)")
         return force
 
-    def solve(self, velocity: float, rtol: float = 1e-10) -> tuple[float, InteriorIntegrals]:
-        """Set the flow's states to the steady state for sphere velocity U [m/s]; return (F [N], integrals)."""
-        flow, sphere = self.flow, self.sphere
-        self.iterations = 0
-        unit_force = sphere.unit_forcing().copy()  # rho c Phi e_z, boundary rows zeroed
-        force = self._steady_force(unit_force, rtol)
-        # the fields for s = 1, then scaled: u = S^-1 f, u~ = A^-1 rho c M u, y1 = A^-1 (rho c Phi e_z)
-        u, predicted = flow.now, flow.predicted
-        self.stokes.solve(force, u.vector)
-        self.matrices["mass"].mult(u.vector, self.vectors[1])
-        flow.operator.solve(self._homogeneous(self.vectors[1]), predicted.vector)
-        flow.operator.solve(unit_force, sphere.unit.vector)
-        s = velocity * sphere.volume / sphere.interior(u.vector)
-        for function in (u, predicted):
-            function.vector.scale(s)
-            function.x.scatter_forward()
-        for state in flow.states[1:]:
-            state.x.array[:] = u.x.array
-        integrals = InteriorIntegrals(volume=sphere.volume, predicted=sphere.interior(predicted.vector),
-                                      forced=velocity * sphere.volume - sphere.interior(predicted.vector)
-                                      - s * sphere.interior(sphere.unit.vector),
-                                      unit=sphere.interior(sphere.unit.vector))
-        force_on_sphere = -flow.density * flow.c * (s * sphere.volume - integrals.predicted)
-        unit_force.destroy()
-        force.destroy()
-        return force_on_sphere, integrals
-
-    def solve_pair(self, velocities, rtol: float = 1e-10) -> tuple[np.ndarray, PairIntegrals]:
-        """Set the flow's states to the steady state of the held pair whose surfaces move at `velocities`
-        [m/s] (sphere 1 first); return (each sphere's force [N], the pair's integrals)."""
+    def solve(self, velocities, rtol: float = 1e-10) -> tuple[np.ndarray, InteriorIntegrals]:
+        """Set the flow's states to the steady state of the held spheres whose surfaces move at `velocities`
+        [m/s] (sphere 1 first); return (each sphere's force [N], the step's integrals)."""
         flow, spheres = self.flow, self.spheres
         self.iterations = 0
         velocities = np.asarray(velocities, dtype=float)
@@ -164,7 +133,7 @@ class SteadyStokes:
             force = self._steady_force(unit_force, rtol)
             state = flow.rhs.duplicate()
             self.stokes.solve(force, state)
-            flow.operator.solve(unit_force, held.unit.vector)  # y1_j, for the pair's added mass
+            flow.operator.solve(unit_force, held.unit.vector)  # y1_j, for the added mass
             states.append(state)
             force.destroy()
             unit_force.destroy()
@@ -183,7 +152,7 @@ class SteadyStokes:
             state.x.array[:] = u.x.array
         unit = np.array([[held.interior(other.unit.vector) for other in spheres] for held in spheres])
         inside = np.array([held.interior(predicted.vector) for held in spheres])
-        integrals = PairIntegrals(volume=volumes, predicted=inside,
+        integrals = InteriorIntegrals(volume=volumes, predicted=inside,
                                   forced=velocities * volumes - inside - unit @ amplitudes, unit=unit)
         forces = -flow.density * flow.c * (amplitudes * volumes - inside)
         return forces, integrals
@@ -224,9 +193,11 @@ class SteadyBrinkmanStokes:
                                           max_iterations=2000)
         self.iterations = 0
 
-    def solve(self, velocity: float) -> tuple[float, InteriorIntegrals]:
-        """Set the flow's states to the steady state for sphere velocity U [m/s]; return (F [N], integrals)."""
+    def solve(self, velocities) -> tuple[np.ndarray, InteriorIntegrals]:
+        """Set the flow's states to the steady state for the sphere velocity U [m/s] (an array of one);
+        return (F [N], integrals), arrays of one."""
         flow, sphere, constraint = self.flow, self.sphere, self.constraint
+        velocity = float(velocities[0])
         zero = fem.Function(flow.W)
         constraint.solve(zero, velocity)
         if constraint.unconverged:
@@ -235,9 +206,10 @@ class SteadyBrinkmanStokes:
         for state in flow.states:
             state.x.array[:] = -constraint.response.x.array
         flow.predicted.x.array[:] = 0.0
-        volume = sphere.volume
-        integrals = InteriorIntegrals(volume=volume, predicted=0.0, forced=velocity * volume, unit=volume)
-        return constraint.hold_force(), integrals
+        volume = np.array([sphere.volume])
+        integrals = InteriorIntegrals(volume=volume, predicted=np.zeros(1), forced=velocity * volume,
+                                      unit=np.diag(volume))
+        return np.array([constraint.hold_force()]), integrals
 
     def destroy(self) -> None:
         self.constraint.destroy()
