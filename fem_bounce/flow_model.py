@@ -89,12 +89,6 @@ class Predictor:
         self.velocities = [np.array(velocities, dtype=float)] + self.velocities[:-1]
 
 
-def per_body(values: np.ndarray):
-    """A per-body array as summary.json gives it: a number for one sphere (as before pairs), a list for more."""
-    values = np.asarray(values, dtype=float)
-    return values.item() if values.size == 1 else values.tolist()
-
-
 def steps_to(end_time: float, dt: float) -> int:
     """The number of steps of length dt that reach end_time."""
     return max(1, math.ceil(end_time / dt - 1e-9))

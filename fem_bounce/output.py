@@ -682,9 +682,11 @@ def read_summary(run_dir: Path) -> dict:
 # -- the summary ----------------------------------------------------------------------------------
 
 
-def _per_body(values: np.ndarray):
-    """A per-body array as summary.json has it: one sphere's value as a number, more as a list."""
-    return float(values[0]) if len(values) == 1 else values.tolist()
+def per_body(values: np.ndarray):
+    """A per-body array (or N x N matrix) as summary.json has it: one sphere's value as a number, more as a
+    list."""
+    values = np.asarray(values, dtype=float)
+    return values.item() if values.size == 1 else values.tolist()
 
 
 def _versions() -> dict:
@@ -711,8 +713,8 @@ def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: 
         "sphere_steps": integrator.steps,
         "ranks": ranks,
         "sizes": sizes or {},
-        "final": {"time": integrator.time, "gap": _per_body(integrator.gaps),
-                  "velocity": _per_body(integrator.velocities)},
+        "final": {"time": integrator.time, "gap": per_body(integrator.gaps),
+                  "velocity": per_body(integrator.velocities)},
         **({"collisions": integrator.collisions()} if scene.pair else {}),
         "versions": _versions(),
         "command": command,

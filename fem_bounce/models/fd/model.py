@@ -33,9 +33,9 @@ from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel, Prediction, flow_gaps, per_body, steps_to
+from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
 from ...motion import is_stream
-from ...output import CheckpointError, segment_path
+from ...output import CheckpointError, per_body, segment_path
 from ...scene import SceneError, pair_diameter
 from ...integrator import FluidForce
 from . import coupling
