@@ -40,6 +40,7 @@ from mpi4py import MPI
 import ffcx.codegeneration.jit as ffcx_jit
 from fem_bounce import scene
 from fem_bounce.cli import run_logged
+from provenance import commit
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "ale_speed.json"
@@ -164,9 +165,7 @@ def main() -> None:
         for r in runs:
             print(f"{r['changes']}: {r['compilations']} compilations, {r['compile_s']:.1f} s, {r['remeshes']} remeshes")
         stored = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                cwd=HERE).stdout.strip()
-        stored[f"{time.strftime('%Y-%m-%dT%H:%M:%S')}-compilations"] = {"commit": commit, "runs": runs}
+        stored[f"{time.strftime('%Y-%m-%dT%H:%M:%S')}-compilations"] = {"commit": commit(), "runs": runs}
         RESULTS.write_text(json.dumps(stored, indent=1) + "\n")
         return
     load_before = os.getloadavg()
@@ -177,10 +176,8 @@ def main() -> None:
     runs = {path: run(comm, args.out, path) for path in PATHS}
     costs = floor(comm)
     old, new = runs["every-step"], runs["reuse"]
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=HERE).stdout.strip()
     result = {
-        "commit": commit, "machine": platform.node(), "cores": os.cpu_count(),
+        "commit": commit(), "machine": platform.node(), "cores": os.cpu_count(),
         "ranks": comm.size, "load_average_before": load_before, "load_average_after": os.getloadavg(),
         "warm_up_compilations": warm.count, "runs": runs,
         "relative_difference": {key: new[key] / old[key] - 1.0 for key in ("V_i", "Re_II", "e_1")},

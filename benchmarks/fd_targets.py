@@ -20,8 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
-import subprocess
 import time
 import warnings
 from pathlib import Path
@@ -30,6 +28,7 @@ from mpi4py import MPI
 
 from fem_bounce import scene
 from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+from provenance import stamp
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_targets.json"
@@ -105,12 +104,9 @@ def main() -> None:
                      args.out / "glycerol")
         result["target_met"] = result["wall_time_s"] < 180.0 and result["V_i"] is not None
     if comm.rank == 0:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                cwd=HERE).stdout.strip()
         key = f"{args.section}:" + ",".join(f"{k}={v}" for k, v in sorted(changes.items())) + f"@{comm.size}ranks"
         stored = json.loads(RESULTS.read_text()) if RESULTS.exists() else {}
-        stored[key] = {"date": time.strftime("%Y-%m-%dT%H:%M:%S"), "machine": platform.node(), "ranks": comm.size,
-                       "commit": commit, "load_average_1min": os.getloadavg()[0], "result": result}
+        stored[key] = {**stamp(), "ranks": comm.size, "load_average_1min": os.getloadavg()[0], "result": result}
         RESULTS.parent.mkdir(exist_ok=True)
         RESULTS.write_text(json.dumps(stored, indent=1) + "\n")
         print(json.dumps(result, indent=1))

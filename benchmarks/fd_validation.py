@@ -20,26 +20,20 @@ import argparse
 import csv
 import json
 import platform
-import subprocess
 import time
 from pathlib import Path
 
 from mpi4py import MPI
 
 from fem_bounce.studies import validation
+from provenance import stamp
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_validation.json"
 
 
 def provenance(cells: float) -> dict:
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                cwd=HERE).stdout.strip()
-    except OSError:
-        commit = "?"
-    return {"date": time.strftime("%Y-%m-%dT%H:%M:%S"), "machine": platform.node(), "processor": platform.processor(),
-            "ranks": MPI.COMM_WORLD.size, "commit": commit, "cells_per_diameter": cells}
+    return {**stamp(), "processor": platform.processor(), "ranks": MPI.COMM_WORLD.size, "cells_per_diameter": cells}
 
 
 def main() -> None:

@@ -27,6 +27,7 @@ import numpy as np
 
 from fem_bounce import output, reference, theory
 from fem_bounce import scene as scenes
+from provenance import commit
 
 ROOT = Path("results") / "near_wall"
 HISTORY = Path(__file__).parent / "history" / "near_wall.json"
@@ -90,14 +91,6 @@ def measures(run_dir: Path) -> dict:
     if rebounds:
         found.update(e_1=rebounds[0]["restitution"], apex_1=rebounds[0]["apex_gap"])
     return found
-
-
-def commit() -> str:
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                              cwd=Path(__file__).parent).stdout.strip()
-    except OSError:
-        return "?"
 
 
 def record(study: str, rows: list[dict], table: str) -> None:

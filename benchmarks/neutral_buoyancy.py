@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import platform
-import subprocess
 import time
 from pathlib import Path
 
 from fem_bounce import scene
 from fem_bounce.integrator import BodyIntegrator
+from provenance import stamp
 
 RATIO_OFFSETS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7)
 MAX_STEPS = 50_000
@@ -38,9 +37,7 @@ def run(offset: float) -> dict:
 
 
 def main() -> None:
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent).stdout.strip()
-    record = {"date": time.strftime("%Y-%m-%dT%H:%M:%S"), "machine": platform.node(), "commit": commit,
+    record = {**stamp(),
               "loadavg": Path("/proc/loadavg").read_text().split()[:3] if Path("/proc/loadavg").exists() else None,
               "max_steps": MAX_STEPS, "runs": []}
     for offset in RATIO_OFFSETS:

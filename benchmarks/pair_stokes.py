@@ -65,8 +65,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import platform
-import subprocess
 import sys
 import time
 import warnings
@@ -75,6 +73,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from fem_bounce import pair_theory
+from provenance import stamp
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "pair_stokes.json"
@@ -263,17 +262,7 @@ MODELS = {"fd": fd_rows, "ale": ale_rows}
 DEFAULT_CELLS = {"fd": [16.0], "ale": [8.0, 16.0, 32.0]}
 
 
-# --- shared: table, provenance, history -----------------------------------------------------------------
-
-def provenance() -> dict:
-    try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                cwd=HERE).stdout.strip()
-    except OSError:
-        commit = "?"
-    return {"date": time.strftime("%Y-%m-%dT%H:%M:%S"), "machine": platform.node(), "ranks": MPI.COMM_WORLD.size,
-            "commit": commit}
-
+# --- shared: table, history -----------------------------------------------------------------------------
 
 def table(rows: list[dict]) -> str:
     header = ["model", "domain", "cells/D", "case", "gap/D", "lambda_raw", "error_raw", "lambda", "theory", "error",
@@ -308,8 +297,9 @@ def main() -> None:
         rows = MODELS[model](comm, cells, args.far_field)
         far_field, domain = rows[0]["far_field_D"], rows[0]["domain"]
         records[f"{model}-{cells:g}cpd-far{far_field:g}"] = {
-            **provenance(), "command": "python " + " ".join(["benchmarks/pair_stokes.py", *sys.argv[1:]]),
-            "model": model, "cells_per_diameter": cells, "far_field_D": far_field, "domain": domain, "rows": rows}
+            **stamp(), "ranks": comm.size,
+            "command": "python " + " ".join(["benchmarks/pair_stokes.py", *sys.argv[1:]]), "model": model,
+            "cells_per_diameter": cells, "far_field_D": far_field, "domain": domain, "rows": rows}
     if comm.rank != 0:
         return
     print(table([row for record in records.values() for row in record["rows"]]))

@@ -21,12 +21,13 @@ from __future__ import annotations
 import csv
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from provenance import stamp
 
 SWEEPS = {
     "ode": ["restitution", "--model", "ode", "--points", "40"],
@@ -61,10 +62,7 @@ def time_sweep(arguments: list[str], jobs: int) -> dict:
 
 
 def main(names: list[str]) -> None:
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent).stdout.strip()
-    record = {"date": time.strftime("%Y-%m-%dT%H:%M:%S"), "machine": platform.node(), "commit": commit,
-              "cores": os.cpu_count(), "sweeps": {}}
+    record = {**stamp(), "cores": os.cpu_count(), "sweeps": {}}
     for name in names:
         timed = [time_sweep(SWEEPS[name], jobs) for jobs in JOBS]
         same = all(t["rows"] == timed[0]["rows"] for t in timed)

@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import json
 import platform
-import subprocess
 import time
 from pathlib import Path
 
@@ -21,6 +20,7 @@ from mpi4py import MPI
 from fem_bounce import reference, scene
 from fem_bounce.errors import RunDiverged
 from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+from provenance import commit
 
 
 def run_case(case: int, model: str, out: Path, overrides: dict, force: bool, comm) -> dict:
@@ -91,10 +91,8 @@ def main() -> None:
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
         (out / "table2.md").write_text(markdown(rows, args.model))
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                cwd=Path(__file__).parent).stdout.strip()
         record = json.dumps({
-            "model": args.model, "overrides": overrides, "rows": rows, "ranks": comm.size, "commit": commit,
+            "model": args.model, "overrides": overrides, "rows": rows, "ranks": comm.size, "commit": commit(),
             "date": time.strftime("%Y-%m-%d"), "machine": platform.node(), "wall_time_s": time.perf_counter() - start,
         }, indent=2) + "\n"
         (out / "table2.json").write_text(record)
