@@ -2,8 +2,8 @@
 initial gap, its surface moving at `velocity`, possibly in a stream entering through z = 0) or
 prescribed (it moves with `velocity`, or along the (t, velocity) CSV `series`).
 
-The sphere integrator, the flow models and their domains ask these questions here instead of each
-branching on motion.mode.
+The flow models, their domains, the contact model and the studies ask these questions here (or of
+bodies.Body) instead of each branching on motion.mode.
 """
 from __future__ import annotations
 
