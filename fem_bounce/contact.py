@@ -48,6 +48,7 @@ import functools
 import math
 
 from . import ehd
+from .motion import is_free
 from .scene import Scene
 from .theory import TheoryForces
 
@@ -263,7 +264,7 @@ class ContactModel(ContactGaps):
                               scene.sphere.roughness + scene.wall.roughness, self.diameter)
         self.theory = TheoryForces(scene)
         # the hold and the correction belong to a free sphere's dynamics (see the module docstring)
-        self.correcting = scene.near_wall_law == "correction" and scene.motion.mode == "free"
+        self.correcting = scene.near_wall_law == "correction" and is_free(scene)
         self._lambda_hold = self.theory.wall_factor(self.blend_gap)
         self._added_mass_hold = self.theory.added_mass(self.blend_gap)[0]
 

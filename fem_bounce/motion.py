@@ -2,8 +2,8 @@
 initial gap, its surface moving at `velocity`, possibly in a stream entering through z = 0) or
 prescribed (it moves with `velocity`, or along the (t, velocity) CSV `series`).
 
-The sphere integrator, the flow models and their domains ask these questions here instead of each
-branching on motion.mode.
+The flow models, their domains, the contact model and the studies ask these questions here (or of
+bodies.Body) instead of each branching on motion.mode.
 """
 from __future__ import annotations
 
@@ -41,18 +41,22 @@ def start_velocities(scene: Scene) -> tuple[float, ...]:
     return start_velocity(scene), (0.0 if second.mode == "fixed" else second.velocity)
 
 
+def follows_series(scene: Scene) -> bool:
+    """Prescribed along the (t, velocity) CSV motion.series (not at a constant motion.velocity)."""
+    return scene.motion.mode == "prescribed" and bool(scene.motion.series)
+
+
 def series_speed(scene: Scene) -> float:
     """The largest speed in a prescribed motion's series [m/s] (0 without one)."""
-    motion = scene.motion
-    if motion.mode != "prescribed" or not motion.series:
+    if not follows_series(scene):
         return 0.0
-    return max(abs(v) for v in read_series(motion.series)[1])
+    return max(abs(v) for v in read_series(scene.motion.series)[1])
 
 
 def prescribed_velocity(scene: Scene) -> Callable[[float], tuple[float, float]]:
-    """t -> (V, dV/dt) for fixed and prescribed motion."""
+    """t -> (V [m/s], dV/dt [m/s2]) for fixed and prescribed motion."""
     motion = scene.motion
-    if motion.mode != "prescribed" or not motion.series:
+    if not follows_series(scene):
         return lambda t: (motion.velocity, 0.0)
     from scipy.interpolate import CubicSpline
 

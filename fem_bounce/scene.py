@@ -433,8 +433,8 @@ class Scene:
         if not _PLAIN_NAME.fullmatch(self.name):
             raise SceneError(f"name = {self.name!r} must be a plain name of 1-100 characters, without '/' and not "
                              "starting with '.': it names the run directory runs/NAME-MODEL")
-        diameter = self.sphere.diameter
-        if self.motion.mode == "free" and abs(self.density_ratio - 1.0) < NEUTRAL_BUOYANCY:
+        diameter, free = self.sphere.diameter, self.motion.mode == "free"
+        if free and abs(self.density_ratio - 1.0) < NEUTRAL_BUOYANCY:
             if self.sphere.density == self.liquid.density:
                 raise SceneError(f"sphere.density = {self.sphere.density:g} kg/m3 equals liquid.density: a neutrally "
                                  "buoyant sphere released from rest never moves; make it heavier or lighter")
@@ -463,7 +463,7 @@ class Scene:
             raise SceneError("gravity = 0 moves nothing: allowed only for a free sphere launched by initial_velocity "
                              "!= 0 or a pair set in motion by second_sphere.velocity != 0 (in [-100, 100] m/s) with "
                              "second_sphere.mode free or prescribed; or give gravity in (0, 1000] m/s2, e.g. 9.81")
-        if self.initial_velocity != 0.0 and self.motion.mode != "free":
+        if self.initial_velocity != 0.0 and not free:
             raise SceneError(f"initial_velocity = {self.initial_velocity:g} m/s launches a free sphere: with "
                              f"motion.mode = {self.motion.mode!r} give motion.velocity instead")
         self._check_start_outside_contact()
@@ -499,7 +499,7 @@ class Scene:
                              f"{', '.join(repr(n) for n in names)} (or \"\" for none)")
         speed = max(abs(self.motion.velocity), abs(self.motion.stream_velocity),
                     *(abs(sphere.velocity) for _, sphere in self._upper_spheres()))
-        re_max = self.reynolds(max(self.estimated_impact_speed(), speed) if self.motion.mode == "free" else speed)
+        re_max = self.reynolds(max(self.estimated_impact_speed(), speed) if free else speed)
         if re_max > AXISYMMETRIC_RE_LIMIT:
             warnings.warn(
                 f"scene {self.name!r}: estimated Re = {re_max:.3g} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "

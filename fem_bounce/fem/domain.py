@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..motion import is_stream, prescribed_velocity
+from ..motion import follows_series, is_free, is_stream, prescribed_velocity
 from ..scene import Scene, SceneError
 from .mesh import OUTER, TOP, WALL, Box
 
@@ -73,17 +73,14 @@ def extent(scene: Scene, model: str) -> Extent:
 def speed_scale(scene: Scene, model: str = "fd") -> float:
     """The speed that sets the time step [m/s]: the estimated impact speed of a free sphere,
     the largest imposed speed otherwise."""
-    motion = scene.motion
+    motion, free = scene.motion, is_free(scene)
     if scene.pair:  # the faster of sphere 1's fall or imposed speed and the second sphere's start
-        own = scene.estimated_impact_speed() if motion.mode == "free" else abs(motion.velocity)
+        own = scene.estimated_impact_speed() if free else abs(motion.velocity)
         return max(own, abs(scene.second_sphere.velocity))
-    if motion.mode == "free":
-        if scene.estimated_impact_speed() <= 0.0:
-            raise SceneError(f"sphere.density = {scene.sphere.density:g} kg/m3 equals liquid.density: a neutrally "
-                             "buoyant sphere released from rest never moves; make it heavier or lighter")
+    if free:  # above zero: Scene.validate refuses a neutrally buoyant free sphere
         return scene.estimated_impact_speed()
     speed = max(abs(motion.velocity), abs(motion.stream_velocity))
-    if motion.mode == "prescribed" and motion.series:
+    if follows_series(scene):
         profile = prescribed_velocity(scene)
         samples = [abs(profile(t)[0]) for t in [k * scene.run.end_time / 200 for k in range(201)]]
         speed = max(samples)

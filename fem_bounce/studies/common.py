@@ -17,6 +17,7 @@ from .. import reference
 from .. import scene as scenes
 from ..output import read_summary, read_trajectory
 from ..models.registry import MODELS
+from ..motion import is_held, is_stream
 from .runner import Runner
 
 
@@ -68,7 +69,7 @@ def quantities(scene: scenes.Scene, run_dir: Path) -> dict:
     summary = read_summary(run_dir)
     found: dict = {"wall_time_s": summary["wall_time_s"], "status": summary["status"]}
     motion = scene.motion
-    if motion.mode == "fixed":
+    if is_held(scene):
         force = read_trajectory(run_dir)["f_sim"][-1]
         a, mu = scene.sphere.radius, scene.liquid.viscosity
         if motion.stream_velocity:
@@ -92,7 +93,7 @@ def quantities(scene: scenes.Scene, run_dir: Path) -> dict:
 
 def primary(scene: scenes.Scene) -> list[str]:
     """The quantities a scene is judged by, most important first."""
-    if scene.motion.mode == "fixed":
+    if is_held(scene):
         return ["drag_coefficient"] if scene.motion.stream_velocity else ["wall_drag_factor"]
     if scene.reference.peak_speed is not None or scene.run.bounces == 0:
         return ["peak_speed"]
@@ -104,12 +105,12 @@ def measured(scene: scenes.Scene) -> dict:
     ref = scene.reference
     values = {"impact_speed": ref.impact_speed, "peak_speed": ref.peak_speed,
               "re_second": ref.re_second}
-    if scene.motion.mode == "fixed" and scene.motion.stream_velocity:
+    if is_stream(scene):
         reynolds = scene.reynolds(scene.motion.stream_velocity)
         for row in reference.table("sphere_drag_reference"):
             if abs(row["Re"] - reynolds) < 0.01 * reynolds:
                 values["drag_coefficient"] = row["Cd_reference"]
-    if scene.motion.mode == "fixed" and scene.motion.velocity:
+    if is_held(scene) and scene.motion.velocity:
         delta = scene.initial_gap / scene.sphere.diameter
         for row in reference.table("brenner1961_wall_drag"):
             if abs(row["delta"] - delta) < 1e-9 * delta:

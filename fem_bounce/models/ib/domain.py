@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from ...motion import series_speed
+from ...motion import is_free, is_held, is_stream, series_speed
 from ...scene import Scene
 from .grid import INFLOW, OUTFLOW, SLIP, WALL, Boundaries, StaggeredGrid, make_grid
 
@@ -18,11 +18,10 @@ from .grid import INFLOW, OUTFLOW, SLIP, WALL, Boundaries, StaggeredGrid, make_g
 def path_range(scene: Scene) -> tuple[float, float]:
     """(lowest, highest) z the sphere's surface can reach during the run [m]."""
     d, h0, end = scene.sphere.diameter, scene.initial_gap, scene.run.end_time
-    motion = scene.motion
-    if motion.mode == "fixed":
+    if is_held(scene):
         return h0, h0 + d
-    if motion.mode == "prescribed":
-        speed = series_speed(scene) if motion.series else abs(motion.velocity)
+    if not is_free(scene):  # prescribed
+        speed = series_speed(scene) if scene.motion.series else abs(scene.motion.velocity)
         return max(0.0, h0 - speed * end), h0 + d + speed * end
     if scene.sphere.density >= scene.liquid.density:
         return 0.0, h0 + d  # a heavy sphere never climbs above its release height
@@ -32,7 +31,7 @@ def path_range(scene: Scene) -> tuple[float, float]:
 
 
 def boundaries(scene: Scene) -> Boundaries:
-    stream = scene.motion.stream_velocity if scene.motion.mode == "fixed" else 0.0
+    stream = scene.motion.stream_velocity if is_stream(scene) else 0.0
     closed = not scene.container.unbounded
     if stream:
         if closed:

@@ -44,7 +44,7 @@ import scipy.linalg as sla
 
 from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction
-from ...motion import series_speed
+from ...motion import is_free, is_held, series_speed
 from ...output import CheckpointError
 from ...scene import SceneError
 from ...integrator import FluidForce
@@ -60,11 +60,10 @@ from .solver import FlowSolver, ForcePreconditioner, ForceSolveError
 def time_step(scene, h: float) -> tuple[float, float]:
     """(dt [s], speed scale [m/s]) from the CFL number and the viscous limit of numerics.ib."""
     opts, motion = scene.numerics.ib, scene.motion
-    if motion.mode == "free":
+    if is_free(scene):
         speed = scene.estimated_impact_speed()
     else:
-        speed = max(abs(motion.velocity), abs(motion.stream_velocity))
-        speed = max(speed, series_speed(scene))
+        speed = max(abs(motion.velocity), abs(motion.stream_velocity), series_speed(scene))
     speed = max(speed, 1e-12)
     nu = scene.liquid.kinematic_viscosity
     dt = min(opts.cfl * h / speed, opts.viscous_cfl * h * h / nu, scene.run.end_time / 20.0)
@@ -82,6 +81,7 @@ class ImmersedBoundaryModel(FlowModel):
         self.writer: SnapshotWriter | None = None
         self.grid = build_grid(scene)
         self.ops = AxisymmetricOperators(self.grid)
+        self.held = is_held(scene)  # at its initial gap: the flow meets motion.velocity there, no f1 is needed
         self.dt, self.speed_scale = time_step(scene, self.grid.h)
         h = self.grid.h
         exclusion = self.opts.wall_exclusion * h if self.grid.boundaries.bottom == WALL else -math.inf
@@ -94,16 +94,12 @@ class ImmersedBoundaryModel(FlowModel):
         """The delta kernel around the sphere must fit the uniform region before the first step; when it
         does not, the resolution (kernel width) or the region is wrong, not the run."""
         grid, d = self.grid, scene.sphere.diameter
-        reach = SUPPORT * grid.h
-        r_pts, z_pts = self.surface.positions(scene.initial_gap)
-        z_low = z_pts.min() - reach
-        if grid.boundaries.bottom == WALL:
-            z_low = max(z_low, 0.0)
-        if not grid.in_fine_region(0.0, r_pts.max() + reach, z_low, z_pts.max() + reach):
+        r_high, z_low, z_high = self._kernel_box(*self.surface.positions(scene.initial_gap))
+        if not grid.in_fine_region(0.0, r_high, z_low, z_high):
             raise SceneError(
                 f"numerics.ib: at {self.opts.cells_per_diameter:g} cells/D the delta kernel reaches "
-                f"{reach / d:.3g} D beyond the sphere's points (r up to {(r_pts.max() + reach) / d:.3g} D, "
-                f"z {z_low / d:.3g}..{(z_pts.max() + reach) / d:.3g} D), past the uniform region (r <= "
+                f"{SUPPORT * grid.h / d:.3g} D beyond the sphere's points (r up to {r_high / d:.3g} D, "
+                f"z {z_low / d:.3g}..{z_high / d:.3g} D), past the uniform region (r <= "
                 f"{grid.fine_r / d:.3g} D, z {grid.fine_z[0] / d:.3g}..{grid.fine_z[1] / d:.3g} D): raise "
                 "numerics.ib.cells_per_diameter, or numerics.ib.fine_radius and fine_margin")
 
@@ -111,23 +107,28 @@ class ImmersedBoundaryModel(FlowModel):
         """The height [m] the sphere's top may reach with its delta kernel still in the uniform region."""
         return self.grid.fine_z[1] - SUPPORT * self.grid.h
 
-    # -- pieces of a step ------------------------------------------------------------------------
-    def _check_inside(self, r: np.ndarray, z: np.ndarray, t: float, gap: float) -> None:
+    def _kernel_box(self, r: np.ndarray, z: np.ndarray) -> tuple[float, float, float]:
+        """(r_max, z_min, z_max) [m] that the delta kernel around the points (r, z) [m] reaches."""
         reach = SUPPORT * self.grid.h
         z_low = z.min() - reach
         if self.grid.boundaries.bottom == WALL:
             z_low = max(z_low, 0.0)  # the kernel's mirror image handles the wall
-        if self.grid.in_fine_region(0.0, r.max() + reach, z_low, z.max() + reach):
+        return r.max() + reach, z_low, z.max() + reach
+
+    # -- pieces of a step ------------------------------------------------------------------------
+    def _check_inside(self, r: np.ndarray, z: np.ndarray, t: float, gap: float) -> None:
+        r_high, z_low, z_high = self._kernel_box(r, z)
+        if self.grid.in_fine_region(0.0, r_high, z_low, z_high):
             return
         scene, d = self.scene, self.scene.sphere.diameter
-        if (scene.motion.mode == "free" and scene.sphere.density > scene.liquid.density
+        if (is_free(scene) and scene.sphere.density > scene.liquid.density
                 and gap > scene.initial_gap):
             raise RunDiverged(f"t = {t:.5g} s: the sphere rose to gap {gap / d:.3g} D, above its release at "
                               f"{scene.initial_gap / d:.3g} D, which a sphere heavier than the liquid cannot: the "
                               "coupling went unstable (numerics.ib.coupling = \"explicit\" fails as rho_p / rho_l "
                               "nears 1; use \"implicit\", or a smaller numerics.ib.cfl)")
         raise RunDiverged(f"t = {t:.5g} s: the sphere and its delta kernel "
-                          f"(z = {z_low / d:.3g}..{(z.max() + reach) / d:.3g} D) "
+                          f"(z = {z_low / d:.3g}..{z_high / d:.3g} D) "
                           "left the uniform grid region "
                           f"(z = {self.grid.fine_z[0] / d:.3g}..{self.grid.fine_z[1] / d:.3g} D); "
                           "raise numerics.ib.fine_margin")
@@ -160,12 +161,11 @@ class ImmersedBoundaryModel(FlowModel):
         """Steps 1-4 of the module docstring: the flow for the predicted points and the resolved force,
         linearised in the sphere's acceleration."""
         scene, opts, grid, solver = self.scene, self.opts, self.grid, self.solver
-        mode = scene.motion.mode
         # the one sphere's (registry: max_spheres 1)
         t, v, gap, dt = prediction.time, prediction.velocities_now[0], prediction.gaps_now[0], solver.dt
-        # 1. the points where the sphere will be
-        # a free sphere's flow stops at the contact model's hold gap (it adds what the flow misses below)
-        gap_next = gap if mode == "fixed" else max(prediction.gaps[0], self.hold_gap)
+        # 1. the points where the sphere will be and the velocity the flow meets there; a moving sphere's flow
+        # stops at the contact model's hold gap (it adds what the flow misses below)
+        gap_next, v_ref = (gap, scene.motion.velocity) if self.held else (max(prediction.gaps[0], self.hold_gap), v)
         r_pts, z_pts = self.surface.positions(gap_next)
         self._check_inside(r_pts, z_pts, t, gap_next)
         active = self.surface.active(gap_next)
@@ -174,7 +174,6 @@ class ImmersedBoundaryModel(FlowModel):
         EC = (E @ solver.curl).tocsr()
         # 2. the flow without immersed forces; 3. the forces for V_n and for a unit velocity
         prediction_flow = solver.predict()
-        v_ref = scene.motion.velocity if mode == "fixed" else v
         zeros, ones = np.zeros(n_act), np.ones(n_act)
         S, keys = self.preconditioner.build(solver, gap_next + self.surface.radius, self._force_rows(solver))
         sel = np.concatenate([active, active])
@@ -185,7 +184,7 @@ class ImmersedBoundaryModel(FlowModel):
             base = solver.solve_forces(EC, np.concatenate([zeros, v_ref * ones]) - E @ prediction_flow.q,
                                        warm.base[sel], opts.force_tolerance * self.speed_scale, apply)
             unit = None
-            if mode != "fixed" and opts.coupling == "implicit":
+            if not self.held and opts.coupling == "implicit":
                 unit = solver.solve_forces(EC, np.concatenate([zeros, ones]), warm.unit[sel], opts.force_tolerance,
                                            apply)
         except ForceSolveError as err:
@@ -195,9 +194,7 @@ class ImmersedBoundaryModel(FlowModel):
         # 4. the resolved force, linearised in the sphere's acceleration
         to_newton = 2.0 * math.pi * scene.liquid.density  # kinematic ring forces / 2 pi -> N
         explicit = -to_newton * base.forces[n_act:].sum()
-        if mode == "fixed":
-            added = 0.0
-        elif unit is None:  # explicit coupling: only the rigid interior liquid is implicit
+        if unit is None:  # explicit coupling, or held (dV/dt = 0): only the rigid interior liquid is implicit
             added = -scene.displaced_mass
         else:
             added = to_newton * unit.forces[n_act:].sum() * dt - scene.displaced_mass
@@ -311,7 +308,7 @@ class ImmersedBoundaryModel(FlowModel):
         and how much it moved from the tenth before (a steadiness check)."""
         scene = self.scene
         u = scene.motion.stream_velocity - scene.motion.velocity
-        if scene.motion.mode != "fixed" or not u or len(history) < 20:
+        if not self.held or not u or len(history) < 20:
             return {}
         t, f = np.array(history).T
         cd = np.sign(u) * scene.drag_coefficient(f, u)
@@ -323,7 +320,7 @@ class ImmersedBoundaryModel(FlowModel):
         """For a fixed sphere in an upward stream: the length of the reversed flow on the axis
         behind it, over D (Johnson & Patel 1999: 0.87 at Re 100, 1.46 at Re 200)."""
         scene, grid = self.scene, self.grid
-        if scene.motion.mode != "fixed" or scene.motion.stream_velocity <= 0.0:
+        if not self.held or scene.motion.stream_velocity <= 0.0:
             return {}
         _, w = solver.full_velocity()
         axis = w[0, :]  # at r = h / 2
