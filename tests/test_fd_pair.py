@@ -1,9 +1,8 @@
-"""The fd model with two spheres on the axis (issue 14), at toy size: one step's 2 x 2 added mass, the
-indicators kept apart, and a held pair's steady drag against Stimson & Jeffery (1926).  The coupling
+"""The fd model with two and three spheres on the axis (issues 14, 25), at toy size: one step's N x N
+added mass, the indicators kept apart, and a held pair's steady drag against Stimson & Jeffery (1926).  The coupling
 algebra for one, two and three spheres is in test_fd_coupling.py."""
 import math
 import warnings
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -13,13 +12,13 @@ from fem_bounce import pair_theory, scene
 from fem_bounce.flow_model import Prediction
 from fem_bounce.models.fd.model import FictitiousDomainModel
 
-class HoldingIntegrator:
-    """What FictitiousDomainModel.build asks of the sphere integrator: a pair's (wall, pair) hold gaps
-    [m], a single sphere's contact.hold_gap (the wall hold)."""
 
-    def __init__(self, wall_hold: float, pair_hold: float):
-        self.hold_gaps = (wall_hold, pair_hold)
-        self.contact = SimpleNamespace(hold_gap=wall_hold)
+class HoldingIntegrator:
+    """What FictitiousDomainModel.build asks of the body integrator: its hold gaps [m] (the wall's, then
+    each neighbouring pair's)."""
+
+    def __init__(self, wall_hold: float, *pair_holds: float):
+        self.hold_gaps = (wall_hold, *pair_holds)
 
 
 def pair_scene(preset: str, changes: dict, gap: float, velocity: float, mode: str = "free") -> scene.Scene:
@@ -40,36 +39,44 @@ def pair_scene(preset: str, changes: dict, gap: float, velocity: float, mode: st
 TOY = {"numerics.fd.cells_per_diameter": 8, "initial_gap": 0.02, "contact.delta_sl": 0.4}
 
 
-@pytest.fixture(scope="module")
-def falling_pair():
-    """li2011-case3's sphere 2 D above the wall, an equal sphere 1 D above it coming down at 0.1 m/s."""
-    sc = pair_scene("li2011-case3", TOY, gap=0.0095, velocity=-0.1)
+@pytest.fixture(scope="module", params=[2, 3])
+def falling_column(request):
+    """li2011-case3's sphere 2 D above the wall, an equal sphere 1 D above it coming down at 0.1 m/s; or
+    three-spheres-wall's column of three, 1 D apart, at the same toy size."""
+    count = request.param
+    if count == 2:
+        sc = pair_scene("li2011-case3", TOY, gap=0.0095, velocity=-0.1)
+    else:
+        sc = scene.load("three-spheres-wall", TOY)
     fd = FictitiousDomainModel(sc, MPI.COMM_WORLD)
-    fd.build(HoldingIntegrator(0.0019, 0.0019))
+    fd.build(HoldingIntegrator(0.0019, *[0.0019] * (count - 1)))
     yield fd
     fd.destroy()
 
 
 @pytest.mark.mpi
-def test_a_pair_step_has_a_symmetric_positive_added_mass(falling_pair):
-    """The 2 x 2 numerical added mass is symmetric (the step's matrix is), positive definite, its
-    diagonal near half the displaced mass (0.5 for a sharp sphere, more for the 8-cell diffuse band),
-    and its off-diagonal negative (accelerating one sphere toward the other pushes the other away) and
-    near the potential-flow dipole coupling -(3/2) (a/l)^3 m_l (Lamb; l the centre distance).  The
-    step's field then moves each interior with its own sphere."""
-    fd = falling_pair
+def test_a_step_has_a_symmetric_positive_added_mass_matrix(falling_column):
+    """The N x N numerical added mass of two and three spheres is symmetric (the step's matrix is),
+    positive definite, its diagonal near half the displaced mass (0.5 for a sharp sphere, more for the
+    8-cell diffuse band), and each neighbour's entry negative (accelerating one sphere toward another
+    pushes the other away) and near the potential-flow dipole coupling -(3/2) (a/l)^3 m_l (Lamb; l the
+    centre distance).  The step's field then moves each interior with its own sphere."""
+    fd = falling_column
     sc = fd.scene
-    velocities = np.array([0.0, -0.1])
+    count = len(sc.spheres)
+    velocities = np.zeros(count)
+    velocities[1] = -0.1
     prediction = Prediction(0.0, np.array(sc.initial_gaps), velocities, fd.dt, velocities)
     force = fd.linearised_force(prediction)
     matrix = force.added_mass / sc.displaced_mass
-    assert force.explicit.shape == (2,) and matrix.shape == (2, 2)
-    assert matrix[0, 1] == pytest.approx(matrix[1, 0], rel=1e-6)
+    assert force.explicit.shape == (count,) and matrix.shape == (count, count)
+    assert np.abs(matrix - matrix.T).max() < 1e-6 * np.abs(matrix).max()
     assert np.all(np.linalg.eigvalsh(0.5 * (matrix + matrix.T)) > 0.0)
-    assert 0.5 < matrix[0, 0] < 0.9 and 0.5 < matrix[1, 1] < 0.9
-    distance = (sc.initial_gaps[1] - sc.initial_gaps[0]) / sc.sphere.radius
-    assert -1.4 * 1.5 / distance**3 < matrix[0, 1] < -0.6 * 1.5 / distance**3
-    reached = np.array([-0.01, -0.09])
+    assert np.all((0.5 < np.diag(matrix)) & (np.diag(matrix) < 0.9))
+    for k in range(count - 1):
+        distance = (sc.initial_gaps[k + 1] - sc.initial_gaps[k]) / sc.sphere.radius
+        assert -1.4 * 1.5 / distance**3 < matrix[k, k + 1] < -0.6 * 1.5 / distance**3
+    reached = np.linspace(-0.01, -0.09, count)
     fd.complete(reached, fd.dt)
     for sphere, velocity in zip(fd.bodies.spheres, reached):
         assert sphere.interior(fd.flow.now.vector) == pytest.approx(velocity * sphere.volume, rel=1e-9)

@@ -74,9 +74,9 @@ def speed_scale(scene: Scene, model: str = "fd") -> float:
     """The speed that sets the time step [m/s]: the estimated impact speed of a free sphere,
     the largest imposed speed otherwise."""
     motion, free = scene.motion, is_free(scene)
-    if scene.pair:  # the faster of sphere 1's fall or imposed speed and the second sphere's start
+    if scene.pair:  # the fastest of sphere 1's fall or imposed speed and the upper spheres' starts
         own = scene.estimated_impact_speed() if free else abs(motion.velocity)
-        return max(own, abs(scene.second_sphere.velocity))
+        return max(own, *(abs(sphere.velocity) for sphere in scene.spheres[1:]))
     if free:  # above zero: Scene.validate refuses a neutrally buoyant free sphere
         return scene.estimated_impact_speed()
     speed = max(abs(motion.velocity), abs(motion.stream_velocity))

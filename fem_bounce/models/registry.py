@@ -131,7 +131,7 @@ MODELS: dict[str, ModelInfo] = {
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.fd.cfl",
         scaled_with_time_step=("numerics.fd.forcing_number",), checkpoint_every_key="numerics.fd.checkpoint_every",
         checkpoint_files=("flow.npz",), min_cells_across_blend_gap=1.0, fields_key="numerics.fd.output_every",
-        colour="C1", sources=("models/fd", "fem"), max_spheres=2, max_initial_gap=RESOLVED_MAX_GAP),
+        colour="C1", sources=("models/fd", "fem"), max_spheres=MANY, max_initial_gap=RESOLVED_MAX_GAP),
     "ib": ModelInfo(
         name="ib", module="fem_bounce.models.ib", class_name="ImmersedBoundaryModel",
         liquid="the paper's IB projection method on a staggered grid", resolved=True,

@@ -114,9 +114,10 @@ class FictitiousDomainModel(FlowModel):
                              "a pair needs \"penalty\"")
         if is_stream(scene):
             raise SceneError("a pair in a stream (motion.stream_velocity) is not modelled: give stream_velocity = 0")
-        if not self.held.all():
-            min_gap = 2.0 * max(self.settings.radius_offset * self.domain.fine_size, 0.0)  # ImmersedBodies.min_gaps
-            check_hold(min_gap, scene.contact.delta_sl * pair_diameter(scene.sphere, scene.second_sphere),
+        min_gap = 2.0 * max(self.settings.radius_offset * self.domain.fine_size, 0.0)  # ImmersedBodies.min_gaps
+        spheres = scene.spheres
+        for k in np.flatnonzero(~(self.held[:-1] & self.held[1:])):  # a neighbouring pair that can close
+            check_hold(min_gap, scene.contact.delta_sl * pair_diameter(spheres[k], spheres[k + 1]),
                        "the pair's hold gap of the contact model")
 
     # -- set-up ---------------------------------------------------------------------------
