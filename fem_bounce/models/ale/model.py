@@ -367,12 +367,12 @@ class AleModel(FlowModel):
         between = list(np.diff(gaps) - self.diameters[:-1])
         return min(between + [gaps[0]]) if self.scene.wall.present or not between else min(between)
 
-    def _next_step(self, velocity, gap: float) -> float:
+    def _next_step(self, velocity: np.ndarray, gap: float) -> float:
         """The coming step [s] (domain.next_time_step) from the step just made, which ends at `velocity`
-        with the mesh's sphere `gap` [m] from what it may hit (the nearer of wall and neighbour for a pair):
-        the jerk from the last three velocities, the fastest sphere's."""
+        with the spheres `gap` [m] from what they may hit (the nearest wall or neighbour): the jerk from the
+        last three velocities, the fastest sphere's."""
         k, dt = self.kinematics, self.dt
-        levels = [np.asarray(v, dtype=float) for v in (velocity, *k.velocities[:2])]
+        levels = [velocity, *k.velocities[:2]]
         acceleration = (levels[0] - levels[1]) / dt
         before = (levels[1] - levels[2]) / k.last_step if k.last_step else acceleration
         jerk = float(np.max(np.abs(acceleration - before))) / (0.5 * (dt + (k.last_step or dt)))
