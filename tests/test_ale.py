@@ -54,7 +54,7 @@ def test_a_refined_surface_puts_that_many_times_more_edges_on_the_sphere():
                                           "numerics.ale.surface_refinement": refinement})
         domain = domain_for(sc)
         assert domain.surface_size == pytest.approx(domain.fine_size / refinement)
-        _, _, facet_tags = create_mesh(MPI.COMM_SELF, domain.spec(domain.initial_center), cache=False)
+        _, _, facet_tags = create_mesh(MPI.COMM_SELF, domain.spec(domain.initial_centers), cache=False)
         edges[refinement] = len(facet_tags.find(SPHERE))
         assert edges[refinement] >= math.pi * sc.sphere.radius / domain.surface_size - 1
     assert edges[3] >= 2 * edges[1]
@@ -140,9 +140,10 @@ def test_force_is_exactly_affine_in_the_sphere_velocity():
         state.x.array[:] = 0.01 * np.sin(np.arange(state.x.array.size))
     motion.move(-0.2 * D)
     motion.rate.value = -0.02
-    force, slope = flow.step(-0.03)
-    again, _ = flow.step(-0.05)
-    assert again == pytest.approx(force + slope * (-0.05 + 0.03), rel=1e-9)
+    force, slope = flow.step(np.array([-0.03]))
+    again, _ = flow.step(np.array([-0.05]))
+    assert force.shape == (1,) and slope.shape == (1, 1)  # arrays over the bodies, one sphere too
+    assert again == pytest.approx(force + slope @ [-0.05 + 0.03], rel=1e-9)
     # -dF/dU / c is the numerical added mass: the potential-flow half of the displaced mass plus the
     # viscous response within one step (here sqrt(nu dt) ~ a / 7 adds about as much again)
     added_mass = -slope / flow.c / (1000.0 * math.pi * D**3 / 6)
@@ -202,7 +203,7 @@ def test_the_mass_saddle_point_factorises_where_mumps_underestimates_its_workspa
 
     scene = scenes.load("li2011-case3", {"numerics.ale.cells_per_diameter": 24.0})
     domain = domain_for(scene)
-    center = 0.007 + domain.sphere_radius
+    center = 0.007 + domain.radii[0]
     mesh, _, facet_tags = create_mesh(MPI.COMM_WORLD, domain.spec(center), cache=False)
     motion = MeshMotion(mesh, facet_tags, center=center)
     flow = SphereFlow(mesh, facet_tags, domain.sides, 1203.0, 0.05, 4e-4, motion.velocity)

@@ -65,6 +65,35 @@ def test_holes_that_overlap_or_come_with_hole_are_refused():
         HalfPlane(radius=3 * D, height=8 * D, fine_size=D / 6, coarse_size=D, grading=0.3, hole=lower, holes=(upper,))
 
 
+@pytest.mark.parametrize("preset", ["li2011-case3", "yang-hunt2006-pair"])
+def test_the_domain_holds_each_gap_at_hold_delta_and_refuses_held_spheres_closer(preset):
+    """domain_for for N = 1 and 2 bodies: the holds (sphere 1 above the wall, each neighbouring pair) are
+    hold_delta D1 and hold_delta 2a*; held spheres already closer than their hold are refused, naming the
+    setting; the steady solve needs every body held."""
+    from fem_bounce import scene as scenes
+    from fem_bounce.bodies import scene_bodies
+    from fem_bounce.models.ale.domain import domain_for, is_steady
+    from fem_bounce.scene import SceneError, pair_diameter
+
+    scene = scenes.load(preset, {"numerics.ale.hold_delta": 0.05})
+    bodies = scene_bodies(scene)
+    pairs = [pair_diameter(lower.sphere, upper.sphere) for lower, upper in zip(bodies, bodies[1:])]
+    domain = domain_for(scene)
+    assert domain.holds == pytest.approx([0.05 * bodies[0].diameter, *(0.05 * d for d in pairs)], rel=1e-12)
+    assert len(domain.initial_centers) == len(domain.radii) == len(bodies)
+    held = {"gravity": 9.81, "motion.mode": "fixed", **({"second_sphere.mode": "fixed"} if pairs else {})}
+    assert is_steady(scenes.load(preset, held))
+    if pairs:
+        assert not is_steady(scenes.load(preset, {"motion.mode": "fixed"}))  # the second sphere is free
+        with pytest.raises(SceneError, match="numerics.ale.hold_delta = 0.5 is above the gap .* between the held "
+                                             "sphere and second_sphere"):
+            domain_for(scenes.load(preset, {**held, "numerics.ale.hold_delta": 0.5,
+                                            "second_sphere.gap": 0.2 * pairs[0]}))
+    with pytest.raises(SceneError, match="numerics.ale.hold_delta = 0.5 is above the held sphere's gap"):
+        domain_for(scenes.load(preset, {**held, "numerics.ale.hold_delta": 0.5,
+                                        "initial_gap": 0.2 * bodies[0].diameter}))
+
+
 def steady_pair_drag(gap, velocities, cells=6.0, far_field=2000.0):
     """F_i / (6 pi mu a (1 mm/s)) of the steady Stokes flow around two spheres of diameter D held in the
     middle of a slip box far_field D across, their surfaces at `velocities` [mm/s]: with the velocities

@@ -97,3 +97,26 @@ def test_ctrl_c_leaves_a_run_directory_that_restarts(straight, tmp_path, capsys)
     assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
     assert cli.main(["run", "--restart", str(out), "--quiet"]) == 0
     assert_same_run(reference, out)
+
+
+def test_an_ale_checkpoint_from_before_issue_25_with_one_spheres_values_as_numbers_resumes(tmp_path, capsys):
+    """The ale model wrote one sphere's mesh centre, velocities, centres and last force as numbers before
+    they became arrays over the bodies: such a checkpoint still resumes to the uninterrupted run."""
+    reference = tmp_path / "straight"
+    assert cli.main(["run", *arguments("ale"), "--out", str(reference)]) == 0
+    killed = tmp_path / "killed"
+    process = started_past_a_checkpoint("ale", killed, tmp_path)
+    process.send_signal(signal.SIGKILL)
+    process.communicate()
+    path = killed / "checkpoint" / "state.json"
+    state = json.loads(path.read_text())
+    flow = state["flow"]
+    flow["mesh_center"] = flow["mesh_center"][0]
+    for key in ("velocities", "centers"):
+        flow[key] = [level[0] for level in flow[key]]
+    force, added_mass = flow["last_force"]
+    flow["last_force"] = [force[0], added_mass[0][0]]
+    path.write_text(json.dumps(state))
+    assert cli.main(["run", "--restart", str(killed), "--quiet"]) == 0
+    assert messages(capsys.readouterr().err) == []
+    assert_same_run(reference, killed)

@@ -34,9 +34,9 @@ once per machine, in the form cache).
 The sphere surface is a no-slip boundary moving with the sphere, u = (0, U).  The flow
 is affine in U, so one factorisation and two back-solves give it for every U:
 x(U) = x_ref + (U - U_ref) x_unit, x_ref for the reference velocity U_ref and x_unit the
-response to U = 1 with everything else zero.  A head-on pair (two holes, tagged SPHERE and
-SPHERE_2) is the same with one unit response per sphere: x(U_1, U_2) = x_ref + sum_k
-(U_k - U_ref,k) x_unit,k, three back-solves with one factorisation.
+response to U = 1 with everything else zero.  With N spheres on the axis (holes tagged SPHERE,
+SPHERE_2, ...) there is one unit response per sphere: x(U) = x_ref + sum_k (U_k - U_ref,k) x_unit,k,
+N + 1 back-solves with one factorisation.
 
 The force on the sphere is the consistent variational (reaction) force: with phi the
 finite-element function equal to e_z on the sphere and 0 at every other node,
@@ -46,12 +46,12 @@ finite-element function equal to e_z on the sphere and 0 at every other node,
 which is the surface integral of the traction for the exact solution (Green's formula)
 and converges faster than the integrated discrete stress (Babuska & Miller 1984,
 CMAME 45; Brummelen et al. 2012).  R is affine in x, so F(U) = F(U_ref) + (U - U_ref) dF/dU
-with dF/dU = -2 pi a(x_unit, phi).  For a pair, phi_i is e_z on sphere i only, F_i = -2 pi
-R(x; phi_i) and dF_i/dU_j = -2 pi a(x_unit,j, phi_i), a 2 x 2 matrix.  The stress integral
-over the surface is kept as a diagnostic.
+with dF/dU = -2 pi a(x_unit, phi); phi_i is e_z on sphere i only, F_i = -2 pi R(x; phi_i) and
+dF_i/dU_j = -2 pi a(x_unit,j, phi_i), an N x N matrix.  The stress integral over the surface is kept
+as a diagnostic.
 
-Per-sphere quantities (velocities, forces) are floats for one sphere and arrays, sphere 1
-(the lower) first, for a pair, as in the FlowModel interface (flow_model.Prediction).
+Per-sphere quantities (velocities, forces) are arrays over the spheres, sphere 1 (the lowest) first,
+as in the FlowModel interface (flow_model.Prediction).
 
 Boundaries are named by the mesh's facet tags: "no-slip", "slip", "inflow" (u = (0, U_in)),
 "outflow" (do nothing); the axis has u_r = 0.  When every side fixes the normal velocity
@@ -194,20 +194,15 @@ class SphereFlow:
             set_bc(phi.vector, [fem.dirichletbc(one, dofs, sub)])
             phi.x.scatter_forward()
 
-    # -- one value per sphere: a float for one sphere, an array for several -------------------------
     def per_sphere(self, values) -> np.ndarray:
-        """The spheres' values as an array (a float is accepted for a single sphere)."""
+        """The spheres' values as an array, checked to hold one per sphere (a number: one sphere's)."""
         values = np.atleast_1d(np.asarray(values, dtype=float))
         if values.shape != (len(self.sphere_tags),):
             raise ValueError(f"expected one value per sphere ({len(self.sphere_tags)}), got {values.shape}")
         return values
 
-    def _result(self, values: np.ndarray):
-        return float(values.ravel()[0]) if len(self.sphere_tags) == 1 else values
-
     def set_boundary_values(self, sphere_velocity, inflow: float | None = None) -> None:
-        """u_z = sphere_velocity on the sphere (one per sphere for a pair) [m/s]; u_z on the inflow side
-        (default: the scene's)."""
+        """u_z = sphere_velocity on each sphere [m/s]; u_z on the inflow side (default: the scene's)."""
         for k, velocity in enumerate(self.per_sphere(sphere_velocity)):
             self.values[f"sphere {k}"].x.array[:] = velocity
         if "inflow" in self.values:
@@ -282,7 +277,7 @@ class SphereFlow:
 
     def step(self, reference_velocity, extrapolated_velocity=None):
         """Factorise (if due), solve for the unit response of each sphere and for U_ref; return
-        (F(U_ref) [N], dF/dU [N s/m]): floats for one sphere, for a pair F_i and the matrix dF_i/dU_j.
+        (F(U_ref) [N], dF/dU [N s/m]): the forces F_i and the N x N matrix dF_i/dU_j.
         Under "reuse" the Krylov solves start from the last step's unit responses and, for U_ref, from
         the extrapolated field u* moved to the surface velocity U_ref by those responses: u* + sum_k
         (U_ref,k - U*_k) x_unit,k, with U* = `extrapolated_velocity` the spheres' extrapolated velocities
@@ -305,14 +300,14 @@ class SphereFlow:
             self.operator.end_step()
         forces = np.array([self.assemble(form) for form in self.force_forms])
         slopes = np.array([[self.assemble(form) for form in row] for row in self.force_slope_forms])
-        return self._result(forces), self._result(slopes)
+        return forces, slopes
 
     def assemble(self, form) -> float:
         return self.mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
     def surface_force(self):
         """The traction integrated over each sphere, of the last committed field [N] (a diagnostic)."""
-        return self._result(np.array([self.assemble(form) for form in self.surface_force_forms]))
+        return np.array([self.assemble(form) for form in self.surface_force_forms])
 
     def momentum(self, state: fem.Function) -> float:
         """The fluid's axial momentum 2 pi rho int u_z r dx of a (u, p) function on this mesh [kg m/s]."""
@@ -325,8 +320,8 @@ class SphereFlow:
     # -- steady states (a held sphere) -----------------------------------------------------------
     def steady(self, sphere_velocity, convection: bool, rtol: float = 1e-10, max_iterations: int = 30, log=None):
         """Solve the steady Stokes (or Navier-Stokes, by Newton from the Stokes state) problem with the
-        sphere surface at sphere_velocity (one per sphere for a pair) [m/s]; set every history level to
-        it; return the force on each sphere [N]."""
+        spheres' surfaces at sphere_velocity [m/s]; set every history level to it; return the force on
+        each sphere [N]."""
         rho, mu, r, dx = self.rho, self.mu, self.r, self.dx
         (u_trial, p_trial), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         x = self.solution
@@ -379,7 +374,7 @@ class SphereFlow:
             state.x.array[:] = x.x.array
         for unit in self.units:
             unit.x.array[:] = 0.0
-        return self._result(np.array([self.assemble(form) for form in force_forms]))
+        return np.array([self.assemble(form) for form in force_forms])
 
     @property
     def unknowns(self) -> int:

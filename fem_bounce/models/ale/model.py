@@ -1,57 +1,51 @@
 """The boundary-fitted ALE model (`--model ale`): the time loop.
 
-One fluid step of length dt (motion.MeshMotion, flow.SphereFlow):
+The N spheres on the axis (bodies.scene_bodies, sphere 1 the lowest) are holes in one mesh, each
+with its own mesh extension and unit flow response (motion.py, flow.py); every per-sphere value is
+an array over them, the added mass an N x N matrix.  One fluid step of length dt:
 
-1. predict the sphere centre at t_{n+1} (AB2 from the last two velocities); the mesh puts its
-   sphere there, but never closer to the wall than hold_delta D (see below);
-2. if the moved mesh would have a triangle of quality below min_quality, remesh around that
-   position and carry the flow over (remesh below), then move the mesh and set its velocity;
-3. assemble the step's matrix on the moved mesh; two solves give the flow for the reference sphere
-   velocity U_ref and the response to a unit velocity (numerics.ale.factorisation: "every-step"
-   factorises the matrix every step; "reuse", the default, solves by flexible GMRES preconditioned
-   with the factors of an earlier step and factorises when that pays: flow.py);
-4. the variational force is affine in the new sphere velocity U, F(U) = F* - m_a c (U - U_ref)
-   with m_a = -(dF/dU) / c: hand F* and m_a to the shared BodyIntegrator, which sub-cycles
-   through the contact and blends f_sim with f_thr below delta_sl as every model does;
-5. read back U and keep the step's field x_ref + (U - U_ref) x_unit.
+1. predict the sphere centres at t_{n+1} (AB2 from the last two velocities); the mesh puts its
+   spheres there, placed by flow_model.flow_gaps with the holds below (a held sphere stays put);
+2. if the moved mesh would have a triangle of quality below min_quality, remesh around those
+   positions and carry the flow over (remesh below), then move the mesh and set its velocity;
+3. assemble the step's matrix on the moved mesh; N + 1 solves give the flow for the reference
+   velocities U_ref and the response to a unit velocity of each sphere (numerics.ale.factorisation:
+   "every-step" factorises the matrix every step; "reuse", the default, solves by flexible GMRES
+   preconditioned with the factors of an earlier step and factorises when that pays: flow.py);
+4. the variational forces are affine in the new velocities U, F_i = F*_i - c sum_j M_ij (U_j - U_ref,j)
+   with M = -(dF_i/dU_j) / c: hand F* and M to the shared BodyIntegrator, which sub-cycles through
+   the contacts and blends f_sim with f_thr below delta_sl as every model does;
+5. read back U and keep the step's field x_ref + sum_k (U_k - U_ref,k) x_unit,k.
 
 Near contact.  The gap soon becomes thinner than a step's travel V dt, and thinner than any
 mesh one would pay for; below delta_sl the contact model has already handed the force to
-f_thr (H = 0.9933 at delta = 0.1, 0.99966 at delta = 0.04).  So the mesh stops following the
-sphere at the gap hold_delta D: the flow's sphere stays there, its surface still moving with
-the sphere's velocity U (a quasi-steady squeeze, like the Brenner check), while the
-integrator carries the real sphere through the contact and back; when it rises above the
-hold gap again the mesh follows it.  The f_sim computed at the held gap is wrong by a factor
-of order lambda(delta) / lambda(hold_delta), weighted by 1 - H; at the default hold 0.02 D
-that is below 1e-4 of f_thr.  With hold_delta = 0 the mesh follows the predicted positions
-until a step would put the sphere through the wall (the run then stops, saying how close it
-got); in Li's case 3 it reached 0.004-0.007 D at 8-32 cells/D without failing (the gap keeps
-min_gap_cells triangles across, and P2 holds the parabolic lubrication profile exactly: the
-steady force stays within 1 % of Brenner's down to 0.01 D), overshooting the real sphere,
-whose microsecond reversal in the contact no fluid step can see.  Nothing is gained: f_sim
-has no weight there.
+f_thr (H = 0.9933 at delta = 0.1, 0.99966 at delta = 0.04).  So the mesh stops following
+sphere 1 at the gap hold_delta D above the wall, and a neighbouring pair at hold_delta 2a* (a*
+their reduced radius); under the contact model's near-wall correction at its own holds instead
+(integrator.hold_gaps: delta_sl D and delta_sl 2a*, below which it adds the lubrication the flow
+misses).  The flow's sphere stays there, its surface still moving with the sphere's velocity U (a
+quasi-steady squeeze, like the Brenner check), while the integrator carries the real sphere
+through the contact and back; when it rises above the hold again the mesh follows it.  The f_sim
+computed at the held gap is wrong by a factor of order lambda(delta) / lambda(hold_delta),
+weighted by 1 - H; at the default hold 0.02 D that is below 1e-4 of f_thr.  With hold_delta = 0
+the mesh follows the predicted positions until a step would put a sphere through the wall or its
+neighbour (the run then stops, saying how close it got); in Li's case 3 it reached 0.004-0.007 D
+at 8-32 cells/D without failing (the gap keeps min_gap_cells triangles across, and P2 holds the
+parabolic lubrication profile exactly: the steady force stays within 1 % of Brenner's down to
+0.01 D), overshooting the real sphere, whose microsecond reversal in the contact no fluid step can
+see.  Nothing is gained: f_sim has no weight there.
 
-Remeshing.  gmsh meshes the half-plane around the sphere's new position; the flow's BDF
+Remeshing.  gmsh meshes the half-plane around the spheres' new positions; the flow's BDF
 history is carried over by evaluating each old level on the old mesh where that level lived
 and projecting it onto divergence-free fields (transfer.py), which also keeps the fluid's
-momentum.  Every new vertex is given the past positions x - (z^{n+1} - z^k) psi(x) e_z of
-the new mesh's own motion law, so the nodal time derivative and the mesh velocity stay
+momentum.  Every new vertex is given the past positions x - sum_k (z_k^{n+1} - z_k^j) psi_k(x) e_z
+of the new mesh's own motion law, so the nodal time derivative and the mesh velocity stay
 consistent across the remesh.
 
-A head-on pair (scene.pair) is the same with two holes, one mesh extension and one unit
-response per sphere (motion.py, flow.py): the force on each sphere is affine in both new
-velocities, F_i = F*_i - c sum_j M_ij (U_j - U_ref,j), and the integrator gets F* and the 2 x 2
-added-mass matrix M = -(dF_i/dU_j) / c.  The flow's spheres are placed by flow_model.flow_gaps:
-sphere 1 at least the wall hold above z = 0 and the pair gap at least the pair hold, each the
-larger of the contact model's hold (integrator.hold_gaps: delta_sl D1 and delta_sl 2a* under the
-near-wall correction) and the ale model's own hold_delta D1 and hold_delta 2a*, so the mesh
-between the spheres never collapses; the contact model carries the real gap through the
-collision as at the wall.  Remeshing moves both holes and carries the flow over as above.
-
-A held sphere (motion.mode = "fixed") is solved for its steady state directly: steady
-Navier-Stokes by Newton in a stream (Cd), steady Stokes when only its surface moves (the
-quasi-steady approach of Brenner's check, defined only at Re -> 0).  numerics.ale.fixed_solver
-= "march" time-marches it instead.
+Held spheres (every body held: motion.mode = "fixed", and fixed upper spheres) are solved for
+their steady state directly: steady Navier-Stokes by Newton in a stream (Cd), steady Stokes when
+only sphere 1's surface moves (the quasi-steady approach of Brenner's check, defined only at
+Re -> 0).  numerics.ale.fixed_solver = "march" time-marches them instead.
 """
 from __future__ import annotations
 
@@ -70,10 +64,10 @@ from ...fem.mesh import SPHERE_TAGS, create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction, flow_gaps
-from ...output import CheckpointError, segment_path
-from ...scene import pair_diameter
 from ...integrator import FluidForce
-from ...motion import is_stream, start_velocities, start_velocity
+from ...output import CheckpointError, segment_path
+from ...motion import is_stream, start_velocity
+from ...scene import pair_diameter
 from .domain import AleDomain, domain_for, is_steady, next_time_step, time_step
 from .fields import MovingFieldWriter
 from .flow import SphereFlow
@@ -97,8 +91,8 @@ def force_columns(count: int) -> tuple[str, ...]:
 @dataclass
 class Kinematics:
     """The sphere velocities U [m/s] the flow was given and the mesh's sphere centres z [m] at the
-    last time levels, newest first (a pair: arrays, sphere 1 first), and the time t_n [s] they reach
-    after `step` steps, the last of length `last_step` [s] (0 before the first)."""
+    last time levels, newest first, each an array over the spheres (sphere 1 first), and the time
+    t_n [s] they reach after `step` steps, the last of length `last_step` [s] (0 before the first)."""
 
     velocities: list
     centers: list
@@ -106,19 +100,19 @@ class Kinematics:
     time: float = 0.0
     last_step: float = 0.0
 
-    def push(self, velocity: float, center: float, time_now: float) -> None:
+    def push(self, velocities: np.ndarray, centers: np.ndarray, time_now: float) -> None:
         self.step += 1
         self.last_step, self.time = time_now - self.time, time_now
-        self.velocities = [velocity] + self.velocities[:-1]
-        self.centers = [center] + self.centers[:-1]
+        self.velocities = [velocities] + self.velocities[:-1]
+        self.centers = [centers] + self.centers[:-1]
 
-    def reference_velocity(self, bdf: tuple) -> float:
+    def reference_velocity(self, bdf: tuple) -> np.ndarray:
         """U_ref: dV/dt ~ c (U - U_ref) [m/s], with the coming step's BDF coefficients `bdf`."""
         return -sum(a * v for a, v in zip(bdf[1:], self.velocities)) / bdf[0]
 
-    def center_rate(self, center: float, bdf: tuple, dt: float) -> float:
-        """The BDF rate of the mesh's sphere centre if it moves to `center` at the end of a step dt [m/s]."""
-        return (bdf[0] * center + sum(a * z for a, z in zip(bdf[1:], self.centers))) / dt
+    def center_rate(self, centers: np.ndarray, bdf: tuple, dt: float) -> np.ndarray:
+        """The BDF rates of the mesh's sphere centres if they move to `centers` at the end of a step dt [m/s]."""
+        return (bdf[0] * centers + sum(a * z for a, z in zip(bdf[1:], self.centers))) / dt
 
 
 @dataclass
@@ -127,7 +121,7 @@ class Remesh:
 
     step: int
     time: float
-    gap: float  # of the mesh's sphere, after the move [m]
+    gap: float  # of the mesh's sphere 1 to the wall, after the move [m]
     quality: float  # the worst triangle had the move been made on the old mesh
     cells: int
     momentum_old: float  # of u^n on the old mesh [kg m/s]
@@ -136,7 +130,7 @@ class Remesh:
     sphere_volume_old: float  # of the old mesh's polygonal sphere [m^3]: a closed domain's fluid momentum
     sphere_volume: float  # is -rho V_h U exactly, so it changes by the ratio of these two
     seconds: float
-    pair_gap: float | None = None  # a pair: the mesh's gap between the two surfaces, after the move [m]
+    pair_gap: float | None = None  # the smallest gap between two of the mesh's spheres, after the move [m]
 
 
 @dataclass
@@ -150,7 +144,7 @@ class Statistics:
     longest_step: float = 0.0  # [s] (numerics.ale.adaptive_step)
     min_mesh_gap: float = math.inf
     max_unknowns: int = 0
-    min_mesh_pair_gap: float = math.inf  # a pair: the smallest gap between the mesh's two spheres [m]
+    min_mesh_pair_gap: float = math.inf  # the smallest gap between two of the mesh's spheres [m]
     # of the step matrix, over the meshes already left (report() adds the current mesh's)
     factorisations: int = 0
     krylov_iterations: int = 0
@@ -173,20 +167,22 @@ class AleModel(FlowModel):
         self.dt = self.cfl_step = time_step(scene)  # the coming step; the shortest (adaptive_step) [s]
         self.mesh = self.motion = self.flow = None
         self.stats = Statistics()
-        self.pair = scene.pair
-        self.sphere_tags = SPHERE_TAGS[: len(scene.spheres)]
-        self.diameters = np.array([sphere.diameter for sphere in scene.spheres])
-        self.holds = (self.domain.hold_gap, self.domain.pair_hold)  # a pair's, with the contact model's (build)
-        self.last_force = (0.0, 0.0)
+        self.bodies = scene_bodies(scene)
+        count = len(self.bodies)
+        self.sphere_tags = SPHERE_TAGS[:count]
+        self.diameters = np.array([body.diameter for body in self.bodies])
+        self.radii = np.array(self.domain.radii)
+        self.holds = self.domain.holds  # the contact model's where it holds the flow (build)
+        self.last_force = (np.zeros(count), np.zeros((count, count)))  # F* [N] and the added mass [kg]
         self._force_file = None
         self._force_rows = 0  # rows of ale_forces.csv (every rank counts them; rank 0 writes)
 
     # -- meshes ------------------------------------------------------------------------------
-    def build_mesh(self, center: float, cache: bool = True) -> tuple:
-        """(mesh, motion, flow) with the sphere centred at z = center [m]."""
+    def build_mesh(self, centers: np.ndarray, cache: bool = True) -> tuple:
+        """(mesh, motion, flow) with the spheres centred at z = centers [m]."""
         scene, domain = self.scene, self.domain
-        mesh, _, facet_tags = create_mesh(self.comm, domain.spec(center), cache=cache)
-        motion = MeshMotion(mesh, facet_tags, center, sphere_tags=self.sphere_tags)
+        mesh, _, facet_tags = create_mesh(self.comm, domain.spec(centers), cache=cache)
+        motion = MeshMotion(mesh, facet_tags, centers, sphere_tags=self.sphere_tags)
         flow = SphereFlow(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
                           motion.velocity, inflow_speed=domain.inflow_speed, order=self.settings.time_order,
                           sphere_tags=self.sphere_tags, factorisation=self.settings.factorisation,
@@ -204,8 +200,8 @@ class AleModel(FlowModel):
         s.factorise_s += flow.factorise_s
         s.solve_s += flow.solve_s
 
-    def remesh(self, center: float, quality: float) -> None:
-        """Mesh around the sphere centred at `center` [m] and carry the flow's history over."""
+    def remesh(self, center: np.ndarray, quality: float) -> None:
+        """Mesh around the spheres centred at `center` [m] and carry the flow's history over."""
         start = time.perf_counter()
         k = self.kinematics
         old_motion, old_flow = self.motion, self.flow
@@ -213,7 +209,7 @@ class AleModel(FlowModel):
             mesh, motion, flow = self.build_mesh(center, cache=False)
         except Exception as err:  # gmsh raises plain Exception: the run ends as diverged, cleanly
             diameter = self.scene.sphere.diameter
-            delta = (np.min(center) - self.domain.sphere_radius) / diameter
+            delta = (center[0] - self.radii[0]) / diameter
             between = "".join(f", pair gap {gap / diameter:.4g} D" for gap in self.mesh_pair_gaps(center))
             raise RunDiverged(f"remeshing at gap {delta:.4g} D{between} failed: {err}") from err
         tolerance = 1e-9 * self.scene.sphere.diameter
@@ -249,7 +245,7 @@ class AleModel(FlowModel):
         seconds = time.perf_counter() - start
         self.stats.remesh_s += seconds
         self.stats.remeshes.append(Remesh(
-            step=k.step, time=k.time, gap=float(np.min(center) - self.domain.sphere_radius), quality=quality,
+            step=k.step, time=k.time, gap=float(center[0] - self.radii[0]), quality=quality,
             cells=mesh.topology.index_map(2).size_global, momentum_old=momenta[0][0],
             momentum_interpolated=momenta[0][1], momentum_projected=momenta[0][2], sphere_volume_old=volumes[0],
             sphere_volume=volumes[1], seconds=seconds, pair_gap=min(self.mesh_pair_gaps(center), default=None)))
@@ -258,58 +254,45 @@ class AleModel(FlowModel):
         """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
         return self.domain.refined.z_max
 
-    def mesh_pair_gaps(self, centers) -> np.ndarray:
+    def mesh_pair_gaps(self, centers: np.ndarray) -> np.ndarray:
         """The gaps between neighbouring surfaces of the mesh's spheres centred at `centers` [m], lowest
         first (none for one sphere)."""
-        radii = np.array(self.domain.radii)
-        return np.diff(np.reshape(centers, -1)) - radii[:-1] - radii[1:]
+        return np.diff(centers) - self.radii[:-1] - self.radii[1:]
 
     def sphere_volume(self, flow: SphereFlow) -> float:
         """The volume of the mesh's polygonal sphere: the domain's cylinder less the liquid [m^3]."""
         return math.pi * self.domain.radius**2 * self.domain.height - flow.fluid_volume()
 
     # -- one step -------------------------------------------------------------------------------
-    def next_center(self, prediction: Prediction) -> tuple[float, bool]:
-        """(z, held): where the mesh puts the sphere at t_{n+1} [m], the controller's AB2 prediction, and
-        whether the hold gap stopped it there; a fixed sphere stays put.  A pair: both centres, placed by
-        flow_gaps with the wall and pair holds."""
-        if self.pair:
-            return self._pair_centers(prediction)
-        if self.scene.motion.mode == "fixed":
-            return self.domain.initial_center, False
-        predicted = prediction.centers([self.domain.sphere_radius])[0]
-        center = self.domain.mesh_center(predicted)
-        return center, bool(center > predicted)
-
-    def _pair_centers(self, prediction: Prediction) -> tuple[np.ndarray, bool]:
-        radii = np.array(self.domain.radii)
+    def next_centers(self, prediction: Prediction) -> tuple[np.ndarray, bool]:
+        """(z, held): where the mesh puts the spheres' centres at t_{n+1} [m], the controller's AB2
+        prediction or, where it would pass a wall or pair hold, that hold (flow_gaps), and whether a hold
+        stopped a moving sphere; a held sphere stays put."""
         predicted = prediction.gaps
         gaps = flow_gaps(predicted, self.diameters, self.holds)
-        held_spheres = np.array([self.scene.motion.mode, self.scene.second_sphere.mode]) == "fixed"
-        centers = np.where(held_spheres, self.domain.initial_centers, gaps + radii)
-        return centers, bool(np.any(gaps > predicted))
+        stopped = gaps > predicted
+        centers = np.where(stopped, gaps + self.radii, prediction.centers(self.radii))
+        held_spheres = np.array([body.held for body in self.bodies])
+        return np.where(held_spheres, self.domain.initial_centers, centers), bool(np.any(stopped & ~held_spheres))
 
     # -- the FlowModel interface ------------------------------------------------------------------
     def build(self, integrator) -> None:
         start = time.perf_counter()
         scene, domain = self.scene, self.domain
         order = self.settings.time_order
-        if self.pair:
-            # the larger of the contact model's holds (wall, pair) and the ale model's own
-            self.holds = tuple(max(own, contact) for own, contact in zip(self.holds, integrator.hold_gaps))
-            centers = np.array(domain.initial_centers)
-            self.mesh, self.motion, self.flow = self.build_mesh(centers)
-            velocities = np.array(start_velocities(scene), dtype=float)
-            self.kinematics = Kinematics([velocities.copy() for _ in range(order)],
-                                         [centers.copy() for _ in range(order)])
-        else:
-            self.mesh, self.motion, self.flow = self.build_mesh(domain.initial_center)
-            velocity = start_velocity(scene)
-            self.kinematics = Kinematics([velocity] * order, [domain.initial_center] * order)
+        # under its near-wall correction the contact model's holds (delta_sl D1, delta_sl 2a*): it adds the
+        # lubrication the flow misses below them; elsewhere (a hold of 0) the ale model's own hold_delta
+        self.holds = tuple(contact or own for own, contact in zip(self.holds, integrator.hold_gaps))
+        centers = np.array(domain.initial_centers)
+        self.mesh, self.motion, self.flow = self.build_mesh(centers)
+        # each body's start velocity, but sphere 1's flow starts at motion.velocity when it is not free, also
+        # under a prescribed series (its Body and the integrator start at the series' V(0))
+        velocities = np.array([start_velocity(scene), *(body.start_velocity for body in self.bodies[1:])])
+        self.kinematics = Kinematics([velocities.copy() for _ in range(order)], [centers.copy() for _ in range(order)])
         self.flow.set_uniform((0.0, domain.inflow_speed))
         self.stats.setup_s = time.perf_counter() - start
 
-    def initial_velocities(self) -> list[float]:
+    def initial_velocities(self) -> list[np.ndarray]:
         return list(self.kinematics.velocities)
 
     def next_time(self) -> float:
@@ -329,8 +312,8 @@ class AleModel(FlowModel):
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         k, settings = self.kinematics, self.settings
         t_next = self.next_time()
-        center, held = self.next_center(prediction)
-        gap = float(np.reshape(center, -1)[0] - self.domain.sphere_radius)  # sphere 1's, to the wall
+        center, held = self.next_centers(prediction)
+        gap = float(center[0] - self.radii[0])  # sphere 1's, to the wall
         if gap <= 0.0:
             raise RunDiverged(f"the mesh cannot follow the sphere: the step to t = {t_next:.6g} s would put it "
                               f"{-gap:.3g} m into the wall (smallest mesh gap reached "
@@ -356,27 +339,25 @@ class AleModel(FlowModel):
         extrapolated = sum(beta * v for beta, v in zip(self.flow.ext, k.velocities))
         force, slope = self.flow.step(reference, extrapolated_velocity=extrapolated)
         self.stats.factorisation_s += time.perf_counter() - start
-        added_mass = -slope / self.flow.c  # a pair: the matrix M_ij = -(dF_i/dU_j) / c
+        added_mass = -slope / self.flow.c  # M_ij = -(dF_i/dU_j) / c
         if not (np.all(np.isfinite(force)) and np.all(np.isfinite(added_mass))):
             raise FloatingPointError(f"the fluid force became {force} N at t = {t_next:.6g} s")
         self.last_force = (force, added_mass)
         self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction)
         self._integrator_start = time.perf_counter()
-        count = len(self.diameters)
-        return FluidForce(explicit=np.reshape(force, count), added_mass=np.reshape(added_mass, (count, count)))
+        return FluidForce(explicit=force, added_mass=added_mass)
 
     def complete(self, velocities: np.ndarray, time_now: float) -> None:
         self.stats.integrator_s += time.perf_counter() - self._integrator_start
         t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction = self._pending
-        # the flow's own values: a pair's as arrays (the integrator's copied), one sphere's as numbers
-        velocity = np.array(velocities, dtype=float) if self.pair else float(velocities[0])
+        velocity = np.array(velocities, dtype=float)  # the flow's own copy of the integrator's
         change = velocity - reference
         self.flow.commit(change)
         if self.settings.adaptive_step:
             self.dt = self._next_step(velocity, self._nearest_gap(prediction))
         self.kinematics.push(velocity, center, t_next)
         self.step = self.kinematics.step
-        self._record_force(t_next, gap, force + (slope @ change if self.pair else slope * change), added_mass,
+        self._record_force(t_next, gap, force + slope @ change, added_mass,
                            quality if remeshed else self.motion.quality(self.motion.shift), remeshed)
 
     def _nearest_gap(self, prediction: Prediction) -> float:
@@ -386,12 +367,12 @@ class AleModel(FlowModel):
         between = list(np.diff(gaps) - self.diameters[:-1])
         return min(between + [gaps[0]]) if self.scene.wall.present or not between else min(between)
 
-    def _next_step(self, velocity, gap: float) -> float:
+    def _next_step(self, velocity: np.ndarray, gap: float) -> float:
         """The coming step [s] (domain.next_time_step) from the step just made, which ends at `velocity`
-        with the mesh's sphere `gap` [m] from what it may hit (the nearer of wall and neighbour for a pair):
-        the jerk from the last three velocities, the fastest sphere's."""
+        with the spheres `gap` [m] from what they may hit (the nearest wall or neighbour): the jerk from the
+        last three velocities, the fastest sphere's."""
         k, dt = self.kinematics, self.dt
-        levels = [np.asarray(v, dtype=float) for v in (velocity, *k.velocities[:2])]
+        levels = [velocity, *k.velocities[:2]]
         acceleration = (levels[0] - levels[1]) / dt
         before = (levels[1] - levels[2]) / k.last_step if k.last_step else acceleration
         jerk = float(np.max(np.abs(acceleration - before))) / (0.5 * (dt + (k.last_step or dt)))
@@ -409,18 +390,18 @@ class AleModel(FlowModel):
         self._force_writer.writerow([f"{x:.10g}" for x in values] + [int(remeshed)])
 
     def steady_force(self) -> FluidForce:
-        """The held spheres' steady state (SphereFlow.steady), held from the start to the end time."""
+        """The held spheres' steady state (SphereFlow.steady), held from the start to the end time: each
+        surface at its body's velocity (sphere 1's motion.velocity, an upper sphere at rest)."""
         start = time.perf_counter()
-        # a held pair: sphere 1's surface at motion.velocity (as one held sphere's), the second at rest
-        surfaces = np.array(start_velocities(self.scene)) if self.pair else self.scene.motion.velocity
+        surfaces = np.array([body.start_velocity for body in self.bodies])
         force = self.flow.steady(surfaces, convection=is_stream(self.scene))
         self.stats.factorisation_s += time.perf_counter() - start
-        count = len(self.diameters)
-        no_added_mass = np.zeros((count, count)) if self.pair else 0.0
-        self.last_force = (force, no_added_mass)
-        self.stats.min_mesh_gap = self.domain.initial_center - self.domain.sphere_radius
-        self.stats.min_mesh_pair_gap = min(self.mesh_pair_gaps(self.domain.initial_centers), default=math.inf)
-        return FluidForce(explicit=np.reshape(force, count), added_mass=np.zeros((count, count)))
+        count = len(self.bodies)
+        self.last_force = (force, np.zeros((count, count)))
+        centers = np.array(self.domain.initial_centers)
+        self.stats.min_mesh_gap = float(centers[0] - self.radii[0])
+        self.stats.min_mesh_pair_gap = min(self.mesh_pair_gaps(centers), default=math.inf)
+        return FluidForce(*self.last_force)
 
     def complete_steady(self, time_now: float) -> None:
         self.kinematics.step = self.step = 1
@@ -441,9 +422,9 @@ class AleModel(FlowModel):
                            ("solve_s", flow.solve_s)):
             stats[key] += value
         state = {"dt": self.cfl_step, "step_length": self.dt, "time": k.time, "last_step": k.last_step,
-                 "mesh_center": _plain(self.motion.reference_center),
-                 "velocities": [_plain(v) for v in k.velocities], "centers": [_plain(z) for z in k.centers],
-                 "kinematics_step": k.step, "last_force": [_plain(x) for x in self.last_force],
+                 "mesh_center": self.motion.reference_center.tolist(),
+                 "velocities": [v.tolist() for v in k.velocities], "centers": [z.tolist() for z in k.centers],
+                 "kinematics_step": k.step, "last_force": [x.tolist() for x in self.last_force],
                  "statistics": stats, "force_rows": self._force_rows}
         return state, arrays
 
@@ -451,14 +432,13 @@ class AleModel(FlowModel):
         if not math.isclose(state["dt"], self.cfl_step, rel_tol=1e-12):
             raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
                                   f"{self.cfl_step:g} s: the scene was changed")
-        per_sphere = np.array if self.pair else (lambda x: x)  # a pair's values were stored as lists
-        mesh_center = per_sphere(state["mesh_center"])
+        mesh_center = _stored(state["mesh_center"])
         if np.any(mesh_center != self.motion.reference_center):  # remeshed: gmsh makes the same mesh again
             self.flow.destroy()
             self.mesh, self.motion, self.flow = self.build_mesh(mesh_center, cache=False)
         step = state["kinematics_step"]
-        k = self.kinematics = Kinematics([per_sphere(v) for v in state["velocities"]],
-                                         [per_sphere(z) for z in state["centers"]], step=step,
+        k = self.kinematics = Kinematics([_stored(v) for v in state["velocities"]],
+                                         [_stored(z) for z in state["centers"]], step=step,
                                          time=state.get("time", step * self.cfl_step),
                                          last_step=state.get("last_step", self.cfl_step if step else 0.0))
         self.dt = state.get("step_length", self.cfl_step)
@@ -470,7 +450,9 @@ class AleModel(FlowModel):
         statistics = dict(state["statistics"])
         statistics["remeshes"] = [Remesh(**r) for r in statistics["remeshes"]]
         self.stats = Statistics(**statistics)
-        self.last_force = tuple(per_sphere(x) for x in state["last_force"])
+        count = len(self.bodies)
+        force, added_mass = state["last_force"]
+        self.last_force = (_stored(force), _stored(added_mass).reshape(count, count))
         self._force_rows = state["force_rows"]
 
     # -- outputs ----------------------------------------------------------------------------------
@@ -518,11 +500,11 @@ class AleModel(FlowModel):
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
         diameter = self.scene.sphere.diameter
         force, added_mass = self.last_force
-        displaced = np.array([body.displaced_mass for body in scene_bodies(self.scene)])
-        pair = {}
-        if self.pair:
-            pair = {"min_mesh_pair_delta": self.stats.min_mesh_pair_gap / pair_diameter(*self.scene.spheres),
-                    "holds_m": list(self.holds)}
+        displaced = np.array([body.displaced_mass for body in self.bodies])
+        between = {}
+        if len(self.bodies) > 1:
+            between = {"min_mesh_pair_delta": self.stats.min_mesh_pair_gap / pair_diameter(*self.scene.spheres),
+                       "holds_m": list(self.holds)}
         return {
             "solver": "steady" if self.steady else "march",
             "timings_s": {"setup": stats.setup_s, "steps": self.loop_seconds,
@@ -543,15 +525,19 @@ class AleModel(FlowModel):
             "adaptive_step": self.settings.adaptive_step,
             "longest_step_s": max(stats.longest_step, self.cfl_step),
             "min_mesh_delta": stats.min_mesh_gap / diameter,
-            "last_force_N": _plain(force),
-            # a pair: M_ij / (rho V_i), row i the force on sphere i
-            "added_mass_over_displaced": _plain(np.asarray(added_mass) / displaced[:, None]) if self.pair
-            else added_mass / self.scene.displaced_mass,
+            "last_force_N": _reported(force),
+            "added_mass_over_displaced": _reported(added_mass / displaced[:, None]),  # M_ij / (rho V_i), row i
             "peak_memory_bytes": self.comm.allreduce(peak),
-            **pair,
+            **between,
         }
 
 
-def _plain(value):
-    """A per-sphere value as JSON takes it: an array (a pair's) as a list, a float as it is."""
-    return value.tolist() if isinstance(value, np.ndarray) else value
+def _stored(values) -> np.ndarray:
+    """Per-sphere values read from a checkpoint as an array (one sphere's were numbers before issue 25)."""
+    return np.atleast_1d(np.asarray(values, dtype=float))
+
+
+def _reported(values: np.ndarray):
+    """Per-sphere values as summary.json gives them: one sphere's as a number (as its csv columns), more as
+    lists."""
+    return values.item() if values.size == 1 else values.tolist()

@@ -18,12 +18,12 @@ same BDF formula as the flow's time derivative, so the position of every vertex 
 velocity agree; with the non-conservative ALE form (flow.py) a uniform flow then stays
 uniform on the moving mesh to round-off (the geometric conservation law; tested).
 
-A head-on pair moves with one extension per sphere: psi_k = 1 on sphere k and 0 on the other
-sphere and the outer sides, x = X + (s_1 psi_1 + s_2 psi_2) e_z and w = sum_k psi_k e_z (BDF
-rate of s_k); both come from one factorisation.  psi_1 + psi_2 <= 1 (maximum principle), so the
-mesh between the spheres is squeezed or stretched by their relative motion and is remade when
-its triangles degrade, like the gap to the wall.  Per-sphere values (centres, shifts, rates)
-are floats for one sphere and arrays (sphere 1 first) for a pair.
+Every sphere on the axis has its own extension: psi_k = 1 on sphere k and 0 on the other spheres
+and the outer sides, x = X + sum_k s_k psi_k e_z and w = sum_k psi_k e_z (BDF rate of s_k); all
+come from one factorisation.  sum_k psi_k <= 1 (maximum principle), so the mesh between two
+spheres is squeezed or stretched by their relative motion and is remade when its triangles
+degrade, like the gap to the wall.  Per-sphere values (centres, shifts, rates) are arrays over the
+spheres, sphere 1 (the lowest) first.
 
 Quality of a triangle: q = 4 sqrt(3) A / (sum of its squared edge lengths), 1 for an
 equilateral triangle, 0 for a degenerate one, negative when the motion inverted it.
@@ -52,8 +52,8 @@ def triangle_quality(points: np.ndarray, cells: np.ndarray, orientation: np.ndar
 
 
 class MeshMotion:
-    """Moves `mesh` (in place) with the sphere; `center` is the sphere centre z it was made with [m]
-    (a pair: the centres of the spheres whose surfaces carry `sphere_tags`, lowest first)."""
+    """Moves `mesh` (in place) with the spheres; `center` holds the centres z it was made with [m] of the
+    spheres whose surfaces carry `sphere_tags`, lowest first."""
 
     def __init__(self, mesh, facet_tags, center, prefix: str = "ale_mesh_", sphere_tags: tuple = (SPHERE,)):
         self.mesh = mesh
@@ -69,7 +69,7 @@ class MeshMotion:
         self.extension_nodes = [self._at_geometry_nodes(psi) for psi in self.extensions]
         self.psi_nodes = self.extension_nodes[0]
         self.orientation = np.sign(triangle_quality(self.reference, self.cells))
-        self.shift = 0.0 if len(sphere_tags) == 1 else np.zeros(len(sphere_tags))
+        self.shift = np.zeros(len(sphere_tags))
         # d(shift_k)/dt of the current step [m/s]: the mesh velocity is sum_k rate_k psi_k e_z
         self.rates = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in sphere_tags]
         self.rate = self.rates[0]
