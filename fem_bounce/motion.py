@@ -26,21 +26,6 @@ def is_stream(scene: Scene) -> bool:
     return is_held(scene) and scene.motion.stream_velocity != 0.0
 
 
-def start_velocity(scene: Scene) -> float:
-    """The sphere's velocity the flow starts with [m/s]: its launch speed initial_velocity when free (0:
-    released from rest), the imposed one otherwise."""
-    return scene.motion.velocity if not is_free(scene) else scene.initial_velocity
-
-
-def start_velocities(scene: Scene) -> tuple[float, ...]:
-    """Each sphere's velocity at the start [m/s], sphere 1 first: a pair's second sphere starts at its
-    `velocity` (a projectile) unless it is fixed."""
-    if scene.second_sphere is None:
-        return (start_velocity(scene),)
-    second = scene.second_sphere
-    return start_velocity(scene), (0.0 if second.mode == "fixed" else second.velocity)
-
-
 def follows_series(scene: Scene) -> bool:
     """Prescribed along the (t, velocity) CSV motion.series (not at a constant motion.velocity)."""
     return scene.motion.mode == "prescribed" and bool(scene.motion.series)

@@ -66,7 +66,7 @@ from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction, flow_gaps
 from ...integrator import FluidForce
 from ...output import CheckpointError, segment_path
-from ...motion import is_stream, start_velocity
+from ...motion import is_stream
 from ...scene import pair_diameter
 from .domain import AleDomain, domain_for, is_steady, next_time_step, time_step
 from .fields import MovingFieldWriter
@@ -278,16 +278,14 @@ class AleModel(FlowModel):
     # -- the FlowModel interface ------------------------------------------------------------------
     def build(self, integrator) -> None:
         start = time.perf_counter()
-        scene, domain = self.scene, self.domain
+        domain = self.domain
         order = self.settings.time_order
         # under its near-wall correction the contact model's holds (delta_sl D1, delta_sl 2a*): it adds the
         # lubrication the flow misses below them; elsewhere (a hold of 0) the ale model's own hold_delta
         self.holds = tuple(contact or own for own, contact in zip(self.holds, integrator.hold_gaps))
         centers = np.array(domain.initial_centers)
         self.mesh, self.motion, self.flow = self.build_mesh(centers)
-        # each body's start velocity, but sphere 1's flow starts at motion.velocity when it is not free, also
-        # under a prescribed series (its Body and the integrator start at the series' V(0))
-        velocities = np.array([start_velocity(scene), *(body.start_velocity for body in self.bodies[1:])])
+        velocities = np.array([body.start_velocity for body in self.bodies])  # as the integrator's
         self.kinematics = Kinematics([velocities.copy() for _ in range(order)], [centers.copy() for _ in range(order)])
         self.flow.set_uniform((0.0, domain.inflow_speed))
         self.stats.setup_s = time.perf_counter() - start
@@ -391,7 +389,7 @@ class AleModel(FlowModel):
 
     def steady_force(self) -> FluidForce:
         """The held spheres' steady state (SphereFlow.steady), held from the start to the end time: each
-        surface at its body's velocity (sphere 1's motion.velocity, an upper sphere at rest)."""
+        surface at its body's velocity (motion.velocity, second_sphere.velocity)."""
         start = time.perf_counter()
         surfaces = np.array([body.start_velocity for body in self.bodies])
         force = self.flow.steady(surfaces, convection=is_stream(self.scene))
