@@ -92,7 +92,7 @@ def test_geometric_conservation_law_uniform_flow_stays_uniform_on_a_moving_mesh(
     for n in range(1, 7):
         center = 3 * D + 1.5 * D * math.sin(0.9 * n)  # large and irregular: qualities down to ~0.3
         motion.move_to(center)
-        motion.rate.value = (1.5 * center - 2.0 * centers[0] + 0.5 * centers[1]) / dt
+        motion.set_rates([(1.5 * center - 2.0 * centers[0] + 0.5 * centers[1]) / dt])
         force, _ = flow.step(speed)
         flow.commit(0.0)
         centers = [center, centers[0]]
@@ -139,7 +139,7 @@ def test_force_is_exactly_affine_in_the_sphere_velocity():
     for state in flow.states:  # a history that is not at rest
         state.x.array[:] = 0.01 * np.sin(np.arange(state.x.array.size))
     motion.move(-0.2 * D)
-    motion.rate.value = -0.02
+    motion.set_rates([-0.02])
     force, slope = flow.step(np.array([-0.03]))
     again, _ = flow.step(np.array([-0.05]))
     assert force.shape == (1,) and slope.shape == (1, 1)  # arrays over the bodies, one sphere too

@@ -120,18 +120,23 @@ class SphereFlow:
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         # the numbers of a scene and of the step as Constants, not literals: one compiled form for every
-        # scene, mesh and step length (the step's BDF rates alpha_j / dt and extrapolation weights beta_j)
-        rho, mu, inverse_dt = (fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in range(3))
-        self._bdf = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in range(order + 1)]
-        self._ext = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in range(order)]
-        rho.value, mu.value = density, viscosity
-        self.constants = {"density": rho, "viscosity": mu, "inverse_dt": inverse_dt}
+        # scene, mesh and step length.  One vector Constant holds them all, [rho, mu, 1/dt, alpha_0..,
+        # beta_0..] (the step's BDF rates alpha_j / dt and extrapolation weights beta_j): UFL orders the
+        # terms of a sum by comparing distinct Constants by their repr, which holds a global count, so
+        # separate Constants made the form's signature (and a recompilation) depend on how many Constants
+        # the process had made before (count 99 sorts after 100).
+        self.numbers = fem.Constant(mesh, np.zeros(3 + 2 * order + 1, dtype=PETSc.ScalarType))
+        numbers = self.numbers
+        rho, mu, inverse_dt = numbers[0], numbers[1], numbers[2]
+        bdf = [numbers[3 + j] for j in range(order + 1)]
+        ext = [numbers[4 + order + j] for j in range(order)]
+        numbers.value[:2] = density, viscosity
         self.rho, self.mu = rho, mu
         self.set_time_step(dt)
         past = [ufl.split(state)[0] for state in self.states]
-        extrapolated = sum(beta * u_j for beta, u_j in zip(self._ext, past))
-        history = -rho * inverse_dt * sum(alpha * u_j for alpha, u_j in zip(self._bdf[1:], past))
-        a = (forms.stokes_operator(u, p, v, q, rho * self._bdf[0] * inverse_dt, mu, r, dx)
+        extrapolated = sum(beta * u_j for beta, u_j in zip(ext, past))
+        history = -rho * inverse_dt * sum(alpha * u_j for alpha, u_j in zip(bdf[1:], past))
+        a = (forms.stokes_operator(u, p, v, q, rho * bdf[0] * inverse_dt, mu, r, dx)
              + rho * forms.convection(extrapolated - mesh_velocity, u, v, r, dx))
         L = forms.source(history, v, r, dx)
         self.a, self.L = fem.form(a), fem.form(L)
@@ -153,9 +158,7 @@ class SphereFlow:
         self.dt = dt
         self.bdf, self.ext = step_coefficients(self.order, dt / (previous or dt))
         self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference)
-        self.constants["inverse_dt"].value = 1.0 / dt
-        for constant, coefficient in zip(self._bdf + self._ext, self.bdf + self.ext):
-            constant.value = coefficient
+        self.numbers.value[2:] = [1.0 / dt, *self.bdf, *self.ext]
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides) -> None:

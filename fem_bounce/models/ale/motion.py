@@ -70,13 +70,10 @@ class MeshMotion:
         self.psi_nodes = self.extension_nodes[0]
         self.orientation = np.sign(triangle_quality(self.reference, self.cells))
         self.shift = np.zeros(len(sphere_tags))
-        # d(shift_k)/dt of the current step [m/s]: the mesh velocity is sum_k rate_k psi_k e_z
-        self.rates = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in sphere_tags]
-        self.rate = self.rates[0]
-        axial = self.rate * self.psi
-        for rate, psi in zip(self.rates[1:], self.extensions[1:]):
-            axial = axial + rate * psi
-        self.velocity = ufl.as_vector((0.0, axial))
+        # d(shift_k)/dt of the current step [m/s]: the mesh velocity is sum_k rate_k psi_k e_z (one vector
+        # Constant: flow.SphereFlow says why)
+        self.rates = fem.Constant(mesh, np.zeros(len(sphere_tags), dtype=PETSc.ScalarType))
+        self.velocity = ufl.as_vector((0.0, sum(self.rates[k] * psi for k, psi in enumerate(self.extensions))))
 
     def _solve_extensions(self, facet_tags, sphere_tags, prefix: str) -> None:
         """psi_k for every sphere k: one matrix (the same Dirichlet rows for all), one factorisation."""
@@ -150,5 +147,4 @@ class MeshMotion:
 
     def set_rates(self, rates) -> None:
         """The BDF rates of the sphere centres this step [m/s]: the mesh velocity."""
-        for constant, rate in zip(self.rates, np.atleast_1d(rates)):
-            constant.value = rate
+        self.rates.value[:] = rates
