@@ -689,6 +689,11 @@ def per_body(values: np.ndarray):
     return values.item() if values.size == 1 else values.tolist()
 
 
+def body_array(values) -> np.ndarray:
+    """Per-body values read back (from a checkpoint) as an array; one sphere's were numbers before issue 25."""
+    return np.atleast_1d(np.asarray(values, dtype=float))
+
+
 def _versions() -> dict:
     found = {"fem_bounce": __version__, "python": platform.python_version()}
     for module in ("numpy", "scipy", "petsc4py", "dolfinx", "gmsh", "mpi4py"):

@@ -53,6 +53,7 @@ import csv
 import math
 import resource
 import time
+import dataclasses
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -65,7 +66,7 @@ from ...fem.solver import SolverError
 from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction, flow_gaps
 from ...integrator import FluidForce
-from ...output import CheckpointError, segment_path
+from ...output import CheckpointError, body_array, per_body, segment_path
 from ...motion import is_stream
 from ...scene import pair_diameter
 from .domain import AleDomain, domain_for, is_steady, next_time_step, time_step
@@ -191,14 +192,10 @@ class AleModel(FlowModel):
         self.stats.max_unknowns = max(self.stats.max_unknowns, flow.unknowns)
         return mesh, motion, flow
 
-    def _tally(self, flow: SphereFlow) -> None:
-        """Add a flow's (a mesh's) solver counts and times to the run's, before it is dropped."""
-        s = self.stats
-        s.factorisations += flow.factorisations
-        s.krylov_iterations += flow.krylov_iterations
-        s.assembly_s += flow.assembly_s
-        s.factorise_s += flow.factorise_s
-        s.solve_s += flow.solve_s
+    def _with_tallies(self, stats: Statistics, flow: SphereFlow) -> None:
+        """Add a flow's (a mesh's) solver counts and times to `stats`: the run's before the flow is dropped."""
+        for key in ("factorisations", "krylov_iterations", "assembly_s", "factorise_s", "solve_s"):
+            setattr(stats, key, getattr(stats, key) + getattr(flow, key))
 
     def remesh(self, center: np.ndarray, quality: float) -> None:
         """Mesh around the spheres centred at `center` [m] and carry the flow's history over."""
@@ -239,7 +236,7 @@ class AleModel(FlowModel):
             if projection is not None:
                 projection.destroy()
         motion.move_to(center)
-        self._tally(old_flow)
+        self._with_tallies(self.stats, old_flow)
         old_flow.destroy()
         self.mesh, self.motion, self.flow = mesh, motion, flow
         seconds = time.perf_counter() - start
@@ -413,12 +410,9 @@ class AleModel(FlowModel):
         k = self.kinematics
         self.flow.renew()  # reused factors: the run goes on with fresh ones, as a restart from here does
         arrays = gather_history(self.flow.states)
-        stats = asdict(self.stats)
-        flow = self.flow  # the current mesh's solver tallies: a restart starts a new mesh's from zero
-        for key, value in (("factorisations", flow.factorisations), ("krylov_iterations", flow.krylov_iterations),
-                           ("assembly_s", flow.assembly_s), ("factorise_s", flow.factorise_s),
-                           ("solve_s", flow.solve_s)):
-            stats[key] += value
+        stats = dataclasses.replace(self.stats)  # with the current mesh's tallies: a restart starts a new mesh's
+        self._with_tallies(stats, self.flow)
+        stats = asdict(stats)
         state = {"dt": self.cfl_step, "step_length": self.dt, "time": k.time, "last_step": k.last_step,
                  "mesh_center": self.motion.reference_center.tolist(),
                  "velocities": [v.tolist() for v in k.velocities], "centers": [z.tolist() for z in k.centers],
@@ -430,13 +424,13 @@ class AleModel(FlowModel):
         if not math.isclose(state["dt"], self.cfl_step, rel_tol=1e-12):
             raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
                                   f"{self.cfl_step:g} s: the scene was changed")
-        mesh_center = _stored(state["mesh_center"])
+        mesh_center = body_array(state["mesh_center"])
         if np.any(mesh_center != self.motion.reference_center):  # remeshed: gmsh makes the same mesh again
             self.flow.destroy()
             self.mesh, self.motion, self.flow = self.build_mesh(mesh_center, cache=False)
         step = state["kinematics_step"]
-        k = self.kinematics = Kinematics([_stored(v) for v in state["velocities"]],
-                                         [_stored(z) for z in state["centers"]], step=step,
+        k = self.kinematics = Kinematics([body_array(v) for v in state["velocities"]],
+                                         [body_array(z) for z in state["centers"]], step=step,
                                          time=state.get("time", step * self.cfl_step),
                                          last_step=state.get("last_step", self.cfl_step if step else 0.0))
         self.dt = state.get("step_length", self.cfl_step)
@@ -450,7 +444,7 @@ class AleModel(FlowModel):
         self.stats = Statistics(**statistics)
         count = len(self.bodies)
         force, added_mass = state["last_force"]
-        self.last_force = (_stored(force), _stored(added_mass).reshape(count, count))
+        self.last_force = (body_array(force), body_array(added_mass).reshape(count, count))
         self._force_rows = state["force_rows"]
 
     # -- outputs ----------------------------------------------------------------------------------
@@ -460,14 +454,12 @@ class AleModel(FlowModel):
             self.writer = MovingFieldWriter(self.comm, path)
         if self.comm.rank == 0:
             forces = Path(out_dir) / "ale_forces.csv"
-            if restart and forces.is_file():  # cut back to the checkpoint's rows, then continue
-                lines = forces.read_text().splitlines(keepends=True)[: 1 + self._force_rows]
-                forces.write_text("".join(lines))
-                self._force_file = open(forces, "a", newline="")
-                self._force_writer = csv.writer(self._force_file)
-            else:
-                self._force_file = open(forces, "w", newline="")
-                self._force_writer = csv.writer(self._force_file)
+            resume = restart and forces.is_file()
+            if resume:  # cut back to the checkpoint's rows, then continue
+                forces.write_text("".join(forces.read_text().splitlines(keepends=True)[: 1 + self._force_rows]))
+            self._force_file = open(forces, "a" if resume else "w", newline="")
+            self._force_writer = csv.writer(self._force_file)
+            if not resume:
                 self._force_writer.writerow(force_columns(len(self.diameters)))
 
     def write_fields(self, time_now: float) -> None:
@@ -491,31 +483,29 @@ class AleModel(FlowModel):
 
     def report(self) -> dict:
         """Cost, remeshing and near-contact details for summary.json [SI]."""
-        stats = self.stats
+        stats = dataclasses.replace(self.stats)  # with the current mesh's solver tallies
+        self._with_tallies(stats, self.flow)
         steps = max(self.kinematics.step, 1)
-        flow = self.flow
-        factorisations = stats.factorisations + flow.factorisations
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
         diameter = self.scene.sphere.diameter
         force, added_mass = self.last_force
         displaced = np.array([body.displaced_mass for body in self.bodies])
         between = {}
         if len(self.bodies) > 1:
-            between = {"min_mesh_pair_delta": self.stats.min_mesh_pair_gap / pair_diameter(*self.scene.spheres),
+            between = {"min_mesh_pair_delta": stats.min_mesh_pair_gap / pair_diameter(*self.scene.spheres),
                        "holds_m": list(self.holds)}
         return {
             "solver": "steady" if self.steady else "march",
             "timings_s": {"setup": stats.setup_s, "steps": self.loop_seconds,
                           "factorise_and_solve": stats.factorisation_s,
                           "integrator": stats.integrator_s, "remesh": stats.remesh_s,
-                          "assembly": stats.assembly_s + flow.assembly_s,
-                          "factorisation": stats.factorise_s + flow.factorise_s,
-                          "solves": stats.solve_s + flow.solve_s},
+                          "assembly": stats.assembly_s, "factorisation": stats.factorise_s,
+                          "solves": stats.solve_s},
             "time_per_step_s": self.loop_seconds / steps,
             "factorisation": self.settings.factorisation,
-            "factorisations": factorisations,  # of the step matrix (each remesh adds two projections)
-            "factorisations_per_step": factorisations / steps,
-            "krylov_iterations": stats.krylov_iterations + flow.krylov_iterations,
+            "factorisations": stats.factorisations,  # of the step matrix (each remesh adds two projections)
+            "factorisations_per_step": stats.factorisations / steps,
+            "krylov_iterations": stats.krylov_iterations,
             "remesh_count": len(stats.remeshes),
             "remeshes": [asdict(r) for r in stats.remeshes],
             "hold_delta": self.settings.hold_delta,
@@ -523,19 +513,9 @@ class AleModel(FlowModel):
             "adaptive_step": self.settings.adaptive_step,
             "longest_step_s": max(stats.longest_step, self.cfl_step),
             "min_mesh_delta": stats.min_mesh_gap / diameter,
-            "last_force_N": _reported(force),
-            "added_mass_over_displaced": _reported(added_mass / displaced[:, None]),  # M_ij / (rho V_i), row i
+            "last_force_N": per_body(force),
+            "added_mass_over_displaced": per_body(added_mass / displaced[:, None]),  # M_ij / (rho V_i), row i
             "peak_memory_bytes": self.comm.allreduce(peak),
             **between,
         }
 
-
-def _stored(values) -> np.ndarray:
-    """Per-sphere values read from a checkpoint as an array (one sphere's were numbers before issue 25)."""
-    return np.atleast_1d(np.asarray(values, dtype=float))
-
-
-def _reported(values: np.ndarray):
-    """Per-sphere values as summary.json gives them: one sphere's as a number (as its csv columns), more as
-    lists."""
-    return values.item() if values.size == 1 else values.tolist()

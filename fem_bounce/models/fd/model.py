@@ -35,7 +35,7 @@ from ...fem.mesh import create_mesh
 from ...fem.solver import SolverError
 from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
 from ...motion import is_stream
-from ...output import CheckpointError, per_body, segment_path
+from ...output import CheckpointError, body_array, per_body, segment_path
 from ...scene import SceneError, pair_diameter
 from ...integrator import FluidForce
 from . import coupling
@@ -285,9 +285,7 @@ class FictitiousDomainModel(FlowModel):
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.domain.fine_size)
         except (ValueError, KeyError, CheckpointMismatch) as err:
             raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
-        # np.atleast_1d: one sphere's checkpoints before issue 25 held numbers
-        velocities, interiors = ([np.atleast_1d(np.array(v, dtype=float)) for v in state[key]]
-                                 for key in ("velocities", "interiors"))
+        velocities, interiors = ([body_array(v) for v in state[key]] for key in ("velocities", "interiors"))
         count = len(self.bodies_on_axis)
         if any(len(v) != count for v in velocities):
             raise CheckpointError(f"the checkpoint holds {len(velocities[0])} sphere(s), this scene {count}: "
