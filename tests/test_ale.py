@@ -26,7 +26,7 @@ STREAM = {WALL: "inflow", OUTER: "slip", TOP: "outflow"}
 
 def small_mesh(center=3 * D, fine=D / 6, comm=MPI.COMM_WORLD):
     spec = HalfPlane(radius=3 * D, height=7 * D, fine_size=fine, coarse_size=D, grading=0.3,
-                     hole=SphereHole(center=center, radius=RADIUS, surface_size=fine, gap_cells=2.0))
+                     holes=(SphereHole(center=center, radius=RADIUS, surface_size=fine, gap_cells=2.0),))
     mesh, _, facet_tags = create_mesh(comm, spec, cache=False)
     return mesh, facet_tags
 

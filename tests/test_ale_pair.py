@@ -57,12 +57,10 @@ def test_the_thin_gap_between_two_spheres_keeps_its_triangles_across():
     assert len(facet_tags.find(AXIS)) > 0
 
 
-def test_holes_that_overlap_or_come_with_hole_are_refused():
+def test_holes_that_overlap_are_refused():
     lower, upper = pair_spec(0.1 * D).holes
     with pytest.raises(ValueError, match="overlap"):
         HalfPlane(radius=3 * D, height=8 * D, fine_size=D / 6, coarse_size=D, grading=0.3, holes=(upper, lower))
-    with pytest.raises(ValueError, match="not both"):
-        HalfPlane(radius=3 * D, height=8 * D, fine_size=D / 6, coarse_size=D, grading=0.3, hole=lower, holes=(upper,))
 
 
 @pytest.mark.parametrize("preset", ["li2011-case3", "yang-hunt2006-pair"])

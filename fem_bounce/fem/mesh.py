@@ -8,11 +8,10 @@ Triangles have size `fine_size` inside the refined boxes and grow linearly with
 the distance d from them, size = fine_size + grading * d, up to `coarse_size`.
 The boundary carries named physical groups (WALL z = 0, AXIS r = 0, OUTER r = R,
 TOP z = Z) so a model can pick its conditions per side.  A boundary-fitted model
-cuts a sphere on the axis out of the half-plane (`hole=SphereHole(...)`): its
-surface is the group SPHERE, meshed at its own size, and the thin gap between it
-and the wall keeps a set number of triangles across.  A head-on pair cuts two
-(`holes=(lower, upper)`): their surfaces are the groups SPHERE and SPHERE_2, and the
-thin gap between the two surfaces keeps its triangles across in the same way.
+cuts the spheres on the axis out of the half-plane (`holes=(SphereHole(...), ...)`,
+lowest first): their surfaces are the groups SPHERE, SPHERE_2, each meshed at its
+own size, and the thin gap to the wall or between two surfaces keeps a set number
+of triangles across.
 
 gmsh runs on rank 0 only; `dolfinx.io.gmshio` distributes the mesh.  The .msh
 file is cached under the mesh cache directory (see `cache_directory`), keyed by
@@ -125,35 +124,25 @@ class HalfPlane:
     coarse_size: float
     grading: float
     refined: tuple[Box, ...] = ()
-    hole: SphereHole | None = None
-    holes: tuple[SphereHole, ...] = ()  # several spheres on the axis, lowest first (instead of `hole`)
+    holes: tuple[SphereHole, ...] = ()  # the spheres on the axis, lowest first
 
     def __post_init__(self):
         if not (self.radius > 0 and self.height > 0 and 0 < self.fine_size <= self.coarse_size and self.grading > 0):
             raise ValueError(f"inconsistent mesh spec {self}")
-        if self.hole is not None and self.holes:
-            raise ValueError("give one sphere as `hole` or several as `holes`, not both")
         if len(self.holes) > len(SPHERE_TAGS):
             raise ValueError(f"at most {len(SPHERE_TAGS)} sphere holes (one boundary tag each), got {len(self.holes)}")
-        for hole in self.spheres:
+        for hole in self.holes:
             if not (hole.radius < self.radius and hole.top < self.height):
                 raise ValueError(f"the sphere hole {hole} does not fit in the half-plane {self.radius} x {self.height}")
-        for lower, upper in zip(self.spheres, self.spheres[1:]):
+        for lower, upper in zip(self.holes, self.holes[1:]):
             if not upper.gap > lower.top:
                 raise ValueError(f"the sphere holes {lower} and {upper} overlap or are not listed lowest first")
-
-    @property
-    def spheres(self) -> tuple[SphereHole, ...]:
-        """The holes, lowest first (`hole` alone, or `holes`)."""
-        return (self.hole,) if self.hole is not None else self.holes
 
     def key(self) -> str:
         """A short hash of everything that shapes the mesh (the cache file name)."""
         data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION}
-        if self.hole is None:
-            del data["hole"]  # meshes without a hole keep the keys they had before holes existed
         if not self.holes:
-            del data["holes"]  # nor do those with one `hole`, from before pairs
+            del data["holes"]  # meshes without a hole keep the keys they had before holes existed
         for box in data["refined"]:
             if box["size"] is None:
                 del box["size"]  # nor do boxes at the fine size
@@ -167,7 +156,7 @@ class HalfPlane:
         for box in self.refined:
             inside = self.fine_size if box.size is None else box.size
             size = np.minimum(size, inside + self.grading * box.distance(r, z))
-        for below, hole in zip((None,) + self.spheres, self.spheres):
+        for below, hole in zip((None,) + self.holes, self.holes):
             size = np.minimum(size, hole.size_at(r, z, self.grading, below))
         return size
 
@@ -178,7 +167,7 @@ class HalfPlane:
             dz = f"max(max(y - {box.z_max!r}, {box.z_min!r} - y), 0)"
             inside = self.fine_size if box.size is None else box.size
             terms.append(f"{inside!r} + {self.grading!r} * sqrt({dr}^2 + {dz}^2)")
-        for below, hole in zip((None,) + self.spheres, self.spheres):
+        for below, hole in zip((None,) + self.holes, self.holes):
             terms.append(hole.gmsh_size(self.grading, below))
         expression = terms[0]
         for term in terms[1:]:
@@ -198,7 +187,7 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
     points = [geo.addPoint(r, z, 0.0) for r, z in corners]
     wall, outer, top = (geo.addLine(points[k], points[k + 1]) for k in range(3))
     curves = {WALL: [wall], OUTER: [outer], TOP: [top]}
-    if not spec.spheres:
+    if not spec.holes:
         curves[AXIS] = [geo.addLine(points[3], points[0])]
         loop = [wall, outer, top, *curves[AXIS]]
     else:
@@ -206,7 +195,7 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
         # its south pole), down to the next sphere or the wall; the entities are created in the order a
         # single hole always had (its points, the axis lines, the arcs), so its meshes stay the same
         poles = []
-        for hole in spec.spheres[::-1]:
+        for hole in spec.holes[::-1]:
             a, zc = hole.radius, hole.center
             poles.append([geo.addPoint(r, z, 0.0) for r, z in ((0.0, zc + a), (0.0, zc), (a, zc), (0.0, zc - a))])
         stops = [points[3]] + [p for north, _, _, south in poles for p in (north, south)] + [points[0]]
