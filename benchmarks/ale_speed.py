@@ -38,6 +38,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 import ffcx.codegeneration.jit as ffcx_jit
+import numpy as np
 from fem_bounce import scene
 from fem_bounce.cli import run_logged
 from provenance import commit
@@ -101,7 +102,7 @@ def floor(comm) -> dict:
     from fem_bounce.models.ale.model import AleModel
 
     model = AleModel(load({"numerics.ale.factorisation": "reuse"}), comm)
-    _, _, flow = model.build_mesh(model.domain.initial_center)
+    _, _, flow = model.build_mesh(np.array(model.domain.initial_centers))
     try:
         flow.factorise()
         operator, A = flow.operator, flow.matrix

@@ -46,11 +46,6 @@ class AleDomain:
     # pair's (hold_delta 2a*), as flow_model.flow_gaps takes them
     holds: tuple
 
-    @property
-    def initial_center(self) -> float:
-        """z of sphere 1's centre at t = 0 [m] (benchmarks/ale_speed.py builds its mesh there)."""
-        return self.initial_centers[0]
-
     def spec(self, centers) -> HalfPlane:
         """The half-plane with the spheres cut out at z = centers [m] (a number: sphere 1's alone)."""
         holes = tuple(SphereHole(center=float(z), radius=a, surface_size=self.surface_size, gap_cells=self.gap_cells)
