@@ -104,6 +104,13 @@ def _sync_directory(path: Path) -> None:
         _sync_file(path)
 
 
+def _write_all(fd: int, data: bytes) -> None:
+    """os.write until every byte of `data` is written (one call may write only part)."""
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
 def _partial(path: Path) -> Path:
     return path.with_name(f".{path.name}.partial")
 
@@ -116,9 +123,7 @@ def _atomic_write_text(path: Path, text: str) -> None:
     try:
         fd = os.open(partial, os.O_WRONLY | os.O_CREAT, 0o644)  # no O_TRUNC: keep reserved blocks
         try:
-            view = memoryview(data)
-            while view:
-                view = view[os.write(fd, view):]
+            _write_all(fd, data)
             os.ftruncate(fd, len(data))
             os.fsync(fd)
         finally:
@@ -329,13 +334,11 @@ class RunDirectory:
         """Write a checkpoint: the model's `arrays` into `data_file` (.npz) of a new folder, then
         state.json and model.txt follow (each fsynced), and the folder is swapped in.  On an error the
         previous checkpoint is kept and OutputError says why."""
-        import numpy as np
-
-        run_dir = self.path
-        record = state.get("integrator", {}).get("run") if isinstance(state.get("integrator"), dict) else None
+        run_dir, final = self.path, self.path / CHECKPOINT
+        committed = Checkpoint(final, model_name, state)
+        record = committed.run
         if record and record.get("trajectory_error"):  # the rows it would claim are not on the disk
             raise OutputError(f"{record['trajectory_error']}; no checkpoint written")
-        final = run_dir / CHECKPOINT
         partial, old = run_dir / "checkpoint.partial", run_dir / "checkpoint.old"
         try:
             if partial.exists():
@@ -353,7 +356,7 @@ class RunDirectory:
             if final.exists():
                 final.replace(old)
             partial.replace(final)
-            self.checkpoint = Checkpoint(final, model_name, state)
+            self.checkpoint = committed
             _sync_directory(run_dir)
             if old.exists():
                 shutil.rmtree(old)
@@ -487,8 +490,6 @@ class Checkpoint:
 
     def arrays(self, data_file: str) -> dict:
         """The model's arrays saved in `data_file` (.npz) of this checkpoint."""
-        import numpy as np
-
         try:
             with np.load(self.folder / data_file) as archive:
                 return {name: archive[name] for name in archive.files}
@@ -555,7 +556,7 @@ class TrajectoryWriter:
         try:
             if continue_from is None:
                 self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)  # read: to cut a half row
-                self._write(",".join(self.columns).encode() + b"\n")
+                _write_all(self._fd, ",".join(self.columns).encode() + b"\n")
             else:
                 self._fd = os.open(self.path, os.O_RDWR | os.O_APPEND)
         except OSError as err:
@@ -573,11 +574,6 @@ class TrajectoryWriter:
         if self._pending_bytes >= self.BUFFER_BYTES:
             self._flush()
 
-    def _write(self, data: bytes) -> None:
-        view = memoryview(data)
-        while view:
-            view = view[os.write(self._fd, view):]
-
     def _flush(self) -> None:
         if self._fd is None or not self._pending:
             return
@@ -585,7 +581,7 @@ class TrajectoryWriter:
         self._pending.clear()
         self._pending_bytes = 0
         try:
-            self._write(data)
+            _write_all(self._fd, data)
         except OSError as err:
             self._fail(err)
 
@@ -623,8 +619,7 @@ class TrajectoryWriter:
 
 def _cut_after_last_newline(fd: int) -> None:
     """Truncate an open file after its last newline (drops a half-written row)."""
-    size = os.fstat(fd).st_size
-    end = size
+    end = os.fstat(fd).st_size
     while end > 0:
         start = max(0, end - 65536)
         chunk = os.pread(fd, end - start, start)
@@ -665,8 +660,6 @@ def _trajectory_offset(path: Path, rows: int) -> int:
 def read_trajectory(run_dir: Path) -> dict:
     """DIR/trajectory.csv as {column: numpy array} [SI]."""
     import csv
-
-    import numpy as np
 
     with open(Path(run_dir) / "trajectory.csv", newline="") as stream:
         rows = list(csv.reader(stream))
