@@ -44,6 +44,7 @@ SOLID_DENSITY_NOTE = "the densest solid, osmium, is 2.26e4 kg/m3"
 MODULUS_NOTE = "the stiffest solid, diamond, has 1.2e12 Pa"
 LIQUID_DENSITY_NOTE = ("the densest liquid, mercury, is 1.35e4 kg/m3; down to 1e-30 for near-dry checks, below "
                        "which the flow's kinematic viscosity overflows the solvers")
+ROUGHNESS_NOTE = "the height of the surface's asperities; Li et al. (2011) section 3.1 give 0.02 um (2e-8 m)"
 VISCOSITY_NOTE = ("pitch is ~1e8 Pa s; above it the sphere's viscous relaxation time m / (6 pi mu a) falls below "
                   "the integrator's smallest step and a run stops advancing")
 # contact.model = "ehd": the gap where the film collision takes over (docs/ehd.md), and its bounds
@@ -70,11 +71,12 @@ def _positive(default: Any = dataclasses.MISSING, unit: str = "", hi: float | No
 
 
 def _between(lo, hi, default: Any = dataclasses.MISSING, unit: str = "", open_ends=False, open_low=None,
-             note: str = "") -> Any:
+             note: str = "", kw_only: bool = False) -> Any:
     """[lo, hi], or (lo, hi) with open_ends; open_low alone opens only the lower end.  `note` says
     what the value means, after a range error."""
     low = open_ends if open_low is None else open_low
-    return field(default=default, metadata={"range": (lo, hi, low, open_ends), "unit": unit, "note": note})
+    return field(default=default, kw_only=kw_only,
+                 metadata={"range": (lo, hi, low, open_ends), "unit": unit, "note": note})
 
 
 def _choice(*options: str) -> Any:
@@ -126,9 +128,7 @@ class Sphere:
     youngs_modulus: float = _positive(unit="Pa", hi=1e13, note=MODULUS_NOTE)
     poisson_ratio: float = _between(-1.0, 0.5, open_ends=True, note="an isotropic solid's range")
     # keyword-only so that SecondSphere's own required fields may follow it
-    roughness: float = field(default=0.0, kw_only=True, metadata={
-        "range": (0.0, 1e-3, False, False), "unit": "m",
-        "note": "the height of the surface's asperities; Li et al. (2011) section 3.1 give 0.02 um (2e-8 m)"})
+    roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note=ROUGHNESS_NOTE, kw_only=True)
 
     @property
     def radius(self) -> float:
@@ -184,8 +184,7 @@ class Wall:
     youngs_modulus: float | None = _positive(None, unit="Pa", hi=1e13, note=MODULUS_NOTE)
     poisson_ratio: float | None = _between(-1.0, 0.5, None, open_ends=True, note="an isotropic solid's range")
     present: bool = True
-    roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note="the height of the surface's asperities; Li et al. "
-                                "(2011) section 3.1 give 0.02 um (2e-8 m) for their Zerodur block")
+    roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note=f"{ROUGHNESS_NOTE} for their Zerodur block")
 
 
 @dataclass(frozen=True)
@@ -367,8 +366,7 @@ class Scene:
     @property
     def spheres(self) -> tuple[Sphere, ...]:
         """Sphere 1 (nearest z = 0), then the second sphere and the further ones if there are."""
-        return (self.sphere,) if self.second_sphere is None else (self.sphere, self.second_sphere,
-                                                                   *self.further_spheres)
+        return (self.sphere, *(sphere for _, sphere in self._upper_spheres()))
 
     @property
     def initial_gaps(self) -> tuple[float, ...]:
@@ -453,8 +451,7 @@ class Scene:
                        (("youngs_modulus", "> 0 Pa"), ("poisson_ratio", "in (-1, 0.5)"))
                        if getattr(wall, key) is None]
             raise SceneError(f"{' and '.join(missing)} {'are' if len(missing) > 1 else 'is'} required when "
-                             "wall.present = true "
-                             "(or set wall.present = false)")
+                             "wall.present = true (or set wall.present = false)")
         second = self.second_sphere
         if self.further_spheres and second is None:
             raise SceneError(f"further_spheres ({len(self.further_spheres)} given) are the spheres above the second: "
