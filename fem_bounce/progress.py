@@ -57,7 +57,7 @@ class ProgressBar:
 
 
 class Monitor:
-    """What a model calls after each step as `progress`: draws the progress line and ends the run, on
+    """What the run calls after each step: draws the progress line and ends the run, on
     every rank together, when a signal has arrived or rank 0 could not write the trajectory."""
 
     def __init__(self, bar: ProgressBar, comm, interrupts, writer):
