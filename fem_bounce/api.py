@@ -38,38 +38,29 @@ from .errors import Error, RunDiverged, RunFailed, RunInterrupted, RunnerError  
 from .output import CheckpointError, OutputError  # noqa: F401
 from .scene import Scene, SceneError
 
-
-
 ModelError = _models.ModelError
 
 
 def _public(function):
-    """The caller's matplotlib backend kept across a public function."""
+    """A public function that leaves the matplotlib backend the caller chose (a notebook's inline one) as it
+    was: the package draws its files with the Agg backend (plots.py and the studies select it), which would
+    otherwise stay."""
 
     @functools.wraps(function)
     def wrapper(*args, **kwargs):
-        with _backend_kept():
+        if "matplotlib.pyplot" not in sys.modules:  # the caller has chosen none
             return function(*args, **kwargs)
+        import matplotlib
+        import matplotlib.pyplot as plt
+
+        chosen = matplotlib.get_backend()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            if matplotlib.get_backend() != chosen:
+                plt.switch_backend(chosen)
 
     return wrapper
-
-
-@contextlib.contextmanager
-def _backend_kept():
-    """The matplotlib backend the caller chose (a notebook's inline one) as it was afterwards: the package
-    draws its files with the Agg backend (plots.py and the studies select it), which would otherwise stay."""
-    if "matplotlib.pyplot" not in sys.modules:  # the caller has chosen none
-        yield
-        return
-    import matplotlib
-    import matplotlib.pyplot as plt
-
-    chosen = matplotlib.get_backend()
-    try:
-        yield
-    finally:
-        if matplotlib.get_backend() != chosen:
-            plt.switch_backend(chosen)
 
 
 # -- scenes -------------------------------------------------------------------------------------
@@ -293,12 +284,10 @@ def resume(run_dir: str | Path, model: str | None = None, *, progress: bool = Fa
            comm=None) -> Result:
     """Continue the killed fd, ib or ale run in run_dir from its last checkpoint (`fem-bounce run --restart
     DIR`): the scene is run_dir/scene.toml, the model the checkpoint's (model, if given, must match)."""
-    from .cli import _restart_model
+    from .cli import _restart
 
     run_dir = Path(run_dir)
-    model = _restart_model(run_dir, model)
-    scene = _scenes.load(run_dir / "scene.toml")
-    _models.get(model)
+    scene, model = _restart(run_dir, model)
     return _run(scene, model, _world(comm), run_dir, True, restart=True, progress=progress, plots=plots,
                 command=f"fem_bounce.resume({str(run_dir)!r})")
 
