@@ -82,8 +82,9 @@ class CheckpointError(OutputError):
     """A run directory's checkpoint is missing, unreadable or not this run's."""
 
 
-def _reason(err: OSError) -> str:
-    return err.strerror or str(err)
+def _reason(err: Exception) -> str:
+    """Why an operation failed: an OSError's strerror, else the exception's message."""
+    return getattr(err, "strerror", None) or str(err)
 
 
 # -- whole files ------------------------------------------------------------------------------
@@ -214,12 +215,10 @@ class RunDirectory:
                     raise OutputError(f"{path} holds another run directory, {inner}: --force never deletes a run; "
                                       "move it out or choose another --out")
                 self._lock()
-                for entry in path.iterdir():  # all but the locked marker
-                    if entry.name == MARKER:
-                        continue
+                for entry in path.iterdir():  # all but the locked marker (a file: is_run_directory)
                     if entry.is_dir() and not entry.is_symlink():
                         shutil.rmtree(entry)
-                    else:
+                    elif entry.name != MARKER:
                         entry.unlink()
             path.mkdir(parents=True, exist_ok=True)
         except OSError as err:
@@ -504,7 +503,7 @@ def _read_checkpoint_folder(folder: Path) -> Checkpoint:
     try:
         model = (folder / "model.txt").read_text().strip()
     except (OSError, UnicodeDecodeError) as err:
-        raise unreadable("model.txt", getattr(err, "strerror", None) or str(err)) from None
+        raise unreadable("model.txt", _reason(err)) from None
     try:
         state = json.loads((folder / "state.json").read_text())
     except OSError as err:
@@ -518,7 +517,7 @@ def _read_checkpoint_folder(folder: Path) -> Checkpoint:
             with zipfile.ZipFile(data) as archive:
                 damaged = archive.testzip()
         except (OSError, zipfile.BadZipFile, EOFError) as err:
-            raise unreadable(data.name, getattr(err, "strerror", None) or str(err)) from None
+            raise unreadable(data.name, _reason(err)) from None
         if damaged is not None:
             raise unreadable(data.name, f"{damaged} is damaged")
     return Checkpoint(folder, model, state)
