@@ -118,7 +118,7 @@ class Collision:
     Re: float
     St: float
     min_gap: float
-    restitution: float | None
+    restitution: float | None = None
     details: dict = field(default_factory=dict, repr=False)
 
 
@@ -162,9 +162,7 @@ class Result:
     @property
     def collisions(self) -> list[Collision]:
         """A pair's collisions, pair and wall, in time order (empty for one sphere)."""
-        return [Collision(kind=c["kind"], time=c["time"], impact_speed=c["impact_speed"], Re=c["Re"], St=c["St"],
-                          min_gap=c["min_gap"], restitution=c.get("restitution"), details=dict(c))
-                for c in self.summary.get("collisions", [])]
+        return [_record(Collision, {**c, "details": dict(c)}) for c in self.summary.get("collisions", [])]
 
     @property
     def wall_time(self) -> float:
