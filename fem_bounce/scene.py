@@ -471,9 +471,8 @@ class Scene:
         if c.model == "ehd":
             self._check_ehd()
         if c.delta_ss >= c.delta_sl:
-            raise SceneError(
-                f"contact.delta_ss = {c.delta_ss:g} must be smaller than contact.delta_sl = {c.delta_sl:g}"
-            )
+            raise SceneError(f"contact.delta_ss = {c.delta_ss:g} must be smaller than contact.delta_sl = "
+                             f"{c.delta_sl:g}")
         box = self.container
         if (box.radius is None) != (box.height is None):
             raise SceneError("container needs both radius and height, or neither (unbounded)")
@@ -498,11 +497,8 @@ class Scene:
                     *(abs(sphere.velocity) for _, sphere in self._upper_spheres()))
         re_max = self.reynolds(max(self.estimated_impact_speed(), speed) if free else speed)
         if re_max > AXISYMMETRIC_RE_LIMIT:
-            warnings.warn(
-                f"scene {self.name!r}: estimated Re = {re_max:.3g} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
-                "where the flow stops being axisymmetric (paper section 2.1)",
-                stacklevel=2,
-            )
+            warnings.warn(f"scene {self.name!r}: estimated Re = {re_max:.3g} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
+                          "where the flow stops being axisymmetric (paper section 2.1)", stacklevel=2)
         return self
 
     def _check_ehd(self) -> None:
