@@ -113,9 +113,8 @@ def _check_fields(obj: Any, prefix: str) -> None:
             above = hi is not None and (value >= hi if hi_open else value > hi)
             if below or above:
                 note = f" ({f.metadata['note']})" if f.metadata.get("note") else ""
-                raise SceneError(
-                    f"{key} = {value!r}{unit} is out of range: allowed {_allowed(lo, hi, lo_open, hi_open)}{unit}{note}"
-                )
+                raise SceneError(f"{key} = {value!r}{unit} is out of range: allowed "
+                                 f"{_allowed(lo, hi, lo_open, hi_open)}{unit}{note}")
 
 
 # -- the scene -------------------------------------------------------------------------
