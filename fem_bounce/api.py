@@ -242,9 +242,7 @@ def _read_run(scene: Scene, model: str, run_dir: Path, comm, kept: bool) -> Resu
             return None
 
     found = comm.bcast(read() if comm.rank == 0 else None, root=0)
-    if found is None:
-        return None
-    return Result(scene, model, found[0], found[1], run_dir if kept else None)
+    return None if found is None else Result(scene, model, *found, run_dir if kept else None)
 
 
 @_public

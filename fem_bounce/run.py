@@ -78,11 +78,9 @@ class Interrupts:
         self._previous: dict = {}
 
     def __enter__(self) -> "Interrupts":
-        try:
+        with contextlib.suppress(ValueError):  # not the main thread: signals stay as they were
             for signum in (signal.SIGINT, signal.SIGTERM):
                 self._previous[signum] = signal.signal(signum, self._handle)
-        except ValueError:  # not the main thread: signals stay as they were
-            pass
         Interrupts.active = self
         return self
 
