@@ -67,7 +67,7 @@ class SceneError(Error, ValueError):
 
 def _positive(default: Any = dataclasses.MISSING, unit: str = "", hi: float | None = None, note: str = "") -> Any:
     """> 0, and <= hi when given (`note` says where the bound comes from)."""
-    return field(default=default, metadata={"range": (0.0, hi, True, False), "unit": unit, "note": note})
+    return _between(0.0, hi, default, unit, open_low=True, note=note)
 
 
 def _between(lo, hi, default: Any = dataclasses.MISSING, unit: str = "", open_ends=False, open_low=None,
