@@ -28,6 +28,7 @@ which alone opens the marker, the checkpoint and the trajectory's restart.  Noth
 from __future__ import annotations
 
 import contextlib
+import csv
 import dataclasses
 import fcntl
 import json
@@ -633,7 +634,6 @@ def _cut_after_last_newline(fd: int) -> None:
 def _trajectory_offset(path: Path, rows: int) -> int:
     """The byte offset just after data row `rows` of a trajectory file (the header is not a data row);
     OutputError if the file is missing or holds fewer whole rows."""
-    path = Path(path)
     count, offset = -1, 0
     try:
         with open(path, "rb") as stream:
@@ -658,8 +658,6 @@ def _trajectory_offset(path: Path, rows: int) -> int:
 
 def read_trajectory(run_dir: Path) -> dict:
     """DIR/trajectory.csv as {column: numpy array} [SI]."""
-    import csv
-
     with open(Path(run_dir) / "trajectory.csv", newline="") as stream:
         rows = list(csv.reader(stream))
     data = np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))

@@ -638,11 +638,7 @@ def from_dict(data: dict, name: str | None = None) -> Scene:
 
 def to_dict(scene: Scene) -> dict:
     """Nested dicts with None values left out; the inverse of from_dict."""
-    def strip(obj):
-        if isinstance(obj, dict):
-            return {k: strip(v) for k, v in obj.items() if v is not None}
-        return obj
-    return strip(dataclasses.asdict(scene))
+    return dataclasses.asdict(scene, dict_factory=lambda items: {k: v for k, v in items if v is not None})
 
 
 def dumps(scene: Scene) -> str:
