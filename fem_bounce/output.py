@@ -188,13 +188,11 @@ class RunDirectory:
         run_dir.commit_checkpoint(model_name, state, data_file, arrays)   # as often as the model asks
         run_dir.commit_summary(data)
         run_dir.release()                                    # the reserved room and the lock
-
-    Nothing else opens the marker, the checkpoint or the trajectory's restart.  `checkpoint` is the
-    newest whole checkpoint this object knows on the disk (the resumed one, then each committed one)."""
+    """
 
     def __init__(self, path: Path):
         self.path = Path(path)
-        self.checkpoint: Checkpoint | None = None
+        self.checkpoint: Checkpoint | None = None  # the newest whole one on the disk: resumed, then each committed
         self._continued_rows: int | None = None  # the trajectory's rows a restart continues
 
     # -- prepare and resume --

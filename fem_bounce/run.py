@@ -239,11 +239,10 @@ class Every:
 class Controller:
     """The one time loop every model runs under: it builds the flow model, lets the stepper the registry
     names for it (fem_bounce.steppers) advance the flow and the bodies, and after each step calls the
-    observers (progress and stop requests, and on their cadences field snapshots and checkpoints); it
-    stops at the end time or when the integrator is done (bounce limit, safeguards), and turns the
-    model's failures into one RunDiverged that says where the run can be continued from.  The
-    trajectory rows are an observer of the integrator.  What a model is comes in resolved (`info`, its
-    models.registry.ModelInfo); the controller knows nothing of pairs, time-step keys or meshes."""
+    observers (progress and stop requests; field snapshots and checkpoints on their cadences); it stops at
+    the end time or when the integrator is done, and turns the model's failures into one RunDiverged that
+    says where the run can be continued from.  What a model is comes in resolved (`info`, its
+    models.registry.ModelInfo): the controller knows nothing of pairs, time-step keys or meshes."""
 
     def __init__(self, flow_model: FlowModel, info, integrator: BodyIntegrator, monitor=None,
                  run_dir: output.RunDirectory | None = None):
