@@ -346,10 +346,8 @@ class RunDirectory:
             for data in partial.iterdir():
                 _sync_file(data)
             for name, text in (("state.json", json.dumps(state, indent=1)), ("model.txt", model_name + "\n")):
-                with open(partial / name, "w") as stream:
-                    stream.write(text)
-                    stream.flush()
-                    os.fsync(stream.fileno())
+                (partial / name).write_text(text)
+                _sync_file(partial / name)
             _sync_directory(partial)
             if final.exists():
                 final.replace(old)
