@@ -38,38 +38,29 @@ from .errors import Error, RunDiverged, RunFailed, RunInterrupted, RunnerError  
 from .output import CheckpointError, OutputError  # noqa: F401
 from .scene import Scene, SceneError
 
-
-
 ModelError = _models.ModelError
 
 
 def _public(function):
-    """The caller's matplotlib backend kept across a public function."""
+    """A public function that leaves the matplotlib backend the caller chose (a notebook's inline one) as it
+    was: the package draws its files with the Agg backend (plots.py and the studies select it), which would
+    otherwise stay."""
 
     @functools.wraps(function)
     def wrapper(*args, **kwargs):
-        with _backend_kept():
+        if "matplotlib.pyplot" not in sys.modules:  # the caller has chosen none
             return function(*args, **kwargs)
+        import matplotlib
+        import matplotlib.pyplot as plt
+
+        chosen = matplotlib.get_backend()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            if matplotlib.get_backend() != chosen:
+                plt.switch_backend(chosen)
 
     return wrapper
-
-
-@contextlib.contextmanager
-def _backend_kept():
-    """The matplotlib backend the caller chose (a notebook's inline one) as it was afterwards: the package
-    draws its files with the Agg backend (plots.py and the studies select it), which would otherwise stay."""
-    if "matplotlib.pyplot" not in sys.modules:  # the caller has chosen none
-        yield
-        return
-    import matplotlib
-    import matplotlib.pyplot as plt
-
-    chosen = matplotlib.get_backend()
-    try:
-        yield
-    finally:
-        if matplotlib.get_backend() != chosen:
-            plt.switch_backend(chosen)
 
 
 # -- scenes -------------------------------------------------------------------------------------
@@ -127,7 +118,7 @@ class Collision:
     Re: float
     St: float
     min_gap: float
-    restitution: float | None
+    restitution: float | None = None
     details: dict = field(default_factory=dict, repr=False)
 
 
@@ -171,9 +162,7 @@ class Result:
     @property
     def collisions(self) -> list[Collision]:
         """A pair's collisions, pair and wall, in time order (empty for one sphere)."""
-        return [Collision(kind=c["kind"], time=c["time"], impact_speed=c["impact_speed"], Re=c["Re"], St=c["St"],
-                          min_gap=c["min_gap"], restitution=c.get("restitution"), details=dict(c))
-                for c in self.summary.get("collisions", [])]
+        return [_record(Collision, {**c, "details": dict(c)}) for c in self.summary.get("collisions", [])]
 
     @property
     def wall_time(self) -> float:
@@ -253,9 +242,7 @@ def _read_run(scene: Scene, model: str, run_dir: Path, comm, kept: bool) -> Resu
             return None
 
     found = comm.bcast(read() if comm.rank == 0 else None, root=0)
-    if found is None:
-        return None
-    return Result(scene, model, found[0], found[1], run_dir if kept else None)
+    return None if found is None else Result(scene, model, *found, run_dir if kept else None)
 
 
 @_public
@@ -293,12 +280,10 @@ def resume(run_dir: str | Path, model: str | None = None, *, progress: bool = Fa
            comm=None) -> Result:
     """Continue the killed fd, ib or ale run in run_dir from its last checkpoint (`fem-bounce run --restart
     DIR`): the scene is run_dir/scene.toml, the model the checkpoint's (model, if given, must match)."""
-    from .cli import _restart_model
+    from .cli import _restart
 
     run_dir = Path(run_dir)
-    model = _restart_model(run_dir, model)
-    scene = _scenes.load(run_dir / "scene.toml")
-    _models.get(model)
+    scene, model = _restart(run_dir, model)
     return _run(scene, model, _world(comm), run_dir, True, restart=True, progress=progress, plots=plots,
                 command=f"fem_bounce.resume({str(run_dir)!r})")
 

@@ -9,13 +9,12 @@
     fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
 Only this module, the Python API behind it (api.py, the default communicator of fem_bounce.simulate) and the
-demos touch MPI.COMM_WORLD (mpi_pool and the study runner ask its size, to find the workers of an
-mpi4py.futures pool).  Errors a user can cause print one line
-(on rank 0 only under mpirun) naming the field or path and exit with status 2; a run that ends
-early prints one line and exits with 1 (diverged, or an output could not be written) or 128 + the
-signal (130 for SIGINT, 143 for SIGTERM) when interrupted.
-What the libraries print (ffcx's compiler lines and ResourceWarnings on a form's first compile) goes to
-the run directory's run.log, not the terminal (`fem-bounce run --verbose`: to both).
+demos touch MPI.COMM_WORLD (mpi_pool and the study runner ask its size, to find the workers of an mpi4py.futures
+pool).  Errors a user can cause print one line (on rank 0 only under mpirun) naming the field or path and exit
+with status 2; a run that ends early prints one line and exits with 1 (diverged, or an output could not be
+written) or 128 + the signal (130 for SIGINT, 143 for SIGTERM) when interrupted.  What the libraries print
+(ffcx's compiler lines and ResourceWarnings on a form's first compile) goes to the run directory's run.log, not
+the terminal (`fem-bounce run --verbose`: to both).
 """
 from __future__ import annotations
 
@@ -30,7 +29,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from . import models, output
+from . import api, models, output
 from . import scene as scenes
 
 DEFAULT_SCENE = "li2011-case3"
@@ -127,24 +126,9 @@ def _parallel_options(parser: argparse.ArgumentParser) -> None:
                              "fem_bounce ...` (K - 1 of them); see docs/usage.md, Studies")
 
 
-def _study_runner(args):
-    """(the study's communicator, its Runner) from --jobs and --executor (api._study_runner)."""
-    from .api import _study_runner
-
-    return _study_runner(args.jobs, args.executor)
-
-
-def _scene_from_args(source: str | None, overrides: list[str]) -> scenes.Scene:
-    from .api import load
-
-    return load(source or DEFAULT_SCENE, overrides)
-
-
-def _out_path(text: str | None) -> Path | None:
-    """The --out directory; an empty string is refused, not read as the current directory."""
-    from .api import _out_path
-
-    return _out_path(text)
+def _unused_directory(comm, base: Path) -> Path:
+    """The default --out: base, or base-2, base-3, ... (output.unused_directory), chosen on rank 0 for all."""
+    return comm.bcast(output.unused_directory(base) if comm.rank == 0 else None, root=0)
 
 
 def run_logged(scene: scenes.Scene, model: str, comm, out: Path, **options) -> dict:
@@ -177,20 +161,15 @@ def _cmd_run(args) -> int:
             raise output.OutputError("--force does not apply to --restart: nothing is replaced")
         if args.accuracy is not None:
             raise scenes.SceneError("--accuracy does not apply to --restart: the scene is DIR/scene.toml")
-        model = _restart_model(args.restart, args.model)
-        scene = scenes.load(args.restart / "scene.toml")
+        scene, model = _restart(args.restart, args.model)
         out = args.restart
-        models.get(model)
     else:
-        scene = _scene_from_args(args.scene, args.overrides)
+        scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
         model = args.model if args.model is not None else models.default()
         if args.accuracy is not None:
             scene, model = _scene_for_accuracy(scene, args.accuracy, args.model)
         models.get(model)  # fail early on an unknown or missing model
-        out = _out_path(args.out)
-        if out is None:
-            base = Path("runs") / f"{scene.name}-{model}"
-            out = comm.bcast(output.unused_directory(base) if comm.rank == 0 else None, root=0)
+        out = api._out_path(args.out) or _unused_directory(comm, Path("runs") / f"{scene.name}-{model}")
     _route_warnings()
     _LIBRARY_LOG.verbose = args.verbose
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
@@ -206,17 +185,13 @@ def _cmd_run(args) -> int:
 def _cmd_compare(args) -> int:
     from mpi4py import MPI
 
-    from . import api
     from .studies import compare
 
     comm = MPI.COMM_WORLD
     names = api._model_list(args.models)
     _route_warnings()
-    scene = _scene_from_args(args.scene, args.overrides)
-    out = _out_path(args.out)
-    if out is None:
-        out = comm.bcast(output.unused_directory(Path("runs") / f"compare-{scene.name}") if comm.rank == 0 else None,
-                         root=0)
+    scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
+    out = api._out_path(args.out) or _unused_directory(comm, Path("runs") / f"compare-{scene.name}")
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     rows = api.compare(scene, names, out, force=args.force, progress=not args.quiet, comm=comm, command=command)
     if comm.rank == 0:
@@ -247,8 +222,8 @@ def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | Non
     return scene.replace(**pick["setting"]), pick["model"]
 
 
-def _restart_model(run_dir: Path, requested: str | None) -> str:
-    """The model that wrote DIR's checkpoint (it continues the run)."""
+def _restart(run_dir: Path, requested: str | None) -> tuple[scenes.Scene, str]:
+    """The scene (DIR/scene.toml) and the model (the one that wrote DIR's checkpoint) a restart continues."""
     model = output.RunDirectory(run_dir).newest_checkpoint().model
     if model not in models.registry.restarting():
         raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
@@ -256,7 +231,9 @@ def _restart_model(run_dir: Path, requested: str | None) -> str:
                                 "it is not a checkpoint this version wrote")
     if requested and requested != model:
         raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
-    return model
+    scene = scenes.load(run_dir / "scene.toml")
+    models.get(model)
+    return scene, model
 
 
 def _number(value: float, decimals: int = 1) -> str:
@@ -316,8 +293,6 @@ def _cmd_scenes(args) -> int:
 def _cmd_restitution(args) -> int:
     from mpi4py import MPI
 
-    from . import api
-
     out = Path("results") / f"restitution-{args.model}" if args.out is None else args.out
     rows = api.restitution(args.model, points=args.points, st_range=(args.st_min, args.st_max),
                            overrides=args.overrides, out=out, jobs=args.jobs, executor=args.executor)
@@ -340,7 +315,7 @@ def _cmd_restitution(args) -> int:
 
 
 def _cmd_study(args) -> int:
-    comm, runner = _study_runner(args)
+    comm, runner = api._study_runner(args.jobs, args.executor)
     with runner:  # its worker processes end with the study
         return _study(args, comm, runner)
 
@@ -354,8 +329,8 @@ def _study(args, comm, runner) -> int:
         models.get(name)
     _route_warnings()
     scene_name = getattr(args, "scene", None)
-    out = _out_path(args.out) or Path("results") / "-".join(["study", args.kind, *([scene_name] if scene_name else []),
-                                                   *model_names])
+    default_out = "-".join(["study", args.kind, *([scene_name] if scene_name else []), *model_names])
+    out = api._out_path(args.out) or Path("results") / default_out
 
     def numbers(text: str | None, option: str = "--levels") -> tuple | None:
         try:
@@ -465,22 +440,17 @@ class _LibraryLog(logging.Handler):
         self.verbose = False  # run --verbose: every line on the terminal (stderr) as well
 
     def emit(self, record: logging.LogRecord) -> None:
-        line = self.format(record)
-        self.lines.append(line)
-        if self.verbose:
-            self._echo(line)
-        elif record.levelno >= logging.WARNING:  # a library's own warning still shows, on one line
+        self._add(self.format(record))
+        if not self.verbose and record.levelno >= logging.WARNING:  # a library's own warning still shows, on one line
             _say(f"{record.levelname.lower()}: {record.name}: {record.getMessage().splitlines()[0]}")
 
     def add_warning(self, message, category, filename: str, lineno: int) -> None:
-        line = warnings.formatwarning(message, category, filename, lineno, "").rstrip()
-        self.lines.append(line)
-        if self.verbose:
-            self._echo(line)
+        self._add(warnings.formatwarning(message, category, filename, lineno, "").rstrip())
 
-    @staticmethod
-    def _echo(line: str) -> None:
-        if _RANK == 0:
+    def _add(self, line: str) -> None:
+        """A line for run.log, and under --verbose for the terminal too (rank 0)."""
+        self.lines.append(line)
+        if self.verbose and _RANK == 0:
             print(line, file=sys.stderr, flush=True)
 
     def keep(self, run_dir: Path | None, comm) -> None:

@@ -28,6 +28,7 @@ which alone opens the marker, the checkpoint and the trajectory's restart.  Noth
 from __future__ import annotations
 
 import contextlib
+import csv
 import dataclasses
 import fcntl
 import json
@@ -82,8 +83,9 @@ class CheckpointError(OutputError):
     """A run directory's checkpoint is missing, unreadable or not this run's."""
 
 
-def _reason(err: OSError) -> str:
-    return err.strerror or str(err)
+def _reason(err: Exception) -> str:
+    """Why an operation failed: an OSError's strerror, else the exception's message."""
+    return getattr(err, "strerror", None) or str(err)
 
 
 # -- whole files ------------------------------------------------------------------------------
@@ -104,6 +106,13 @@ def _sync_directory(path: Path) -> None:
         _sync_file(path)
 
 
+def _write_all(fd: int, data: bytes) -> None:
+    """os.write until every byte of `data` is written (one call may write only part)."""
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
 def _partial(path: Path) -> Path:
     return path.with_name(f".{path.name}.partial")
 
@@ -116,9 +125,7 @@ def _atomic_write_text(path: Path, text: str) -> None:
     try:
         fd = os.open(partial, os.O_WRONLY | os.O_CREAT, 0o644)  # no O_TRUNC: keep reserved blocks
         try:
-            view = memoryview(data)
-            while view:
-                view = view[os.write(fd, view):]
+            _write_all(fd, data)
             os.ftruncate(fd, len(data))
             os.fsync(fd)
         finally:
@@ -181,13 +188,11 @@ class RunDirectory:
         run_dir.commit_checkpoint(model_name, state, data_file, arrays)   # as often as the model asks
         run_dir.commit_summary(data)
         run_dir.release()                                    # the reserved room and the lock
-
-    Nothing else opens the marker, the checkpoint or the trajectory's restart.  `checkpoint` is the
-    newest whole checkpoint this object knows on the disk (the resumed one, then each committed one)."""
+    """
 
     def __init__(self, path: Path):
         self.path = Path(path)
-        self.checkpoint: Checkpoint | None = None
+        self.checkpoint: Checkpoint | None = None  # the newest whole one on the disk: resumed, then each committed
         self._continued_rows: int | None = None  # the trajectory's rows a restart continues
 
     # -- prepare and resume --
@@ -209,12 +214,10 @@ class RunDirectory:
                     raise OutputError(f"{path} holds another run directory, {inner}: --force never deletes a run; "
                                       "move it out or choose another --out")
                 self._lock()
-                for entry in path.iterdir():  # all but the locked marker
-                    if entry.name == MARKER:
-                        continue
+                for entry in path.iterdir():  # all but the locked marker (a file: is_run_directory)
                     if entry.is_dir() and not entry.is_symlink():
                         shutil.rmtree(entry)
-                    else:
+                    elif entry.name != MARKER:
                         entry.unlink()
             path.mkdir(parents=True, exist_ok=True)
         except OSError as err:
@@ -329,13 +332,11 @@ class RunDirectory:
         """Write a checkpoint: the model's `arrays` into `data_file` (.npz) of a new folder, then
         state.json and model.txt follow (each fsynced), and the folder is swapped in.  On an error the
         previous checkpoint is kept and OutputError says why."""
-        import numpy as np
-
-        run_dir = self.path
-        record = state.get("integrator", {}).get("run") if isinstance(state.get("integrator"), dict) else None
+        run_dir, final = self.path, self.path / CHECKPOINT
+        committed = Checkpoint(final, model_name, state)
+        record = committed.run
         if record and record.get("trajectory_error"):  # the rows it would claim are not on the disk
             raise OutputError(f"{record['trajectory_error']}; no checkpoint written")
-        final = run_dir / CHECKPOINT
         partial, old = run_dir / "checkpoint.partial", run_dir / "checkpoint.old"
         try:
             if partial.exists():
@@ -345,15 +346,13 @@ class RunDirectory:
             for data in partial.iterdir():
                 _sync_file(data)
             for name, text in (("state.json", json.dumps(state, indent=1)), ("model.txt", model_name + "\n")):
-                with open(partial / name, "w") as stream:
-                    stream.write(text)
-                    stream.flush()
-                    os.fsync(stream.fileno())
+                (partial / name).write_text(text)
+                _sync_file(partial / name)
             _sync_directory(partial)
             if final.exists():
                 final.replace(old)
             partial.replace(final)
-            self.checkpoint = Checkpoint(final, model_name, state)
+            self.checkpoint = committed
             _sync_directory(run_dir)
             if old.exists():
                 shutil.rmtree(old)
@@ -487,8 +486,6 @@ class Checkpoint:
 
     def arrays(self, data_file: str) -> dict:
         """The model's arrays saved in `data_file` (.npz) of this checkpoint."""
-        import numpy as np
-
         try:
             with np.load(self.folder / data_file) as archive:
                 return {name: archive[name] for name in archive.files}
@@ -503,7 +500,7 @@ def _read_checkpoint_folder(folder: Path) -> Checkpoint:
     try:
         model = (folder / "model.txt").read_text().strip()
     except (OSError, UnicodeDecodeError) as err:
-        raise unreadable("model.txt", getattr(err, "strerror", None) or str(err)) from None
+        raise unreadable("model.txt", _reason(err)) from None
     try:
         state = json.loads((folder / "state.json").read_text())
     except OSError as err:
@@ -517,7 +514,7 @@ def _read_checkpoint_folder(folder: Path) -> Checkpoint:
             with zipfile.ZipFile(data) as archive:
                 damaged = archive.testzip()
         except (OSError, zipfile.BadZipFile, EOFError) as err:
-            raise unreadable(data.name, getattr(err, "strerror", None) or str(err)) from None
+            raise unreadable(data.name, _reason(err)) from None
         if damaged is not None:
             raise unreadable(data.name, f"{damaged} is damaged")
     return Checkpoint(folder, model, state)
@@ -555,7 +552,7 @@ class TrajectoryWriter:
         try:
             if continue_from is None:
                 self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)  # read: to cut a half row
-                self._write(",".join(self.columns).encode() + b"\n")
+                _write_all(self._fd, ",".join(self.columns).encode() + b"\n")
             else:
                 self._fd = os.open(self.path, os.O_RDWR | os.O_APPEND)
         except OSError as err:
@@ -573,11 +570,6 @@ class TrajectoryWriter:
         if self._pending_bytes >= self.BUFFER_BYTES:
             self._flush()
 
-    def _write(self, data: bytes) -> None:
-        view = memoryview(data)
-        while view:
-            view = view[os.write(self._fd, view):]
-
     def _flush(self) -> None:
         if self._fd is None or not self._pending:
             return
@@ -585,7 +577,7 @@ class TrajectoryWriter:
         self._pending.clear()
         self._pending_bytes = 0
         try:
-            self._write(data)
+            _write_all(self._fd, data)
         except OSError as err:
             self._fail(err)
 
@@ -623,8 +615,7 @@ class TrajectoryWriter:
 
 def _cut_after_last_newline(fd: int) -> None:
     """Truncate an open file after its last newline (drops a half-written row)."""
-    size = os.fstat(fd).st_size
-    end = size
+    end = os.fstat(fd).st_size
     while end > 0:
         start = max(0, end - 65536)
         chunk = os.pread(fd, end - start, start)
@@ -639,7 +630,6 @@ def _cut_after_last_newline(fd: int) -> None:
 def _trajectory_offset(path: Path, rows: int) -> int:
     """The byte offset just after data row `rows` of a trajectory file (the header is not a data row);
     OutputError if the file is missing or holds fewer whole rows."""
-    path = Path(path)
     count, offset = -1, 0
     try:
         with open(path, "rb") as stream:
@@ -664,10 +654,6 @@ def _trajectory_offset(path: Path, rows: int) -> int:
 
 def read_trajectory(run_dir: Path) -> dict:
     """DIR/trajectory.csv as {column: numpy array} [SI]."""
-    import csv
-
-    import numpy as np
-
     with open(Path(run_dir) / "trajectory.csv", newline="") as stream:
         rows = list(csv.reader(stream))
     data = np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))

@@ -57,8 +57,7 @@ class ProgressBar:
 
 
 class Monitor:
-    """What a model calls after each step as `progress`: draws the progress line and ends the run, on
-    every rank together, when a signal has arrived or rank 0 could not write the trajectory."""
+    """What the run calls after each step: the bar, and the stop requests (module docstring)."""
 
     def __init__(self, bar: ProgressBar, comm, interrupts, writer):
         """`interrupts`: a run.Interrupts (its `signum` is set by SIGINT/SIGTERM) or None; `writer`: rank 0's

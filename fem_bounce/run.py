@@ -78,11 +78,9 @@ class Interrupts:
         self._previous: dict = {}
 
     def __enter__(self) -> "Interrupts":
-        try:
+        with contextlib.suppress(ValueError):  # not the main thread: signals stay as they were
             for signum in (signal.SIGINT, signal.SIGTERM):
                 self._previous[signum] = signal.signal(signum, self._handle)
-        except ValueError:  # not the main thread: signals stay as they were
-            pass
         Interrupts.active = self
         return self
 
@@ -210,17 +208,7 @@ class _Safeguards:
             integrator.done = True
 
 
-# -- before the run: warnings and restarts ---------------------------------------------------------
-
-
-def _warnings(scene, info, guards: _Safeguards) -> list[str]:
-    found = []
-    d = scene.sphere.diameter
-    if guards.light:
-        found.append(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
-                     f"{scene.liquid.density:g} kg/m3: the sphere rises and never reaches the wall; the run stops "
-                     f"when it has {guards.where} (gap {guards.ceiling / d:.3g} D)")
-    return found + info.scene_warnings(scene)
+# -- after an interruption -------------------------------------------------------------------------
 
 
 def _interruption_note(run_dir: output.RunDirectory, info) -> str:
@@ -251,11 +239,10 @@ class Every:
 class Controller:
     """The one time loop every model runs under: it builds the flow model, lets the stepper the registry
     names for it (fem_bounce.steppers) advance the flow and the bodies, and after each step calls the
-    observers (progress and stop requests, and on their cadences field snapshots and checkpoints); it
-    stops at the end time or when the integrator is done (bounce limit, safeguards), and turns the
-    model's failures into one RunDiverged that says where the run can be continued from.  The
-    trajectory rows are an observer of the integrator.  What a model is comes in resolved (`info`, its
-    models.registry.ModelInfo); the controller knows nothing of pairs, time-step keys or meshes."""
+    observers (progress and stop requests; field snapshots and checkpoints on their cadences); it stops at
+    the end time or when the integrator is done, and turns the model's failures into one RunDiverged that
+    says where the run can be continued from.  What a model is comes in resolved (`info`, its
+    models.registry.ModelInfo): the controller knows nothing of pairs, time-step keys or meshes."""
 
     def __init__(self, flow_model: FlowModel, info, integrator: BodyIntegrator, monitor=None,
                  run_dir: output.RunDirectory | None = None):
@@ -264,16 +251,14 @@ class Controller:
         self.flow_model, self.info, self.integrator, self.comm = flow_model, info, integrator, flow_model.comm
         self.monitor = monitor or (lambda *args, **kwargs: None)
         self.run_dir = run_dir
-        self.fields_every, checkpoint_every = info.cadences(flow_model.scene)
-        self.checkpoint_every = checkpoint_every if run_dir is not None else 0
+        self.fields_every, self.checkpoint_every = info.cadences(flow_model.scene) if run_dir is not None else (0, 0)
         self.last_checkpoint: tuple[int, float] | None = None
         self.stepper: Stepper | None = None
 
     def run(self, resumed: output.Checkpoint | None = None) -> dict:
         """The run from its start, or from `resumed` (a restart: the checkpoint RunDirectory.resume chose)."""
         flow_model, integrator, run_dir = self.flow_model, self.integrator, self.run_dir
-        restart = resumed is not None
-        fields_every = self.fields_every if run_dir is not None else 0
+        restart, fields_every = resumed is not None, self.fields_every
         try:
             flow_model.build(integrator)
             self.stepper = stepper = stepper_for(self.info, flow_model, integrator)
@@ -396,20 +381,23 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     integrator = _RunIntegrator(scene, resolved=model_cls.resolved)
     guards = _Safeguards(scene, integrator, info, flow_model.resolved_top())
     if root:
-        for message in _warnings(scene, info, guards):
+        if guards.light:
+            warnings.warn(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
+                          f"{scene.liquid.density:g} kg/m3: the sphere rises and never reaches the wall; the run "
+                          f"stops when it has {guards.where} (gap {guards.ceiling / scene.sphere.diameter:.3g} D)",
+                          stacklevel=2)
+        for message in info.scene_warnings(scene):
             warnings.warn(message, stacklevel=2)
-    resumed = None  # the checkpoint a restart continues from (rank 0 checks it; every rank restores it)
-    run_dir = None if out_dir is None else output.RunDirectory(out_dir)
-    if run_dir is not None and restart:
-        resumed = comm.bcast(on_root(comm, lambda: run_dir.resume(scene, model_name, info.checkpoint_files)), root=0)
-    elif run_dir is not None:
-        on_root(comm, lambda: run_dir.prepare(force, scene))
-    if run_dir is not None:
+    run_dir, resumed, writer = None, None, None  # resumed: the checkpoint a restart continues (rank 0 checks it)
+    if out_dir is not None:
+        run_dir = output.RunDirectory(out_dir)
+        if restart:
+            resumed = comm.bcast(on_root(comm, lambda: run_dir.resume(scene, model_name, info.checkpoint_files)), 0)
+        else:
+            on_root(comm, lambda: run_dir.prepare(force, scene))
         on_root(comm, run_dir.reserve)
-    interval_key = info.trajectory_interval_key
-    interval = info.setting(scene, interval_key) if interval_key else 0.0
-    writer = None
-    if run_dir is not None:
+        interval_key = info.trajectory_interval_key
+        interval = info.setting(scene, interval_key) if interval_key else 0.0
         columns = output.trajectory_columns(len(scene.spheres))
         writer = on_root(comm, lambda: run_dir.trajectory(interval, columns))
     earlier_wall = resumed.wall_time_s if resumed is not None else []  # [s], one per earlier segment
@@ -453,16 +441,14 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     # rank 0 alone writes, so rank 0's account of how the run ended is every rank's
     status, message, signum = comm.bcast((status, message, signum), root=0)
 
-    if status == "completed":
-        if guards.stop_reason is not None:
-            stop_reason = guards.stop_reason
-        elif integrator.done:
-            stop_reason = (getattr(integrator, "stop_reason", None)
-                           or f"the bounce limit (run.bounces = {scene.run.bounces})")
-        else:
-            stop_reason = f"run.end_time = {scene.run.end_time:g} s"
-    else:
+    if status != "completed":
         stop_reason = message
+    elif guards.stop_reason is not None:
+        stop_reason = guards.stop_reason
+    elif integrator.done:
+        stop_reason = integrator.stop_reason or f"the bounce limit (run.bounces = {scene.run.bounces})"
+    else:
+        stop_reason = f"run.end_time = {scene.run.end_time:g} s"
     integrator.finish()
     wall = record.elapsed()
     extra = {**(result.get("extra") or {}), "stop_reason": stop_reason}

@@ -44,6 +44,7 @@ SOLID_DENSITY_NOTE = "the densest solid, osmium, is 2.26e4 kg/m3"
 MODULUS_NOTE = "the stiffest solid, diamond, has 1.2e12 Pa"
 LIQUID_DENSITY_NOTE = ("the densest liquid, mercury, is 1.35e4 kg/m3; down to 1e-30 for near-dry checks, below "
                        "which the flow's kinematic viscosity overflows the solvers")
+ROUGHNESS_NOTE = "the height of the surface's asperities; Li et al. (2011) section 3.1 give 0.02 um (2e-8 m)"
 VISCOSITY_NOTE = ("pitch is ~1e8 Pa s; above it the sphere's viscous relaxation time m / (6 pi mu a) falls below "
                   "the integrator's smallest step and a run stops advancing")
 # contact.model = "ehd": the gap where the film collision takes over (docs/ehd.md), and its bounds
@@ -66,15 +67,16 @@ class SceneError(Error, ValueError):
 
 def _positive(default: Any = dataclasses.MISSING, unit: str = "", hi: float | None = None, note: str = "") -> Any:
     """> 0, and <= hi when given (`note` says where the bound comes from)."""
-    return field(default=default, metadata={"range": (0.0, hi, True, False), "unit": unit, "note": note})
+    return _between(0.0, hi, default, unit, open_low=True, note=note)
 
 
 def _between(lo, hi, default: Any = dataclasses.MISSING, unit: str = "", open_ends=False, open_low=None,
-             note: str = "") -> Any:
+             note: str = "", kw_only: bool = False) -> Any:
     """[lo, hi], or (lo, hi) with open_ends; open_low alone opens only the lower end.  `note` says
     what the value means, after a range error."""
     low = open_ends if open_low is None else open_low
-    return field(default=default, metadata={"range": (lo, hi, low, open_ends), "unit": unit, "note": note})
+    return field(default=default, kw_only=kw_only,
+                 metadata={"range": (lo, hi, low, open_ends), "unit": unit, "note": note})
 
 
 def _choice(*options: str) -> Any:
@@ -111,9 +113,8 @@ def _check_fields(obj: Any, prefix: str) -> None:
             above = hi is not None and (value >= hi if hi_open else value > hi)
             if below or above:
                 note = f" ({f.metadata['note']})" if f.metadata.get("note") else ""
-                raise SceneError(
-                    f"{key} = {value!r}{unit} is out of range: allowed {_allowed(lo, hi, lo_open, hi_open)}{unit}{note}"
-                )
+                raise SceneError(f"{key} = {value!r}{unit} is out of range: allowed "
+                                 f"{_allowed(lo, hi, lo_open, hi_open)}{unit}{note}")
 
 
 # -- the scene -------------------------------------------------------------------------
@@ -126,9 +127,7 @@ class Sphere:
     youngs_modulus: float = _positive(unit="Pa", hi=1e13, note=MODULUS_NOTE)
     poisson_ratio: float = _between(-1.0, 0.5, open_ends=True, note="an isotropic solid's range")
     # keyword-only so that SecondSphere's own required fields may follow it
-    roughness: float = field(default=0.0, kw_only=True, metadata={
-        "range": (0.0, 1e-3, False, False), "unit": "m",
-        "note": "the height of the surface's asperities; Li et al. (2011) section 3.1 give 0.02 um (2e-8 m)"})
+    roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note=ROUGHNESS_NOTE, kw_only=True)
 
     @property
     def radius(self) -> float:
@@ -184,8 +183,7 @@ class Wall:
     youngs_modulus: float | None = _positive(None, unit="Pa", hi=1e13, note=MODULUS_NOTE)
     poisson_ratio: float | None = _between(-1.0, 0.5, None, open_ends=True, note="an isotropic solid's range")
     present: bool = True
-    roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note="the height of the surface's asperities; Li et al. "
-                                "(2011) section 3.1 give 0.02 um (2e-8 m) for their Zerodur block")
+    roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note=f"{ROUGHNESS_NOTE} for their Zerodur block")
 
 
 @dataclass(frozen=True)
@@ -367,8 +365,7 @@ class Scene:
     @property
     def spheres(self) -> tuple[Sphere, ...]:
         """Sphere 1 (nearest z = 0), then the second sphere and the further ones if there are."""
-        return (self.sphere,) if self.second_sphere is None else (self.sphere, self.second_sphere,
-                                                                   *self.further_spheres)
+        return (self.sphere, *(sphere for _, sphere in self._upper_spheres()))
 
     @property
     def initial_gaps(self) -> tuple[float, ...]:
@@ -453,8 +450,7 @@ class Scene:
                        (("youngs_modulus", "> 0 Pa"), ("poisson_ratio", "in (-1, 0.5)"))
                        if getattr(wall, key) is None]
             raise SceneError(f"{' and '.join(missing)} {'are' if len(missing) > 1 else 'is'} required when "
-                             "wall.present = true "
-                             "(or set wall.present = false)")
+                             "wall.present = true (or set wall.present = false)")
         second = self.second_sphere
         if self.further_spheres and second is None:
             raise SceneError(f"further_spheres ({len(self.further_spheres)} given) are the spheres above the second: "
@@ -474,9 +470,8 @@ class Scene:
         if c.model == "ehd":
             self._check_ehd()
         if c.delta_ss >= c.delta_sl:
-            raise SceneError(
-                f"contact.delta_ss = {c.delta_ss:g} must be smaller than contact.delta_sl = {c.delta_sl:g}"
-            )
+            raise SceneError(f"contact.delta_ss = {c.delta_ss:g} must be smaller than contact.delta_sl = "
+                             f"{c.delta_sl:g}")
         box = self.container
         if (box.radius is None) != (box.height is None):
             raise SceneError("container needs both radius and height, or neither (unbounded)")
@@ -501,11 +496,8 @@ class Scene:
                     *(abs(sphere.velocity) for _, sphere in self._upper_spheres()))
         re_max = self.reynolds(max(self.estimated_impact_speed(), speed) if free else speed)
         if re_max > AXISYMMETRIC_RE_LIMIT:
-            warnings.warn(
-                f"scene {self.name!r}: estimated Re = {re_max:.3g} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
-                "where the flow stops being axisymmetric (paper section 2.1)",
-                stacklevel=2,
-            )
+            warnings.warn(f"scene {self.name!r}: estimated Re = {re_max:.3g} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
+                          "where the flow stops being axisymmetric (paper section 2.1)", stacklevel=2)
         return self
 
     def _check_ehd(self) -> None:
@@ -646,11 +638,7 @@ def from_dict(data: dict, name: str | None = None) -> Scene:
 
 def to_dict(scene: Scene) -> dict:
     """Nested dicts with None values left out; the inverse of from_dict."""
-    def strip(obj):
-        if isinstance(obj, dict):
-            return {k: strip(v) for k, v in obj.items() if v is not None}
-        return obj
-    return strip(dataclasses.asdict(scene))
+    return dataclasses.asdict(scene, dict_factory=lambda items: {k: v for k, v in items if v is not None})
 
 
 def dumps(scene: Scene) -> str:
