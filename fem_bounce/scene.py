@@ -167,8 +167,9 @@ class Liquid:
 class SecondSphere(Sphere):
     """A second sphere on the axis above the first (a head-on pair): its own material, the initial gap
     between the two surfaces and its initial velocity (positive away from the wall).  free: moves under
-    the liquid, gravity and contact; fixed: held at its initial position; prescribed: moves at
-    `velocity` throughout."""
+    the liquid, gravity and contact; fixed: held at its initial position, its surface moving at `velocity`
+    (as motion.mode = "fixed" holds sphere 1: a quasi-steady approach); prescribed: moves at `velocity`
+    throughout."""
 
     gap: float = _positive(unit="m")
     velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s")
