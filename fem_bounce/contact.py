@@ -160,8 +160,7 @@ class ContactLaw:
         self.hertz = self.model == "lubricated-hertz"
         self.ehd = self.model == "ehd"  # the film collision at the handover gap (module docstring)
         self.handover = contact.ehd_handover
-        cavitation = getattr(contact, "ehd_cavitation", "off")
-        self.cavitation = None if cavitation == "off" else float(cavitation)
+        self.cavitation = None if contact.ehd_cavitation == "off" else float(contact.ehd_cavitation)
         self.stiffness = hertz_stiffness(radius, e_star)
         self.damping = tsuji_damping(self.dry_restitution) * math.sqrt(mass * self.stiffness) if self.hertz else 0.0
         # the smallest admissible gap: the spring's own position for li2011, Hertz's small strain here

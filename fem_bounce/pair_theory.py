@@ -24,6 +24,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .scene import reduced_radius
+from .theory import bispherical_drag_factor
 
 SERIES_TOLERANCE = 1e-13  # truncation of the Gegenbauer series, relative to the isolated drag
 MAX_TERMS = 400_000  # safety cap; the series needs about 36 / (alpha + beta) terms
@@ -174,11 +175,9 @@ def stimson_jeffery(a: float, h: float) -> float:
 
     -> 1 far apart, 0.6451 at contact.  Equals X11 + X12 of `resistance(a, a, h)`."""
     alpha = 2.0 * math.asinh(math.sqrt(h / (4.0 * a)))
-    n = np.arange(1.0, int(40.0 / alpha) + 3.0)
-    k = 2.0 * n + 1.0
-    bracket = 1.0 - (4.0 * np.sinh(0.5 * k * alpha) ** 2 - (k * math.sinh(alpha)) ** 2) / (
-        2.0 * np.sinh(k * alpha) + k * math.sinh(2.0 * alpha))
-    return float(4.0 / 3.0 * math.sinh(alpha) * np.sum(n * (n + 1.0) / ((2.0 * n - 1.0) * (2.0 * n + 3.0)) * bracket))
+    return bispherical_drag_factor(alpha, 40.0, lambda k: 1.0 - (
+        4.0 * np.sinh(0.5 * k * alpha) ** 2 - (k * math.sinh(alpha)) ** 2) / (
+        2.0 * np.sinh(k * alpha) + k * math.sinh(2.0 * alpha)))
 
 
 def equal_spheres_approach(a: float, h: float) -> float:
@@ -193,11 +192,9 @@ def equal_spheres_approach(a: float, h: float) -> float:
 
     Equals X11 - X12 of `resistance(a, a, h)`; -> a/(2h) + (9/20) ln(a/h) + 1.3456 near contact."""
     alpha = 2.0 * math.asinh(math.sqrt(h / (4.0 * a)))
-    n = np.arange(1.0, int(40.0 / alpha) + 3.0)
-    k = 2.0 * n + 1.0
-    bracket = (4.0 * np.cosh(0.5 * k * alpha) ** 2 + (k * math.sinh(alpha)) ** 2) / (
-        2.0 * np.sinh(k * alpha) - k * math.sinh(2.0 * alpha)) - 1.0
-    return float(4.0 / 3.0 * math.sinh(alpha) * np.sum(n * (n + 1.0) / ((2.0 * n - 1.0) * (2.0 * n + 3.0)) * bracket))
+    return bispherical_drag_factor(alpha, 40.0, lambda k: (
+        4.0 * np.cosh(0.5 * k * alpha) ** 2 + (k * math.sinh(alpha)) ** 2) / (
+        2.0 * np.sinh(k * alpha) - k * math.sinh(2.0 * alpha)) - 1.0)
 
 
 def approach_fixed(a1: float, a2: float, h: float) -> float:
@@ -277,11 +274,9 @@ class PairResistance:
         if h < self.h_min:
             if h <= 0.0:
                 raise ValueError(f"the gap must be positive, got h = {h}")
-            x = _singular_part(self.a1, self.a2, h) + self._remainder
-            return float(x[0, 0]), float(x[0, 1]), float(x[1, 0]), float(x[1, 1])
+            return tuple((_singular_part(self.a1, self.a2, h) + self._remainder).ravel().tolist())
         if h > self.h_max:
-            x = far_field(self.a1, self.a2, h)
-            return float(x[0, 0]), float(x[0, 1]), float(x[1, 0]), float(x[1, 1])
+            return tuple(far_field(self.a1, self.a2, h).ravel().tolist())
         y11, y12, y22 = self._smooth_values(math.log(h))
         unsqueeze = (h + self.a_star) / h
         x12 = y12 * unsqueeze
@@ -289,8 +284,7 @@ class PairResistance:
 
     def __call__(self, h: float) -> np.ndarray:
         """The 2x2 X at gap h [m], as `resistance`."""
-        x11, x12, x21, x22 = self.coefficients(h)
-        return np.array([[x11, x12], [x21, x22]])
+        return np.array(self.coefficients(h)).reshape(2, 2)
 
     def forces(self, h: float, u1: float, u2: float, viscosity: float) -> tuple[float, float]:
         """(F_1, F_2) [N] on the spheres for velocities u1, u2 [m/s] (positive up), viscosity [Pa s]."""

@@ -35,6 +35,14 @@ from .scene import Scene
 # -- quasi-steady drag -------------------------------------------------------------------
 
 
+def bispherical_drag_factor(alpha: float, reach: float, bracket) -> float:
+    """(4/3) sinh(alpha) sum_n n(n+1)/((2n-1)(2n+3)) bracket(2n + 1) over n = 1 ... reach / alpha + 2: the
+    drag factor of a sphere at the bispherical pole alpha (Stimson & Jeffery 1926; Brenner 1961)."""
+    n = np.arange(1.0, int(reach / alpha) + 3.0)
+    terms = n * (n + 1.0) / ((2.0 * n - 1.0) * (2.0 * n + 3.0)) * bracket(2.0 * n + 1.0)
+    return float(4.0 / 3.0 * math.sinh(alpha) * np.sum(terms))
+
+
 def brenner_series(delta: float) -> float:
     """Brenner (1961) exact wall-drag factor for a sphere moving normal to a plane wall.
 
@@ -44,12 +52,8 @@ def brenner_series(delta: float) -> float:
     where they fall below 1e-30 of the first.
     """
     alpha = math.acosh(1.0 + 2.0 * delta)
-    n = np.arange(1, int(35.0 / alpha) + 3, dtype=float)
-    k = 2.0 * n + 1.0
-    bracket = (2.0 * np.sinh(k * alpha) + k * math.sinh(2.0 * alpha)) / (
-        4.0 * np.sinh(0.5 * k * alpha) ** 2 - (k * math.sinh(alpha)) ** 2
-    ) - 1.0
-    return float(4.0 / 3.0 * math.sinh(alpha) * np.sum(n * (n + 1.0) / ((2.0 * n - 1.0) * (2.0 * n + 3.0)) * bracket))
+    return bispherical_drag_factor(alpha, 35.0, lambda k: (2.0 * np.sinh(k * alpha) + k * math.sinh(2.0 * alpha)) / (
+        4.0 * np.sinh(0.5 * k * alpha) ** 2 - (k * math.sinh(alpha)) ** 2) - 1.0)
 
 
 MIN_DELTA = 1e-12  # trial states of an implicit step may touch the wall; real penetration is an event
