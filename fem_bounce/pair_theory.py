@@ -96,13 +96,12 @@ def _upper_sphere_row(a_upper: float, a_lower: float, gap: float, n_terms: int |
     """(X_self, X_other) for the upper sphere: F = -6 pi mu a_upper (X_self U_upper + X_other U_lower)."""
     alpha, beta, _ = bispherical_poles(a_upper, a_lower, gap)
     scale = 2.0 / 3.0 * math.sinh(alpha)
-    if n_terms is not None:
-        own, other = _series_terms(alpha, beta, np.arange(1.0, n_terms + 1.0))
-        return 1.0 + scale * float(np.sum(own)), scale * float(np.sum(other))
-    n_max = int(36.0 / (alpha + beta)) + 8
+    n_max = int(36.0 / (alpha + beta)) + 8 if n_terms is None else n_terms
     while True:  # the estimate suffices in every case tried; the check guards the rest
         own, other = _series_terms(alpha, beta, np.arange(1.0, n_max + 1.0))
         x_self, x_other = 1.0 + scale * float(np.sum(own)), scale * float(np.sum(other))
+        if n_terms is not None:
+            return x_self, x_other
         # the terms fall geometrically, by about exp(-(alpha + beta)) per order: bound the tail
         tail = scale * max(abs(own[-1]), abs(other[-1])) / -math.expm1(-(alpha + beta))
         if tail < SERIES_TOLERANCE * max(1.0, abs(x_self)) or n_max >= MAX_TERMS:
