@@ -253,14 +253,13 @@ class ContactModel(ContactGaps):
     """One scene's contact with the wall: its law, the blend, the correction and the theory forces."""
 
     def __init__(self, scene: Scene):
-        c = scene.contact
-        self.delta_sl = c.delta_sl
-        self.diameter = scene.sphere.diameter
-        self.e_star = reduced_modulus(
-            scene.sphere.youngs_modulus, scene.sphere.poisson_ratio, scene.wall.youngs_modulus, scene.wall.poisson_ratio
-        )
-        self.law = ContactLaw(c, scene.sphere.radius, scene.sphere.mass, self.e_star, scene.liquid.viscosity,
-                              scene.sphere.roughness + scene.wall.roughness, self.diameter)
+        sphere, wall = scene.sphere, scene.wall
+        self.delta_sl = scene.contact.delta_sl
+        self.diameter = sphere.diameter
+        self.e_star = reduced_modulus(sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus,
+                                      wall.poisson_ratio)
+        self.law = ContactLaw(scene.contact, sphere.radius, sphere.mass, self.e_star, scene.liquid.viscosity,
+                              sphere.roughness + wall.roughness, self.diameter)
         self.theory = TheoryForces(scene)
         # the hold and the correction belong to a free sphere's dynamics (see the module docstring)
         self.correcting = scene.near_wall_law == "correction" and is_free(scene)
