@@ -35,9 +35,8 @@ reaching the law's floor (penetration).  One BounceRecord (bounces.py) per conta
 A prescribed sphere 1 driven into the wall stops the run with an error in its path.
 
 contact.model = "ehd" (one sphere and a wall): the gap reaching the handover gap h0 on approach ends the
-TS solve (a terminal event); the film collision (contact.ContactLaw.collide, fem_bounce.ehd) is solved
-from (h0, V_in), and the integration resumes at t + t_c from (h0, +e V_in), or stops with the sphere at
-rest in the film (`_film_jump`).  The integrator owns its PETSc objects: destroy() frees them.
+TS solve (a terminal event), and `_film_jump` takes the sphere through the film collision.  The
+integrator owns its PETSc objects: destroy() frees them.
 """
 from __future__ import annotations
 
@@ -81,17 +80,6 @@ class FluidForce:
 class PenetrationError(RuntimeError):
     """A sphere went through the wall or another sphere as far as the contact law can tell
     (ContactLaw.floor): the contact model was overwhelmed."""
-
-
-def penetration_message(law, what: str, t: float, gap: float, speed: float, materials: str) -> str:
-    """What went through what, and the setting that would have stopped it."""
-    if law.hertz:
-        return (f"{what} at t = {t:.6g} s: the Hertz overlap passed {-law.floor * 1e6:.4g} um, a tenth of the "
-                f"(reduced) radius, beyond Hertz's small-strain contact (contact speed {speed:.3g} m/s): the "
-                f"solids are too soft for this impact ({materials})")
-    return (f"{what} at t = {t:.6g} s (gap {gap:.3g} m, contact speed {speed:.3g} m/s): the paper's spring "
-            "e_d W_o F(delta/delta_ss) stores too little energy over delta_ss to stop it; raise contact.delta_ss "
-            'or use contact.model = "lubricated-hertz"')
 
 
 @dataclass
@@ -322,9 +310,8 @@ class BodyIntegrator:
                 terms["history"][k] = -float(c @ z)
         for contact in self.contacts:
             engaged = contact.record.engaged_now
-            gap = y[contact.gap_index]
             if engaged is not None:
-                push = contact.law.force(gap, contact.rate(rates), engaged)
+                push = contact.law.force(y[contact.gap_index], contact.rate(rates), engaged)
                 if contact.lower is not None:
                     terms["elastic"][contact.lower] -= push
                 terms["elastic"][contact.upper] += push
@@ -450,15 +437,23 @@ class BodyIntegrator:
                 self._penetration(contact, t, gap)
 
     def _penetration(self, contact: Contact, t: float, gap: float) -> None:
-        upper = self.bodies[contact.upper]
+        """Stop: what went through what, and the setting that would have stopped it."""
+        law, speed = contact.law, contact.record.contact_speed
         if contact.lower is None:
             what = f"{'the sphere' if len(self.bodies) == 1 else 'sphere 1'} went through the wall"
             materials = "sphere.youngs_modulus, wall.youngs_modulus"
         else:
-            lower = self.bodies[contact.lower]
             what = f"sphere {contact.upper + 1} went through sphere {contact.lower + 1}"
-            materials = f"{lower.key}.youngs_modulus, {upper.key}.youngs_modulus"
-        raise PenetrationError(penetration_message(contact.law, what, t, gap, contact.record.contact_speed, materials))
+            materials = ", ".join(f"{self.bodies[k].key}.youngs_modulus" for k in (contact.lower, contact.upper))
+        if law.hertz:
+            raise PenetrationError(
+                f"{what} at t = {t:.6g} s: the Hertz overlap passed {-law.floor * 1e6:.4g} um, a tenth of the "
+                f"(reduced) radius, beyond Hertz's small-strain contact (contact speed {speed:.3g} m/s): the "
+                f"solids are too soft for this impact ({materials})")
+        raise PenetrationError(
+            f"{what} at t = {t:.6g} s (gap {gap:.3g} m, contact speed {speed:.3g} m/s): the paper's spring "
+            "e_d W_o F(delta/delta_ss) stores too little energy over delta_ss to stop it; raise contact.delta_ss "
+            'or use contact.model = "lubricated-hertz"')
 
     def _path_reaches_wall(self, t: float) -> None:
         motion = self.scene.motion
@@ -574,10 +569,7 @@ class BodyIntegrator:
         added_mass = -f["c_m"] * accel - f["pair_mass"] @ accel + f["am_velocity"] + f["pair_am_velocity"]
         theory = f["drag"] + f["pair"] + added_mass + f["history"]
         count, blend = len(self.bodies), f["blend"]
-        if self.resolved:
-            sim = self.fluid.explicit - self.fluid.added_mass @ accel
-        else:
-            sim = theory
+        sim = self.fluid.explicit - self.fluid.added_mass @ accel if self.resolved else theory
         correction = f["correction"] - f["correction_mass"] * accel
         per_sphere = dict(gap=f["gaps"], velocity=f["velocities"], acceleration=accel, f_drag=f["drag"],
                           f_history=f["history"], f_pair=f["pair"], f_added_mass=added_mass, f_theory=theory,
@@ -702,8 +694,7 @@ class BodyIntegrator:
         state = dict(time=self.time, y=self.y.array_r.tolist(), step_size=self.ts.getTimeStep(),
                      machine={"done": self.done, "steps": self.steps}, records={})
         for contact in self.contacts:
-            state["records"][contact.name] = {}
-            contact.record.save(state["records"][contact.name])
+            contact.record.save(state["records"].setdefault(contact.name, {}))
         return state
 
     def load_state_dict(self, state: dict) -> None:
