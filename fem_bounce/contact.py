@@ -151,14 +151,13 @@ class ContactLaw:
 
     def __init__(self, contact, radius: float, mass: float, e_star: float, viscosity: float, roughness: float,
                  length: float):
-        self.model = contact.model
         self.radius, self.mass, self.e_star, self.length = radius, mass, e_star, length
         self.viscosity, self.roughness = viscosity, roughness
         self.gap_factor = contact.contact_gap_factor
         self.dry_restitution = contact.dry_restitution
         self.delta_ss = contact.delta_ss
-        self.hertz = self.model == "lubricated-hertz"
-        self.ehd = self.model == "ehd"  # the film collision at the handover gap (module docstring)
+        self.hertz = contact.model == "lubricated-hertz"
+        self.ehd = contact.model == "ehd"  # the film collision at the handover gap (module docstring)
         self.handover = contact.ehd_handover
         self.cavitation = None if contact.ehd_cavitation == "off" else float(contact.ehd_cavitation)
         self.stiffness = hertz_stiffness(radius, e_star)

@@ -256,17 +256,11 @@ class PairResistance:
         self._remainder = table[0] - _singular_part(a1, a2, gaps[0])
         squeeze = gaps / (gaps + self.a_star)
         smooth = np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1) * squeeze[:, None]
-        self._spline = CubicSpline(log_gap, smooth, axis=0)
+        spline = CubicSpline(log_gap, smooth, axis=0)
         # plain floats for a scalar evaluation without numpy overhead
         self.gaps = gaps  # [m], the table's knots
         self._knots = log_gap.tolist()
-        self._coefficients = [tuple(tuple(self._spline.c[p, i, :]) for p in range(4)) for i in range(len(gaps) - 1)]
-
-    def _smooth_values(self, log_gap: float) -> tuple[float, float, float]:
-        i = min(max(bisect.bisect_right(self._knots, log_gap) - 1, 0), len(self._coefficients) - 1)
-        t = log_gap - self._knots[i]
-        c3, c2, c1, c0 = self._coefficients[i]
-        return tuple(((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3))
+        self._coefficients = [tuple(tuple(spline.c[p, i, :]) for p in range(4)) for i in range(len(gaps) - 1)]
 
     def coefficients(self, h: float) -> tuple[float, float, float, float]:
         """(X11, X12, X21, X22) at gap h [m]: plain floats, for right-hand sides."""
@@ -276,7 +270,11 @@ class PairResistance:
             return tuple((_singular_part(self.a1, self.a2, h) + self._remainder).ravel().tolist())
         if h > self.h_max:
             return tuple(far_field(self.a1, self.a2, h).ravel().tolist())
-        y11, y12, y22 = self._smooth_values(math.log(h))
+        x = math.log(h)
+        i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
+        t = x - self._knots[i]
+        c3, c2, c1, c0 = self._coefficients[i]
+        y11, y12, y22 = (((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3))
         unsqueeze = (h + self.a_star) / h
         x12 = y12 * unsqueeze
         return y11 * unsqueeze, x12, self.a1 * x12 / self.a2, y22 * unsqueeze
