@@ -137,6 +137,8 @@ class BodyIntegrator:
         self.uses_theory = not resolved or scene.near_wall_law == "blend"  # f_thr enters the balance
         # the history modes of each sphere (none with a resolved flow: its flow carries the history)
         self.n_history = tuple(th.n_history if self.uses_theory else 0 for th in self.theories)
+        ends = 2 * count + np.cumsum(self.n_history, dtype=int)  # in y, after the gaps and velocities
+        self._mode_slices = [slice(int(end) - modes, int(end)) for end, modes in zip(ends, self.n_history)]
         self._drag_scaled_history = scene.contact.history_wall_factor == "drag-scaled"
         self.fluid = FluidForce(np.zeros(count), np.zeros((count, count)))
         self.observers: list[Callable[[dict], None]] = []
@@ -177,11 +179,7 @@ class BodyIntegrator:
 
     def _history_states(self, y) -> list[np.ndarray]:
         """Each sphere's history modes in the state y."""
-        start, found = 2 * len(self.bodies), []
-        for count in self.n_history:
-            found.append(np.asarray(y[start:start + count]))
-            start += count
-        return found
+        return [np.asarray(y[modes]) for modes in self._mode_slices]
 
     # -- the implicit system ------------------------------------------------------------
     def _build_ts(self) -> None:
@@ -325,7 +323,6 @@ class BodyIntegrator:
         """(M, R): the equations of motion read M dV/dt = R (a held or prescribed sphere's row: its
         acceleration).  The theory force weighs `blend` (1 for the ODE model), the resolved flow's 1 - blend."""
         f = terms or self._terms(t, y)
-        count = len(self.bodies)
         blend = f["blend"]
         explicit, added_mass = self.fluid.explicit, self.fluid.added_mass  # zero without a resolved flow
         mass = (np.diag(self.masses + blend * f["c_m"] + f["correction_mass"]) + blend[:, None] * f["pair_mass"]
@@ -333,7 +330,7 @@ class BodyIntegrator:
         theory = f["drag"] + f["am_velocity"] + f["pair"] + f["pair_am_velocity"] + f["history"]
         rhs = blend * theory + (1.0 - blend) * explicit + f["correction"] + f["elastic"] - self.weights
         for k in np.flatnonzero(~self.free):
-            mass[k] = np.eye(count)[k]
+            mass[k] = np.eye(len(self.bodies))[k]
             rhs[k] = self.bodies[k].prescribed(t)[1]
         return mass, rhs
 
@@ -344,10 +341,8 @@ class BodyIntegrator:
         out = np.empty(self.n)
         out[0:2 * count:2] = np.asarray(ydot[0:2 * count:2]) - np.diff(rates, prepend=0.0)  # the gaps' rates
         out[1:2 * count:2] = mass @ np.asarray(ydot[1:2 * count:2]) - rhs
-        start = 2 * count
-        for k, (z, zdot) in enumerate(zip(self._history_states(y), self._history_states(ydot))):
-            out[start:start + len(z)] = zdot - ydot[2 * k + 1] + z / self.theories[k].history_times[: len(z)]
-            start += len(z)
+        for k, (modes, z) in enumerate(zip(self._mode_slices, self._history_states(y))):
+            out[modes] = np.asarray(ydot[modes]) - ydot[2 * k + 1] + z / self.theories[k].history_times[: len(z)]
         return out
 
     def _ifunction(self, ts, t, y, ydot, f) -> None:
@@ -369,16 +364,11 @@ class BodyIntegrator:
         gaps, velocities = np.arange(0, 2 * count, 2), np.arange(1, 2 * count, 2)
         jac[gaps, gaps] += a
         jac[np.ix_(velocities, velocities)] += a * mass
-        start = 2 * count
-        for k, count_k in enumerate(self.n_history):  # the history rows and columns, exactly
-            if not count_k:
-                continue
-            modes = slice(start, start + count_k)
+        for k, modes in enumerate(self._mode_slices):  # the history rows and columns, exactly
             if self.free[k]:
                 jac[2 * k + 1, modes] = terms["blend"][k] * terms["history_coefficients"][k]
             jac[modes, 2 * k + 1] = -a
-            jac[modes, modes] = np.diag(a + 1.0 / self.theories[k].history_times[:count_k])
-            start += count_k
+            jac[modes, modes] = np.diag(a + 1.0 / self.theories[k].history_times[:self.n_history[k]])
         P.setValues(range(n), range(n), jac.ravel())
         P.assemble()
         if A != P:
@@ -480,7 +470,7 @@ class BodyIntegrator:
         rebound would meet less resistance than under the other contact models."""
         t, v = self._film_pending
         self._film_pending = None
-        law, theory, count = self.wall.law, self.theories[0], len(self.bodies)
+        law, theory = self.wall.law, self.theories[0]
         h0, speed = law.handover, -v
         mass = self.masses[0] + theory.added_mass(h0)[0]
         try:
@@ -491,12 +481,10 @@ class BodyIntegrator:
                               "contact.ehd_handover or contact.model = \"lubricated-hertz\" may run") from None
         t_end, h_end, v_end = self.wall.record.film_collision(t, h0, speed, result)
         state = self.y.array.copy()
-        modes = self.n_history[0]
-        if modes:
-            taus = theory.history_times[:modes]
+        history, taus = self._mode_slices[0], theory.history_times[:self.n_history[0]]
+        if len(taus):
             duration = max(t_end - t, 1e-300)
             decay = np.exp(-duration / taus)
-            history = slice(2 * count, 2 * count + modes)
             state[history] = state[history] * decay + (v_end - v) * taus / duration * (1.0 - decay)
         state[0], state[1] = h_end, v_end
         self.y.setArray(state)
