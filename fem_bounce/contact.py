@@ -166,9 +166,12 @@ class ContactLaw:
         self.floor = -MAX_OVERLAP * radius if self.hertz else 0.0
         self.rebound_apex = REBOUND_MIN_APEX * length
 
-    def _gap_at(self, speed: float) -> float:
-        """h_c [m] at the approach speed `speed` [m/s]: max(roughness, x_d) or delta_ss D (li2011), or the
-        handover gap h0 (ehd)."""
+    def boundary(self, speed: float, engaged: float | None = None) -> float:
+        """The gap [m] where a contact begins approaching at `speed` >= 0 [m/s]: h_c = max(roughness, x_d)
+        (lubricated-hertz), delta_ss D (li2011) or the handover gap h0 (ehd); or where it ends (`engaged`
+        given: the h_c it began at)."""
+        if engaged is not None and self.hertz:
+            return engaged
         if self.ehd:
             return self.handover
         if not self.hertz:
@@ -176,16 +179,10 @@ class ContactLaw:
         return self.gap_factor * max(self.roughness,
                                      elastohydrodynamic_gap(self.radius, self.e_star, self.viscosity, speed))
 
-    def boundary(self, speed: float, engaged: float | None = None) -> float:
-        """The gap [m] where a contact begins (approaching at `speed` >= 0), or ends (`engaged` given)."""
-        if engaged is not None and self.hertz:
-            return engaged
-        return self._gap_at(speed)
-
     def engage(self, speed: float) -> float:
         """What one contact keeps from the speed where it began: W_o [N] (li2011) or h_c [m]."""
         if self.hertz or self.ehd:
-            return self._gap_at(speed)
+            return self.boundary(speed)
         return hertz_peak_force(self.radius, self.mass, self.e_star, speed)
 
     def force(self, gap: float, rate: float, engaged: float) -> float:
