@@ -137,10 +137,7 @@ class BounceRecord:
             self.log(float(tk), float(xk) * h0, float(vk) * speed)
         rebound = result.outcome == "rebound"
         t_end = t + end * time_unit
-        if rebound:
-            h_end, v_end = h0, result.restitution * speed
-        else:
-            h_end, v_end = float(result.separation[-1]) * h0, 0.0
+        h_end, v_end = (h0, result.restitution * speed) if rebound else (float(result.separation[-1]) * h0, 0.0)
         turn = np.flatnonzero(result.velocity >= 0.0)
         t_turn = t + float(result.time[turn[0]] if turn.size else end) * time_unit
         self.log(t_end, h_end, v_end, initial=True)  # the resumed state; the peak speeds are set below

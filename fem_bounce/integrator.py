@@ -103,11 +103,6 @@ class Contact:
     def law(self):
         return self.model.law
 
-    @property
-    def length(self) -> float:
-        """Its gap scale: D for the wall, 2a* for a pair [m]."""
-        return self.model.diameter
-
     def rate(self, rates: np.ndarray) -> float:
         """d(gap)/dt from the spheres' dh_i/dt [m/s]."""
         return rates[self.upper] - (rates[self.lower] if self.lower is not None else 0.0)
@@ -387,7 +382,7 @@ class BodyIntegrator:
             if not moving:
                 continue
             rate = (lambda c: lambda y: c.rate(self._rates(y)))(contact)
-            length, law, index = contact.length, contact.law, contact.gap_index
+            length, law, index = contact.model.diameter, contact.law, contact.gap_index  # D or 2a*
 
             def at_contact(y, c=contact, rate=rate, length=length, index=index):
                 if c.law.ehd and c.record.phase == "rebound":
