@@ -109,10 +109,7 @@ class Contact:
 
 
 class BodyIntegrator:
-    """Advances the scene's bodies; the same object serves the ODE, fd, ib and ale models.
-
-    `gaps` and `velocities` are arrays over the spheres (sphere 1 first): each one's lowest point above
-    z = 0 and its velocity."""
+    """Advances the scene's bodies; the same object serves the ODE, fd, ib and ale models."""
 
     _film_pending: tuple[float, float] | None = None  # ehd: (t, V) where the gap reached h0
 
