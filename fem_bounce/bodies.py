@@ -89,7 +89,5 @@ def _constant_motion(sphere) -> Callable[[float], tuple[float, float]]:
 def sphere_scene(scene: Scene, k: int) -> Scene:
     """The scene as seen by sphere k alone (0: sphere 1): its material as `sphere`, its initial gap, no
     other sphere.  For the per-sphere theory forces; never run or validated."""
-    if k == 0:
-        return dataclasses.replace(scene, second_sphere=None, further_spheres=())
     return dataclasses.replace(scene, sphere=scene.spheres[k], initial_gap=scene.initial_gaps[k], second_sphere=None,
                                further_spheres=())

@@ -118,15 +118,8 @@ class BounceRecord:
     def turning_point(self, t: float, h: float) -> None:
         """A sign change of V: the minimum gap of an impact, or the apex of a rebound."""
         if self._phase == "approach" and self._entered_contact:
-            impact_speed = self._mean_speed_before(t)
-            reynolds, stokes = self.numbers(impact_speed)
-            self.impacts.append(Impact(
-                time=t, impact_speed=impact_speed, peak_speed=self._peak_speed, contact_speed=self._contact_speed,
-                Re=reynolds, St=stokes, min_gap=h, contact_gap=self.contact.law.boundary(self._contact_speed),
-            ))
+            self._impact(t, self._peak_speed, min_gap=h, contact_gap=self.contact.law.boundary(self._contact_speed))
             self._phase, self._left_contact, self._rebound_speed = "rebound", False, 0.0
-            if self.stop_after_impacts and len(self.impacts) >= self.stop_after_impacts:
-                self.stop_at = t
         elif self._phase == "rebound" and self._left_contact:
             self._end_rebound(t, h)
 
@@ -144,29 +137,30 @@ class BounceRecord:
             self.log(float(tk), float(xk) * h0, float(vk) * speed)
         rebound = result.outcome == "rebound"
         t_end = t + end * time_unit
-        if rebound:
-            h_end, v_end = h0, result.restitution * speed
-        else:
-            h_end, v_end = float(result.separation[-1]) * h0, 0.0
+        h_end, v_end = (h0, result.restitution * speed) if rebound else (float(result.separation[-1]) * h0, 0.0)
         turn = np.flatnonzero(result.velocity >= 0.0)
         t_turn = t + float(result.time[turn[0]] if turn.size else end) * time_unit
         self.log(t_end, h_end, v_end, initial=True)  # the resumed state; the peak speeds are set below
         self._entered_contact = True
         self._contact_speed = speed
-        impact_speed = self._mean_speed_before(t_turn)
-        reynolds, stokes = self.numbers(impact_speed)
-        self.impacts.append(Impact(
-            time=t_turn, impact_speed=impact_speed, peak_speed=max(self._peak_speed, speed), contact_speed=speed,
-            Re=reynolds, St=stokes, min_gap=float(result.min_gap) * h0, contact_gap=h0, film_time=end * time_unit,
-            film_restitution=float(result.restitution) if rebound else 0.0, film_outcome=result.outcome))
-        self._phase, self._rebound_speed = "rebound", v_end
-        self._left_contact = rebound
-        if self.stop_after_impacts and len(self.impacts) >= self.stop_after_impacts:
-            self.stop_at = t_turn
+        self._impact(t_turn, max(self._peak_speed, speed), min_gap=float(result.min_gap) * h0, contact_gap=h0,
+                     film_time=end * time_unit, film_restitution=float(result.restitution) if rebound else 0.0,
+                     film_outcome=result.outcome)
+        self._phase, self._rebound_speed, self._left_contact = "rebound", v_end, rebound
         if not rebound:
             self.resting = True
             self.stop_at = t_end
         return t_end, h_end, v_end
+
+    def _impact(self, t: float, peak_speed: float, **details) -> None:
+        """Record the impact whose minimum gap is at t [s], its speed the 2 ms mean before it (Impact's
+        fields `details`); the run may stop there after stop_after_impacts impacts."""
+        impact_speed = self._mean_speed_before(t)
+        reynolds, stokes = self.numbers(impact_speed)
+        self.impacts.append(Impact(time=t, impact_speed=impact_speed, peak_speed=peak_speed,
+                                   contact_speed=self._contact_speed, Re=reynolds, St=stokes, **details))
+        if self.stop_after_impacts and len(self.impacts) >= self.stop_after_impacts:
+            self.stop_at = t
 
     @property
     def phase(self) -> str:
@@ -252,9 +246,9 @@ class BounceRecord:
 
 def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> float:
     """Gap at time t, cubic Hermite between logged steps (h and dh/dt = V are both known)."""
-    k = int(np.clip(np.searchsorted(ts, t) - 1, 0, len(ts) - 2)) if len(ts) > 1 else 0
     if len(ts) == 1:
         return hs[0]
+    k = int(np.clip(np.searchsorted(ts, t) - 1, 0, len(ts) - 2))
     t0, t1 = ts[k], ts[k + 1]
     dt = t1 - t0
     if dt <= 0.0:

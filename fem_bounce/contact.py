@@ -151,26 +151,27 @@ class ContactLaw:
 
     def __init__(self, contact, radius: float, mass: float, e_star: float, viscosity: float, roughness: float,
                  length: float):
-        self.model = contact.model
         self.radius, self.mass, self.e_star, self.length = radius, mass, e_star, length
         self.viscosity, self.roughness = viscosity, roughness
         self.gap_factor = contact.contact_gap_factor
         self.dry_restitution = contact.dry_restitution
         self.delta_ss = contact.delta_ss
-        self.hertz = self.model == "lubricated-hertz"
-        self.ehd = self.model == "ehd"  # the film collision at the handover gap (module docstring)
+        self.hertz = contact.model == "lubricated-hertz"
+        self.ehd = contact.model == "ehd"  # the film collision at the handover gap (module docstring)
         self.handover = contact.ehd_handover
-        cavitation = getattr(contact, "ehd_cavitation", "off")
-        self.cavitation = None if cavitation == "off" else float(cavitation)
+        self.cavitation = None if contact.ehd_cavitation == "off" else float(contact.ehd_cavitation)
         self.stiffness = hertz_stiffness(radius, e_star)
         self.damping = tsuji_damping(self.dry_restitution) * math.sqrt(mass * self.stiffness) if self.hertz else 0.0
         # the smallest admissible gap: the spring's own position for li2011, Hertz's small strain here
         self.floor = -MAX_OVERLAP * radius if self.hertz else 0.0
         self.rebound_apex = REBOUND_MIN_APEX * length
 
-    def _gap_at(self, speed: float) -> float:
-        """h_c [m] at the approach speed `speed` [m/s]: max(roughness, x_d) or delta_ss D (li2011), or the
-        handover gap h0 (ehd)."""
+    def boundary(self, speed: float, engaged: float | None = None) -> float:
+        """The gap [m] where a contact begins approaching at `speed` >= 0 [m/s]: h_c = max(roughness, x_d)
+        (lubricated-hertz), delta_ss D (li2011) or the handover gap h0 (ehd); or where it ends (`engaged`
+        given: the h_c it began at)."""
+        if engaged is not None and self.hertz:
+            return engaged
         if self.ehd:
             return self.handover
         if not self.hertz:
@@ -178,16 +179,10 @@ class ContactLaw:
         return self.gap_factor * max(self.roughness,
                                      elastohydrodynamic_gap(self.radius, self.e_star, self.viscosity, speed))
 
-    def boundary(self, speed: float, engaged: float | None = None) -> float:
-        """The gap [m] where a contact begins (approaching at `speed` >= 0), or ends (`engaged` given)."""
-        if engaged is not None and self.hertz:
-            return engaged
-        return self._gap_at(speed)
-
     def engage(self, speed: float) -> float:
         """What one contact keeps from the speed where it began: W_o [N] (li2011) or h_c [m]."""
         if self.hertz or self.ehd:
-            return self._gap_at(speed)
+            return self.boundary(speed)
         return hertz_peak_force(self.radius, self.mass, self.e_star, speed)
 
     def force(self, gap: float, rate: float, engaged: float) -> float:
@@ -254,14 +249,13 @@ class ContactModel(ContactGaps):
     """One scene's contact with the wall: its law, the blend, the correction and the theory forces."""
 
     def __init__(self, scene: Scene):
-        c = scene.contact
-        self.delta_sl = c.delta_sl
-        self.diameter = scene.sphere.diameter
-        self.e_star = reduced_modulus(
-            scene.sphere.youngs_modulus, scene.sphere.poisson_ratio, scene.wall.youngs_modulus, scene.wall.poisson_ratio
-        )
-        self.law = ContactLaw(c, scene.sphere.radius, scene.sphere.mass, self.e_star, scene.liquid.viscosity,
-                              scene.sphere.roughness + scene.wall.roughness, self.diameter)
+        sphere, wall = scene.sphere, scene.wall
+        self.delta_sl = scene.contact.delta_sl
+        self.diameter = sphere.diameter
+        self.e_star = reduced_modulus(sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus,
+                                      wall.poisson_ratio)
+        self.law = ContactLaw(scene.contact, sphere.radius, sphere.mass, self.e_star, scene.liquid.viscosity,
+                              sphere.roughness + wall.roughness, self.diameter)
         self.theory = TheoryForces(scene)
         # the hold and the correction belong to a free sphere's dynamics (see the module docstring)
         self.correcting = scene.near_wall_law == "correction" and is_free(scene)

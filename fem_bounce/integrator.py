@@ -35,9 +35,8 @@ reaching the law's floor (penetration).  One BounceRecord (bounces.py) per conta
 A prescribed sphere 1 driven into the wall stops the run with an error in its path.
 
 contact.model = "ehd" (one sphere and a wall): the gap reaching the handover gap h0 on approach ends the
-TS solve (a terminal event); the film collision (contact.ContactLaw.collide, fem_bounce.ehd) is solved
-from (h0, V_in), and the integration resumes at t + t_c from (h0, +e V_in), or stops with the sphere at
-rest in the film (`_film_jump`).  The integrator owns its PETSc objects: destroy() frees them.
+TS solve (a terminal event), and `_film_jump` takes the sphere through the film collision.  The
+integrator owns its PETSc objects: destroy() frees them.
 """
 from __future__ import annotations
 
@@ -83,17 +82,6 @@ class PenetrationError(RuntimeError):
     (ContactLaw.floor): the contact model was overwhelmed."""
 
 
-def penetration_message(law, what: str, t: float, gap: float, speed: float, materials: str) -> str:
-    """What went through what, and the setting that would have stopped it."""
-    if law.hertz:
-        return (f"{what} at t = {t:.6g} s: the Hertz overlap passed {-law.floor * 1e6:.4g} um, a tenth of the "
-                f"(reduced) radius, beyond Hertz's small-strain contact (contact speed {speed:.3g} m/s): the "
-                f"solids are too soft for this impact ({materials})")
-    return (f"{what} at t = {t:.6g} s (gap {gap:.3g} m, contact speed {speed:.3g} m/s): the paper's spring "
-            "e_d W_o F(delta/delta_ss) stores too little energy over delta_ss to stop it; raise contact.delta_ss "
-            'or use contact.model = "lubricated-hertz"')
-
-
 @dataclass
 class Contact:
     """One neighbouring contact: the wall and sphere 1 (`lower` None), or spheres `lower` and `lower` + 1
@@ -115,21 +103,13 @@ class Contact:
     def law(self):
         return self.model.law
 
-    @property
-    def length(self) -> float:
-        """Its gap scale: D for the wall, 2a* for a pair [m]."""
-        return self.model.diameter
-
     def rate(self, rates: np.ndarray) -> float:
         """d(gap)/dt from the spheres' dh_i/dt [m/s]."""
         return rates[self.upper] - (rates[self.lower] if self.lower is not None else 0.0)
 
 
 class BodyIntegrator:
-    """Advances the scene's bodies; the same object serves the ODE, fd, ib and ale models.
-
-    `gaps` and `velocities` are arrays over the spheres (sphere 1 first): each one's lowest point above
-    z = 0 and its velocity."""
+    """Advances the scene's bodies; the same object serves the ODE, fd, ib and ale models."""
 
     _film_pending: tuple[float, float] | None = None  # ehd: (t, V) where the gap reached h0
 
@@ -149,6 +129,8 @@ class BodyIntegrator:
         self.uses_theory = not resolved or scene.near_wall_law == "blend"  # f_thr enters the balance
         # the history modes of each sphere (none with a resolved flow: its flow carries the history)
         self.n_history = tuple(th.n_history if self.uses_theory else 0 for th in self.theories)
+        ends = 2 * count + np.cumsum(self.n_history, dtype=int)  # in y, after the gaps and velocities
+        self._mode_slices = [slice(int(end) - modes, int(end)) for end, modes in zip(ends, self.n_history)]
         self._drag_scaled_history = scene.contact.history_wall_factor == "drag-scaled"
         self.fluid = FluidForce(np.zeros(count), np.zeros((count, count)))
         self.observers: list[Callable[[dict], None]] = []
@@ -189,15 +171,11 @@ class BodyIntegrator:
 
     def _history_states(self, y) -> list[np.ndarray]:
         """Each sphere's history modes in the state y."""
-        start, found = 2 * len(self.bodies), []
-        for count in self.n_history:
-            found.append(np.asarray(y[start:start + count]))
-            start += count
-        return found
+        return [np.asarray(y[modes]) for modes in self._mode_slices]
 
     # -- the implicit system ------------------------------------------------------------
     def _build_ts(self) -> None:
-        scene, opts, n = self.scene, self.scene.numerics.ode, self.n
+        opts, n = self.scene.numerics.ode, self.n
         start = []
         for k, body in enumerate(self.bodies):
             gap = body.initial_gap if k == 0 else body.sphere.gap
@@ -213,13 +191,43 @@ class BodyIntegrator:
         for contact in self.contacts:
             atol.setValue(contact.gap_index, 1e-6 * opts.atol)
         self._events = self._event_list()
-        events = None
+        self._event_handler = None
         if self._events:
-            directions = [direction for _, _, _, direction, _ in self._events]
-            terminal = [terminate for _, _, _, _, terminate in self._events]
-            events = (directions, terminal, self._indicators, self._post_event)
-        self._event_handler = events
-        self.ts = rosw_solver("sphere_", self, atol, scene.time_unit, opts.rtol, events)
+            directions, terminal = ([event[k] for event in self._events] for k in (3, 4))
+            self._event_handler = (directions, terminal, self._indicators, self._post_event)
+        self.ts = self._new_ts()
+
+    def _new_ts(self) -> PETSc.TS:
+        """The adaptive Rosenbrock-W solver (PETSc TSROSW, options prefix sphere_): steps from 1e-3 time
+        units, at most 0.02 (options sphere_ts_adapt_dt_max ... override), LU on the small system, and the
+        events located to 1e-9 (dimensionless indicators)."""
+        time_unit, prefix = self.scene.time_unit, "sphere_"
+        ts = PETSc.TS().create(comm=PETSc.COMM_SELF)
+        ts.setOptionsPrefix(prefix)
+        ts.setType(PETSc.TS.Type.ROSW)
+        ts.setIFunction(self._ifunction, None)
+        ts.setIJacobian(self._ijacobian, self._jac)
+        ts.setTolerances(rtol=self.scene.numerics.ode.rtol, atol=self._atol)
+        ts.setTime(0.0)
+        ts.setTimeStep(1e-3 * time_unit)
+        ts.setMaxSteps(2**31 - 1)
+        ts.setMaxSNESFailures(-1)
+        ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
+        scene_defaults = {
+            f"{prefix}ts_adapt_dt_max": 0.02 * time_unit,
+            # After an event PETSc 3.18 resumes with the rest of the interrupted step, unchecked by the
+            # error control; inside the stiff contact that lost 0.5 % of the energy.  Restart tiny instead.
+            f"{prefix}ts_event_post_event_step": 1e-7 * time_unit,
+        }
+        ts.getSNES().getKSP().setType("preonly")
+        ts.getSNES().getKSP().getPC().setType("lu")
+        ts.setPostStep(self._post_step)
+        with _options_for_one_solver(scene_defaults):  # the event handler reads its options when set
+            if self._event_handler is not None:
+                ts.setEventHandler(*self._event_handler)
+                ts.setEventTolerances(1e-9)  # dimensionless; 1e-12 made PETSc 3.18 take dt = 0 steps
+            ts.setFromOptions()
+        return ts
 
     def _rates(self, y) -> np.ndarray:
         """dh_i/dt: a held sphere's gap stays (its surface may still move: motion.mode = "fixed")."""
@@ -263,7 +271,7 @@ class BodyIntegrator:
             pair_mass=np.zeros((count, count)), pair_am_velocity=zero.copy(), history=zero.copy(),
             history_coefficients=[np.zeros(0)] * count,
         )
-        pair_films = {}  # lower index -> (the lubrication's gap, the share of it left, X(gap))
+        pair_films = {}  # lower index -> (the lubrication's gap, the share of it left)
         for contact in self.contacts:
             if contact.lower is None:
                 continue
@@ -272,7 +280,9 @@ class BodyIntegrator:
             gap, film = pair.law.film(s, contact.record.engaged_now)  # held and fading inside a Hertz contact
             pair_films[k] = (gap, film)
             terms["pair"][both] += pair.interaction(gap, v[both], film)
-            if not self.resolved:  # the pair's added mass, held with the film inside a Hertz contact as C_M is
+            if self.resolved:
+                terms["correction"][both] += pair.correction(gap, v[both], film)
+            else:  # the pair's added mass, held with the film inside a Hertz contact as C_M is
                 terms["pair_mass"][both, both] += pair.added_mass(gap)[0]
                 if film == 1.0:
                     terms["pair_am_velocity"][both] += pair.added_mass_velocity_term(gap, v[both], contact.rate(rates))
@@ -281,8 +291,7 @@ class BodyIntegrator:
                 c = th[k].history_coefficients(wall_gaps[k], v[k], films[k])
                 adjacent = [j for j in (k - 1, k) if j in pair_films]  # the pairs below and above it
                 if self._drag_scaled_history and adjacent:  # K_H^(3/2): the wall's lambda plus each pair's X_kk - 1
-                    own = th[k].wall_factor(wall_gaps[k], films[k])
-                    factor = own
+                    factor = own = th[k].wall_factor(wall_gaps[k], films[k])
                     for j in adjacent:
                         (gap, film), side = pair_films[j], k - j  # side 1: k is the pair's upper sphere
                         factor = factor + film * (self.pairs[j].resistance(gap)[side, side] - 1.0)
@@ -291,28 +300,21 @@ class BodyIntegrator:
                 terms["history"][k] = -float(c @ z)
         for contact in self.contacts:
             engaged = contact.record.engaged_now
-            gap = y[contact.gap_index]
             if engaged is not None:
-                push = contact.law.force(gap, contact.rate(rates), engaged)
+                push = contact.law.force(y[contact.gap_index], contact.rate(rates), engaged)
                 if contact.lower is not None:
                     terms["elastic"][contact.lower] -= push
                 terms["elastic"][contact.upper] += push
-            if self.resolved:
-                if contact.lower is not None:
-                    film_gap, film = pair_films[contact.lower]
-                    both = slice(contact.lower, contact.lower + 2)
-                    terms["correction"][both] += contact.model.correction(film_gap, v[both], film)
-                else:
-                    force, mass = contact.model.correction(wall_gaps[0], v[0], films[0])
-                    terms["correction"][0] += force
-                    terms["correction_mass"][0] += mass
+        if self.resolved and self.contact is not None:
+            force, mass = self.contact.correction(wall_gaps[0], v[0], films[0])
+            terms["correction"][0] += force
+            terms["correction_mass"][0] += mass
         return terms
 
     def _balance(self, t: float, y, terms: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(M, R): the equations of motion read M dV/dt = R (a held or prescribed sphere's row: its
         acceleration).  The theory force weighs `blend` (1 for the ODE model), the resolved flow's 1 - blend."""
         f = terms or self._terms(t, y)
-        count = len(self.bodies)
         blend = f["blend"]
         explicit, added_mass = self.fluid.explicit, self.fluid.added_mass  # zero without a resolved flow
         mass = (np.diag(self.masses + blend * f["c_m"] + f["correction_mass"]) + blend[:, None] * f["pair_mass"]
@@ -320,7 +322,7 @@ class BodyIntegrator:
         theory = f["drag"] + f["am_velocity"] + f["pair"] + f["pair_am_velocity"] + f["history"]
         rhs = blend * theory + (1.0 - blend) * explicit + f["correction"] + f["elastic"] - self.weights
         for k in np.flatnonzero(~self.free):
-            mass[k] = np.eye(count)[k]
+            mass[k] = np.eye(len(self.bodies))[k]
             rhs[k] = self.bodies[k].prescribed(t)[1]
         return mass, rhs
 
@@ -328,17 +330,11 @@ class BodyIntegrator:
         count = len(self.bodies)
         mass, rhs = self._balance(t, y)
         rates = self._rates(y)
-        force = mass @ np.asarray(ydot[1:2 * count:2]) - rhs
         out = np.empty(self.n)
-        out[0] = ydot[0] - rates[0]
-        out[1] = force[0]
-        for k in range(1, count):
-            out[2 * k] = ydot[2 * k] - (rates[k] - rates[k - 1])
-            out[2 * k + 1] = force[k]
-        start = 2 * count
-        for k, (z, zdot) in enumerate(zip(self._history_states(y), self._history_states(ydot))):
-            out[start:start + len(z)] = zdot - ydot[2 * k + 1] + z / self.theories[k].history_times[: len(z)]
-            start += len(z)
+        out[0:2 * count:2] = np.asarray(ydot[0:2 * count:2]) - np.diff(rates, prepend=0.0)  # the gaps' rates
+        out[1:2 * count:2] = mass @ np.asarray(ydot[1:2 * count:2]) - rhs
+        for k, (modes, z) in enumerate(zip(self._mode_slices, self._history_states(y))):
+            out[modes] = np.asarray(ydot[modes]) - ydot[2 * k + 1] + z / self.theories[k].history_times[: len(z)]
         return out
 
     def _ifunction(self, ts, t, y, ydot, f) -> None:
@@ -357,20 +353,14 @@ class BodyIntegrator:
             jac[:, k] = (self._residual(t, shifted, ydot) - base) / step
         terms = self._terms(t, y)
         mass, _ = self._balance(t, y, terms)
-        for k in range(count):
-            jac[2 * k, 2 * k] += a
-        velocities = np.arange(1, 2 * count, 2)
+        gaps, velocities = np.arange(0, 2 * count, 2), np.arange(1, 2 * count, 2)
+        jac[gaps, gaps] += a
         jac[np.ix_(velocities, velocities)] += a * mass
-        start = 2 * count
-        for k, count_k in enumerate(self.n_history):  # the history rows and columns, exactly
-            if not count_k:
-                continue
-            modes = slice(start, start + count_k)
+        for k, modes in enumerate(self._mode_slices):  # the history rows and columns, exactly
             if self.free[k]:
                 jac[2 * k + 1, modes] = terms["blend"][k] * terms["history_coefficients"][k]
             jac[modes, 2 * k + 1] = -a
-            jac[modes, modes] = np.diag(a + 1.0 / self.theories[k].history_times[:count_k])
-            start += count_k
+            jac[modes, modes] = np.diag(a + 1.0 / self.theories[k].history_times[:self.n_history[k]])
         P.setValues(range(n), range(n), jac.ravel())
         P.assemble()
         if A != P:
@@ -389,7 +379,7 @@ class BodyIntegrator:
             if not moving:
                 continue
             rate = (lambda c: lambda y: c.rate(self._rates(y)))(contact)
-            length, law, index = contact.length, contact.law, contact.gap_index
+            length, law, index = contact.model.diameter, contact.law, contact.gap_index  # D or 2a*
 
             def at_contact(y, c=contact, rate=rate, length=length, index=index):
                 if c.law.ehd and c.record.phase == "rebound":
@@ -428,18 +418,24 @@ class BodyIntegrator:
             else:
                 self._penetration(contact, t, gap)
 
-    def _sphere(self, k: int) -> str:
-        return "the sphere" if len(self.bodies) == 1 else f"sphere {k + 1}"
-
     def _penetration(self, contact: Contact, t: float, gap: float) -> None:
-        upper = self.bodies[contact.upper]
+        """Stop: what went through what, and the setting that would have stopped it."""
+        law, speed = contact.law, contact.record.contact_speed
         if contact.lower is None:
-            what, materials = f"{self._sphere(0)} went through the wall", "sphere.youngs_modulus, wall.youngs_modulus"
+            what = f"{'the sphere' if len(self.bodies) == 1 else 'sphere 1'} went through the wall"
+            materials = "sphere.youngs_modulus, wall.youngs_modulus"
         else:
-            lower = self.bodies[contact.lower]
             what = f"sphere {contact.upper + 1} went through sphere {contact.lower + 1}"
-            materials = f"{lower.key}.youngs_modulus, {upper.key}.youngs_modulus"
-        raise PenetrationError(penetration_message(contact.law, what, t, gap, contact.record.contact_speed, materials))
+            materials = ", ".join(f"{self.bodies[k].key}.youngs_modulus" for k in (contact.lower, contact.upper))
+        if law.hertz:
+            raise PenetrationError(
+                f"{what} at t = {t:.6g} s: the Hertz overlap passed {-law.floor * 1e6:.4g} um, a tenth of the "
+                f"(reduced) radius, beyond Hertz's small-strain contact (contact speed {speed:.3g} m/s): the "
+                f"solids are too soft for this impact ({materials})")
+        raise PenetrationError(
+            f"{what} at t = {t:.6g} s (gap {gap:.3g} m, contact speed {speed:.3g} m/s): the paper's spring "
+            "e_d W_o F(delta/delta_ss) stores too little energy over delta_ss to stop it; raise contact.delta_ss "
+            'or use contact.model = "lubricated-hertz"')
 
     def _path_reaches_wall(self, t: float) -> None:
         motion = self.scene.motion
@@ -466,7 +462,7 @@ class BodyIntegrator:
         rebound would meet less resistance than under the other contact models."""
         t, v = self._film_pending
         self._film_pending = None
-        law, theory, count = self.wall.law, self.theories[0], len(self.bodies)
+        law, theory = self.wall.law, self.theories[0]
         h0, speed = law.handover, -v
         mass = self.masses[0] + theory.added_mass(h0)[0]
         try:
@@ -477,19 +473,16 @@ class BodyIntegrator:
                               "contact.ehd_handover or contact.model = \"lubricated-hertz\" may run") from None
         t_end, h_end, v_end = self.wall.record.film_collision(t, h0, speed, result)
         state = self.y.array.copy()
-        modes = self.n_history[0]
-        if modes:
-            taus = theory.history_times[:modes]
+        history, taus = self._mode_slices[0], theory.history_times[:self.n_history[0]]
+        if len(taus):
             duration = max(t_end - t, 1e-300)
             decay = np.exp(-duration / taus)
-            history = slice(2 * count, 2 * count + modes)
             state[history] = state[history] * decay + (v_end - v) * taus / duration * (1.0 - decay)
         state[0], state[1] = h_end, v_end
         self.y.setArray(state)
         # A fresh TS: PETSc 3.18's event handler keeps the interval of the terminated event, and a solve
         # resumed at a later time bisected it forever (dt stuck at 3e-9 s, measured).
-        old, opts = self.ts, self.scene.numerics.ode
-        self.ts = rosw_solver("sphere_", self, self._atol, self.scene.time_unit, opts.rtol, self._event_handler)
+        old, self.ts = self.ts, self._new_ts()
         old.destroy()
         self.ts.setTime(t_end)
         self.ts.setTimeStep(1e-7 * self.scene.time_unit)
@@ -512,10 +505,7 @@ class BodyIntegrator:
         self.steps += 1
         self._log(t, y)
         self._check_rest(t, y)
-        if self.observers:
-            row = self.row(t, y)
-            for observer in self.observers:
-                observer(row)
+        self._report(t, y)
         if t >= min((c.record.stop_at for c in self.contacts), default=math.inf):
             self.done = True
         if self.done:
@@ -528,25 +518,25 @@ class BodyIntegrator:
         wall = self.wall
         if wall is None or not self.free.all() or wall.record.resting:
             return
-        rates = self._rates(y)
-        heights = self._heights(y)
-        contacts = self.contacts
+        rates, contacts = self._rates(y), self.contacts
         if all(c.record.in_contact for c in contacts):
-            inertia = self.masses + np.array([th.added_mass(h)[0] for th, h in zip(self.theories, heights)])
-            if all(c.law.resting(y[c.gap_index], c.rate(rates), c.record.engaged, inertia[c.upper:].sum(),
-                                 self.weights[c.upper:].sum()) for c in contacts):
-                for c in contacts:
-                    c.record.rest(t, y[c.gap_index])
-                count = len(self.bodies)
-                everyone = {1: "the sphere", 2: "both spheres"}.get(count, f"all {count} spheres")
-                self.stop_reason = f"{everyone} came to rest on the wall at t = {t:.6g} s"
+            inertia = self.masses + np.array([th.added_mass(h)[0] for th, h in zip(self.theories, self._heights(y))])
+            if not all(c.law.resting(y[c.gap_index], c.rate(rates), c.record.engaged, inertia[c.upper:].sum(),
+                                     self.weights[c.upper:].sum()) for c in contacts):
+                return
+            count = len(self.bodies)
+            everyone = {1: "the sphere", 2: "both spheres"}.get(count, f"all {count} spheres")
+            reason = f"{everyone} came to rest on the wall at t = {t:.6g} s"
         elif all(abs(c.rate(rates)) < self._stall_speed and not c.record.in_contact
                  and y[c.gap_index] < c.model.blend_gap for c in contacts):
-            for c in contacts:
-                c.record.rest(t, y[c.gap_index])
-            self.stop_reason = (f"the sphere stalled in the lubrication film at t = {t:.6g} s (gap "
-                                f"{y[0] / self.bodies[0].diameter:.3g} D, speed below {STALL_FRACTION:g} of its launch "
-                                "speed, no gravity to bring it back)")
+            reason = (f"the sphere stalled in the lubrication film at t = {t:.6g} s (gap "
+                      f"{y[0] / self.bodies[0].diameter:.3g} D, speed below {STALL_FRACTION:g} of its launch "
+                      "speed, no gravity to bring it back)")
+        else:
+            return
+        for c in contacts:
+            c.record.rest(t, y[c.gap_index])
+        self.stop_reason = reason
 
     def row(self, t: float, y) -> dict:
         """Every sphere's gap, velocity, acceleration and force terms at one instant [SI], named as the
@@ -559,10 +549,7 @@ class BodyIntegrator:
         added_mass = -f["c_m"] * accel - f["pair_mass"] @ accel + f["am_velocity"] + f["pair_am_velocity"]
         theory = f["drag"] + f["pair"] + added_mass + f["history"]
         count, blend = len(self.bodies), f["blend"]
-        if self.resolved:
-            sim = self.fluid.explicit - self.fluid.added_mass @ accel
-        else:
-            sim = theory
+        sim = self.fluid.explicit - self.fluid.added_mass @ accel if self.resolved else theory
         correction = f["correction"] - f["correction_mass"] * accel
         per_sphere = dict(gap=f["gaps"], velocity=f["velocities"], acceleration=accel, f_drag=f["drag"],
                           f_history=f["history"], f_pair=f["pair"], f_added_mass=added_mass, f_theory=theory,
@@ -587,8 +574,9 @@ class BodyIntegrator:
             self.fluid = fluid
         if self.done or t_end <= self.time:
             return
-        if self.steps == 0:
-            self._post_step_initial()
+        if self.steps == 0:  # the initial state is the first row
+            self._log(0.0, self.y.array_r, initial=True)
+            self._report(0.0, self.y.array_r)
         while True:
             self.ts.setMaxTime(t_end)
             self.ts.solve(self.y)
@@ -617,12 +605,12 @@ class BodyIntegrator:
         """Each sphere's velocity, positive upward [m/s]."""
         return self._state()[1:2 * len(self.bodies):2].copy()
 
-    def _post_step_initial(self) -> None:
-        """Log and report the initial state as the first row."""
-        y = self.y.array_r
-        self._log(0.0, y, initial=True)
-        for observer in self.observers:
-            observer(self.row(0.0, y))
+    def _report(self, t: float, y) -> None:
+        """Hand the observers the row of the state y at t."""
+        if self.observers:
+            row = self.row(t, y)
+            for observer in self.observers:
+                observer(row)
 
     def finish(self) -> None:
         """Close the records (the rebound means; e = 0 for a collision that never left contact)."""
@@ -686,8 +674,7 @@ class BodyIntegrator:
         state = dict(time=self.time, y=self.y.array_r.tolist(), step_size=self.ts.getTimeStep(),
                      machine={"done": self.done, "steps": self.steps}, records={})
         for contact in self.contacts:
-            state["records"][contact.name] = {}
-            contact.record.save(state["records"][contact.name])
+            contact.record.save(state["records"].setdefault(contact.name, {}))
         return state
 
     def load_state_dict(self, state: dict) -> None:
@@ -712,39 +699,6 @@ def _at_blend_gap(entry: dict, crossings: list[dict], following: float, pair: Pa
     entry["Re"], entry["St"] = pair.numbers(approach)
     entry["separation_speed"] = after[0]["speed"] if after else 0.0
     entry["restitution"] = entry["separation_speed"] / approach
-
-
-def rosw_solver(prefix: str, integrator, atol, time_unit: float, rtol: float, events=None) -> PETSc.TS:
-    """The adaptive Rosenbrock-W solver (PETSc TSROSW) of an integrator with `_ifunction`, `_ijacobian`,
-    its dense Jacobian `_jac` and `_post_step`: steps from 1e-3 time units, at most 0.02 (options
-    PREFIXts_adapt_dt_max ... override), LU on the small system, and `events` = (directions, terminate,
-    indicator, post_event) located to 1e-9 (dimensionless indicators)."""
-    ts = PETSc.TS().create(comm=PETSc.COMM_SELF)
-    ts.setOptionsPrefix(prefix)
-    ts.setType(PETSc.TS.Type.ROSW)
-    ts.setIFunction(integrator._ifunction, None)
-    ts.setIJacobian(integrator._ijacobian, integrator._jac)
-    ts.setTolerances(rtol=rtol, atol=atol)
-    ts.setTime(0.0)
-    ts.setTimeStep(1e-3 * time_unit)
-    ts.setMaxSteps(2**31 - 1)
-    ts.setMaxSNESFailures(-1)
-    ts.setExactFinalTime(PETSc.TS.ExactFinalTime.MATCHSTEP)
-    scene_defaults = {
-        f"{prefix}ts_adapt_dt_max": 0.02 * time_unit,
-        # After an event PETSc 3.18 resumes with the rest of the interrupted step, unchecked by the
-        # error control; inside the stiff contact that lost 0.5 % of the energy.  Restart tiny instead.
-        f"{prefix}ts_event_post_event_step": 1e-7 * time_unit,
-    }
-    ts.getSNES().getKSP().setType("preonly")
-    ts.getSNES().getKSP().getPC().setType("lu")
-    ts.setPostStep(integrator._post_step)
-    with _options_for_one_solver(scene_defaults):  # the event handler reads its options when set
-        if events is not None:
-            ts.setEventHandler(*events)
-            ts.setEventTolerances(1e-9)  # dimensionless; 1e-12 made PETSc 3.18 take dt = 0 steps
-        ts.setFromOptions()
-    return ts
 
 
 @contextlib.contextmanager

@@ -72,18 +72,14 @@ class PairContactModel(ContactGaps):
         self.displaced_masses = np.array([body.displaced_mass for body in bodies])  # m_l,i [kg]
 
     # -- the collision's numbers ---------------------------------------------------------------------
-    def stokes(self, speed: float) -> float:
-        """The binary Stokes number St = m* V / (6 pi mu a*^2) of the relative speed V [m/s]: Yang & Hunt's
-        (2006) name; their exact definition could not be read (docs/physics.md section 6 gives the
-        conversions); a2 -> infinity gives the wall's (1/9) (rho_p / rho_l) Re."""
-        return self.reduced_mass * abs(speed) / (6.0 * math.pi * self._liquid.viscosity * self.reduced_radius**2)
-
-    def reynolds(self, speed: float) -> float:
-        """rho_l V 2a* / mu of the relative speed (a2 -> infinity gives the wall's Re on D)."""
-        return self._liquid.density * self.diameter * abs(speed) / self._liquid.viscosity
-
     def numbers(self, speed: float) -> tuple[float, float]:
-        return self.reynolds(speed), self.stokes(speed)
+        """(Re, St) of the relative speed V [m/s]: Re = rho_l V 2a* / mu (a2 -> infinity gives the wall's Re on
+        D) and the binary Stokes number St = m* V / (6 pi mu a*^2), Yang & Hunt's (2006) name; their exact
+        definition could not be read (docs/physics.md section 6 gives the conversions); a2 -> infinity gives
+        the wall's (1/9) (rho_p / rho_l) Re."""
+        speed, liquid = abs(speed), self._liquid
+        return (liquid.density * self.diameter * speed / liquid.viscosity,
+                self.reduced_mass * speed / (6.0 * math.pi * liquid.viscosity * self.reduced_radius**2))
 
     # -- forces ----------------------------------------------------------------------------------------
     def resistance(self, gap: float) -> np.ndarray:

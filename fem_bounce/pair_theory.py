@@ -24,6 +24,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from .scene import reduced_radius
+from .theory import bispherical_drag_factor
 
 SERIES_TOLERANCE = 1e-13  # truncation of the Gegenbauer series, relative to the isolated drag
 MAX_TERMS = 400_000  # safety cap; the series needs about 36 / (alpha + beta) terms
@@ -95,13 +96,12 @@ def _upper_sphere_row(a_upper: float, a_lower: float, gap: float, n_terms: int |
     """(X_self, X_other) for the upper sphere: F = -6 pi mu a_upper (X_self U_upper + X_other U_lower)."""
     alpha, beta, _ = bispherical_poles(a_upper, a_lower, gap)
     scale = 2.0 / 3.0 * math.sinh(alpha)
-    if n_terms is not None:
-        own, other = _series_terms(alpha, beta, np.arange(1.0, n_terms + 1.0))
-        return 1.0 + scale * float(np.sum(own)), scale * float(np.sum(other))
-    n_max = int(36.0 / (alpha + beta)) + 8
+    n_max = int(36.0 / (alpha + beta)) + 8 if n_terms is None else n_terms
     while True:  # the estimate suffices in every case tried; the check guards the rest
         own, other = _series_terms(alpha, beta, np.arange(1.0, n_max + 1.0))
         x_self, x_other = 1.0 + scale * float(np.sum(own)), scale * float(np.sum(other))
+        if n_terms is not None:
+            return x_self, x_other
         # the terms fall geometrically, by about exp(-(alpha + beta)) per order: bound the tail
         tail = scale * max(abs(own[-1]), abs(other[-1])) / -math.expm1(-(alpha + beta))
         if tail < SERIES_TOLERANCE * max(1.0, abs(x_self)) or n_max >= MAX_TERMS:
@@ -174,11 +174,9 @@ def stimson_jeffery(a: float, h: float) -> float:
 
     -> 1 far apart, 0.6451 at contact.  Equals X11 + X12 of `resistance(a, a, h)`."""
     alpha = 2.0 * math.asinh(math.sqrt(h / (4.0 * a)))
-    n = np.arange(1.0, int(40.0 / alpha) + 3.0)
-    k = 2.0 * n + 1.0
-    bracket = 1.0 - (4.0 * np.sinh(0.5 * k * alpha) ** 2 - (k * math.sinh(alpha)) ** 2) / (
-        2.0 * np.sinh(k * alpha) + k * math.sinh(2.0 * alpha))
-    return float(4.0 / 3.0 * math.sinh(alpha) * np.sum(n * (n + 1.0) / ((2.0 * n - 1.0) * (2.0 * n + 3.0)) * bracket))
+    return bispherical_drag_factor(alpha, 40.0, lambda k: 1.0 - (
+        4.0 * np.sinh(0.5 * k * alpha) ** 2 - (k * math.sinh(alpha)) ** 2) / (
+        2.0 * np.sinh(k * alpha) + k * math.sinh(2.0 * alpha)))
 
 
 def equal_spheres_approach(a: float, h: float) -> float:
@@ -193,11 +191,9 @@ def equal_spheres_approach(a: float, h: float) -> float:
 
     Equals X11 - X12 of `resistance(a, a, h)`; -> a/(2h) + (9/20) ln(a/h) + 1.3456 near contact."""
     alpha = 2.0 * math.asinh(math.sqrt(h / (4.0 * a)))
-    n = np.arange(1.0, int(40.0 / alpha) + 3.0)
-    k = 2.0 * n + 1.0
-    bracket = (4.0 * np.cosh(0.5 * k * alpha) ** 2 + (k * math.sinh(alpha)) ** 2) / (
-        2.0 * np.sinh(k * alpha) - k * math.sinh(2.0 * alpha)) - 1.0
-    return float(4.0 / 3.0 * math.sinh(alpha) * np.sum(n * (n + 1.0) / ((2.0 * n - 1.0) * (2.0 * n + 3.0)) * bracket))
+    return bispherical_drag_factor(alpha, 40.0, lambda k: (
+        4.0 * np.cosh(0.5 * k * alpha) ** 2 + (k * math.sinh(alpha)) ** 2) / (
+        2.0 * np.sinh(k * alpha) - k * math.sinh(2.0 * alpha)) - 1.0)
 
 
 def approach_fixed(a1: float, a2: float, h: float) -> float:
@@ -260,37 +256,32 @@ class PairResistance:
         self._remainder = table[0] - _singular_part(a1, a2, gaps[0])
         squeeze = gaps / (gaps + self.a_star)
         smooth = np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1) * squeeze[:, None]
-        self._spline = CubicSpline(log_gap, smooth, axis=0)
+        spline = CubicSpline(log_gap, smooth, axis=0)
         # plain floats for a scalar evaluation without numpy overhead
         self.gaps = gaps  # [m], the table's knots
         self._knots = log_gap.tolist()
-        self._coefficients = [tuple(tuple(self._spline.c[p, i, :]) for p in range(4)) for i in range(len(gaps) - 1)]
-
-    def _smooth_values(self, log_gap: float) -> tuple[float, float, float]:
-        i = min(max(bisect.bisect_right(self._knots, log_gap) - 1, 0), len(self._coefficients) - 1)
-        t = log_gap - self._knots[i]
-        c3, c2, c1, c0 = self._coefficients[i]
-        return tuple(((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3))
+        self._coefficients = [tuple(tuple(spline.c[p, i, :]) for p in range(4)) for i in range(len(gaps) - 1)]
 
     def coefficients(self, h: float) -> tuple[float, float, float, float]:
         """(X11, X12, X21, X22) at gap h [m]: plain floats, for right-hand sides."""
         if h < self.h_min:
             if h <= 0.0:
                 raise ValueError(f"the gap must be positive, got h = {h}")
-            x = _singular_part(self.a1, self.a2, h) + self._remainder
-            return float(x[0, 0]), float(x[0, 1]), float(x[1, 0]), float(x[1, 1])
+            return tuple((_singular_part(self.a1, self.a2, h) + self._remainder).ravel().tolist())
         if h > self.h_max:
-            x = far_field(self.a1, self.a2, h)
-            return float(x[0, 0]), float(x[0, 1]), float(x[1, 0]), float(x[1, 1])
-        y11, y12, y22 = self._smooth_values(math.log(h))
+            return tuple(far_field(self.a1, self.a2, h).ravel().tolist())
+        x = math.log(h)
+        i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
+        t = x - self._knots[i]
+        c3, c2, c1, c0 = self._coefficients[i]
+        y11, y12, y22 = (((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3))
         unsqueeze = (h + self.a_star) / h
         x12 = y12 * unsqueeze
         return y11 * unsqueeze, x12, self.a1 * x12 / self.a2, y22 * unsqueeze
 
     def __call__(self, h: float) -> np.ndarray:
         """The 2x2 X at gap h [m], as `resistance`."""
-        x11, x12, x21, x22 = self.coefficients(h)
-        return np.array([[x11, x12], [x21, x22]])
+        return np.array(self.coefficients(h)).reshape(2, 2)
 
     def forces(self, h: float, u1: float, u2: float, viscosity: float) -> tuple[float, float]:
         """(F_1, F_2) [N] on the spheres for velocities u1, u2 [m/s] (positive up), viscosity [Pa s]."""

@@ -35,6 +35,14 @@ from .scene import Scene
 # -- quasi-steady drag -------------------------------------------------------------------
 
 
+def bispherical_drag_factor(alpha: float, reach: float, bracket) -> float:
+    """(4/3) sinh(alpha) sum_n n(n+1)/((2n-1)(2n+3)) bracket(2n + 1) over n = 1 ... reach / alpha + 2: the
+    drag factor of a sphere at the bispherical pole alpha (Stimson & Jeffery 1926; Brenner 1961)."""
+    n = np.arange(1.0, int(reach / alpha) + 3.0)
+    terms = n * (n + 1.0) / ((2.0 * n - 1.0) * (2.0 * n + 3.0)) * bracket(2.0 * n + 1.0)
+    return float(4.0 / 3.0 * math.sinh(alpha) * np.sum(terms))
+
+
 def brenner_series(delta: float) -> float:
     """Brenner (1961) exact wall-drag factor for a sphere moving normal to a plane wall.
 
@@ -44,12 +52,8 @@ def brenner_series(delta: float) -> float:
     where they fall below 1e-30 of the first.
     """
     alpha = math.acosh(1.0 + 2.0 * delta)
-    n = np.arange(1, int(35.0 / alpha) + 3, dtype=float)
-    k = 2.0 * n + 1.0
-    bracket = (2.0 * np.sinh(k * alpha) + k * math.sinh(2.0 * alpha)) / (
-        4.0 * np.sinh(0.5 * k * alpha) ** 2 - (k * math.sinh(alpha)) ** 2
-    ) - 1.0
-    return float(4.0 / 3.0 * math.sinh(alpha) * np.sum(n * (n + 1.0) / ((2.0 * n - 1.0) * (2.0 * n + 3.0)) * bracket))
+    return bispherical_drag_factor(alpha, 35.0, lambda k: (2.0 * np.sinh(k * alpha) + k * math.sinh(2.0 * alpha)) / (
+        4.0 * np.sinh(0.5 * k * alpha) ** 2 - (k * math.sinh(alpha)) ** 2) - 1.0)
 
 
 MIN_DELTA = 1e-12  # trial states of an implicit step may touch the wall; real penetration is an event
@@ -171,7 +175,6 @@ class TheoryForces:
     """f_thr for one scene: drag, added mass and history as functions of (gap, velocity, history states)."""
 
     def __init__(self, scene: Scene):
-        self.scene = scene
         c = scene.contact
         sphere, liquid = scene.sphere, scene.liquid
         self.diameter = sphere.diameter
@@ -184,15 +187,11 @@ class TheoryForces:
         self._additive = c.inertial_law == "additive"
         self._w = {"first-image": first_image_w, "exact": exact_w}[c.added_mass]
         self.wall_present = scene.wall.present  # without the wall: lambda = 1 and W = 0 at every gap
-        self.history_on = c.history == "mei-adrian"
         self._drag_scaled_history = c.history_wall_factor == "drag-scaled"
         theta, self._weights = history_modes(scene.numerics.ode.history_modes_per_decade, c.history_c1, c.history_c2)
         diffusion_time = sphere.diameter**2 / liquid.kinematic_viscosity
         self.history_times = theta * diffusion_time  # T_i [s]
-
-    @property
-    def n_history(self) -> int:
-        return len(self.history_times) if self.history_on else 0
+        self.n_history = len(theta) if c.history == "mei-adrian" else 0  # the history modes carried
 
     def reynolds(self, velocity: float) -> float:
         return self._re_per_speed * abs(velocity)
@@ -230,9 +229,3 @@ class TheoryForces:
         drag-scaled K_H^(3/2) = lambda fades inside a Hertz contact as the drag's wall excess does (`film`)."""
         wall = self.wall_factor(gap, film) if self._drag_scaled_history else 1.0
         return (self.stokes_drag * wall) * history_weights(self._weights, self.reynolds(velocity))
-
-    def history(self, gap: float, velocity: float, states: np.ndarray, film: float = 1.0) -> float:
-        """f_H [N] (0 when the history force is off or its states are not carried)."""
-        if not self.history_on or len(states) == 0:
-            return 0.0
-        return -float(self.history_coefficients(gap, velocity, film) @ states)
