@@ -5,9 +5,11 @@ rebounds, final state, step count and a hash of trajectory.csv (rows to 10 digit
     python benchmarks/refactor_check.py --compare before.json   # on the new code: lists what moved
     python benchmarks/refactor_check.py --size 0d4af21          # the package's size then and now (no runs)
 
-Records in benchmarks/history/: refactor_check_before_issue25.json (at 0d4af21) and
+Records in benchmarks/history/: refactor_check_before_issue25.json (at 0d4af21),
 refactor_check_after_issue25.json (after its items 1-4, at c16a6dd: the same within 1.1e-11 but for
-ode-pair-wall's one added wall record, a column at rest closing its last approach as one sphere does).
+ode-pair-wall's one added wall record, a column at rest closing its last approach as one sphere does) and
+refactor_check_issue25_done.json (fd and ale without a one-sphere path, the package smaller: the same as
+the record before within 1e-10, with ode-three and fd-three added; the next refactor's baseline).
 
 --compare prints each run's largest relative difference and lists the numbers that moved by more than
 --rtol (1e-10 by default); numbers both below ZERO (1e-12, SI) in size are round-off zeros and compare
