@@ -32,7 +32,7 @@ def test_the_brinkman_penalty_obeys_its_law_in_few_iterations_and_stiffens_with_
     for strength in (100.0, 1000.0):
         model = brinkman_model(strength)
         try:
-            constraint, sphere, flow = model.constraint, model.bodies.spheres[0], model.flow
+            constraint, sphere, flow = model.constraint, model.immersed.spheres[0], model.flow
             constraint.tolerance, constraint.max_iterations = 1e-8, 500
             constraint.solve(fem.Function(flow.W), speed, responses_ready=True)  # u~ = 0: the fluid at rest
             assert constraint.unconverged == 0

@@ -32,7 +32,7 @@ def accumulated(vector):
 @pytest.mark.mpi
 @pytest.mark.parametrize("center", [0.0123, 0.00475 + 1e-4])  # in the open, and almost touching the wall
 def test_band_assembly_equals_the_ufl_forms(model, center):
-    flow, sphere = model.flow, model.bodies.spheres[0]
+    flow, sphere = model.flow, model.immersed.spheres[0]
     flow.predicted.sub(0).interpolate(lambda x: np.vstack([np.sin(300 * x[0]), np.cos(200 * x[1])]))
     flow.predicted.x.scatter_forward()
     reference = immersed.reference_forms(flow, fem.Constant(model.mesh, PETSc.ScalarType(center)),
@@ -43,7 +43,7 @@ def test_band_assembly_equals_the_ufl_forms(model, center):
     volume = MPI.COMM_WORLD.allreduce(fem.assemble_scalar(reference["volume"]), op=MPI.SUM)
     assert sphere.volume == pytest.approx(volume, rel=1e-13)
     forcing = accumulated(assemble_vector(reference["forcing"]))
-    fast = model.bodies.forcing(flow.predicted)  # also zeroes Dirichlet rows: compare the others
+    fast = model.immersed.forcing(flow.predicted)  # also zeroes Dirichlet rows: compare the others
     from dolfinx.fem.petsc import set_bc
 
     set_bc(forcing, flow.bcs, scale=0.0)
@@ -52,7 +52,7 @@ def test_band_assembly_equals_the_ufl_forms(model, center):
 
 def test_indicator_volume_and_interior_integral_are_exact(model):
     """V_phi = int S((a_h - rho) / w) 4 pi rho^2 d rho, and I(u) = V_phi for u = e_z."""
-    sphere, flow = model.bodies.spheres[0], model.flow
+    sphere, flow = model.immersed.spheres[0], model.flow
     a_h, w = sphere.band.radius, sphere.band.width
     center = 0.0123
     sphere.place(center)

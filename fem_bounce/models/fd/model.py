@@ -91,10 +91,10 @@ class FictitiousDomainModel(FlowModel):
         super().__init__(scene, comm)
         self.domain: Domain = domain_for(scene)
         self.dt = time_step(scene)
-        self.bodies_on_axis = scene_bodies(scene)
-        self.held = np.array([body.held for body in self.bodies_on_axis])  # the flow holds them where they start
+        self.bodies = scene_bodies(scene)
+        self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
         self.flow: FlowSolver | None = None
-        self.bodies: ImmersedBodies | None = None
+        self.immersed: ImmersedBodies | None = None
         self.constraint: RigidConstraint | None = None
         self.fields: FieldWriter | None = None
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
@@ -104,7 +104,7 @@ class FictitiousDomainModel(FlowModel):
         if self.steady and (not self.held.all() or is_stream(scene)):
             raise SceneError("numerics.fd.steady_stokes = true needs every sphere's mode = \"fixed\" (motion.mode, "
                              "second_sphere.mode) without a stream")
-        if len(self.bodies_on_axis) > 1:
+        if len(self.bodies) > 1:
             self._check_spheres(scene)
 
     def _check_spheres(self, scene) -> None:
@@ -134,15 +134,15 @@ class FictitiousDomainModel(FlowModel):
         self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
                                inflow_speed=domain.inflow_speed, order=fd.time_order, solver=fd.solver)
         self.flow.set_uniform((0.0, domain.inflow_speed))
-        radii = [body.sphere.radius for body in self.bodies_on_axis]
-        self.bodies = ImmersedBodies(self.flow, [a + fd.radius_offset * domain.fine_size for a in radii], radii,
+        radii = [body.sphere.radius for body in self.bodies]
+        self.immersed = ImmersedBodies(self.flow, [a + fd.radius_offset * domain.fine_size for a in radii], radii,
                                      fd.interface_width * domain.fine_size,
-                                     [body.initial_gap + a for body, a in zip(self.bodies_on_axis, radii)])
+                                     [body.initial_gap + a for body, a in zip(self.bodies, radii)])
         if fd.constraint != "penalty":
-            self.constraint = RigidConstraint(self.flow, self.bodies.spheres[0], self.regularisation(),
+            self.constraint = RigidConstraint(self.flow, self.immersed.spheres[0], self.regularisation(),
                                               fd.constraint_tolerance, fd.unit_steps)
-        velocities = np.array([body.start_velocity for body in self.bodies_on_axis])
-        interiors = self.bodies.interiors(self.flow.now.vector)
+        velocities = np.array([body.start_velocity for body in self.bodies])
+        interiors = self.immersed.interiors(self.flow.now.vector)
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocities] * order, [interiors] * order)
         self.timings["setup"] = time.perf_counter() - start
@@ -160,7 +160,7 @@ class FictitiousDomainModel(FlowModel):
         but no closer than the contact model's hold gaps (flow_model.flow_gaps; below them the contact
         model adds what the flow misses); a sphere approaching a held one from below stops at the pair's
         hold gap under it."""
-        held, bodies = self.held, self.bodies_on_axis
+        held, bodies = self.held, self.bodies
         diameters = [body.diameter for body in bodies]
         start = np.array([body.initial_gap for body in bodies])
         gaps = np.where(held, start, prediction.gaps)
@@ -171,7 +171,7 @@ class FictitiousDomainModel(FlowModel):
         return gaps + np.array([body.sphere.radius for body in bodies])
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
-        self.bodies.place(self.predicted_centers(prediction))
+        self.immersed.place(self.predicted_centers(prediction))
         linear = self._linearise_brinkman() if self.constraint is not None else self._linearise_penalty()
         if not (np.all(np.isfinite(linear.explicit)) and np.all(np.isfinite(linear.added_mass))):
             raise FloatingPointError(f"the fluid force became {linear.explicit} N at "
@@ -185,12 +185,12 @@ class FictitiousDomainModel(FlowModel):
     def _linearise_penalty(self) -> coupling.Linearised:
         """The penalty forcing rho c sum_i phi_i (U_i - u~) (the default scheme): the predictor and the unit
         responses of the spheres that moved share one pass over the factors."""
-        flow, bodies, h = self.flow, self.bodies, self.history
+        flow, immersed, h = self.flow, self.immersed, self.history
         predicted = flow.predicted
-        vectors, functions = bodies.stale_units()
+        vectors, functions = immersed.stale_units()
         flow.solve([flow.predictor_rhs(), *vectors], [predicted, *functions])
-        flow.solve([bodies.forcing(predicted)], [bodies.forced])
-        self.integrals = integrals = bodies.integrals(predicted)
+        flow.solve([immersed.forcing(predicted)], [immersed.forced])
+        self.integrals = integrals = immersed.integrals(predicted)
         return coupling.linearise(integrals, self.scene.liquid.density, flow.c, h.momentum_history,
                                   h.reference_velocity)
 
@@ -198,7 +198,7 @@ class FictitiousDomainModel(FlowModel):
         """The implicit Brinkman penalty (constraint.RigidConstraint, one sphere): the predictor and the
         response to the last force density share one pass over the factors, CG corrects it for the
         extrapolated velocity U_e, and lambda_1 carries the force's dependence on U."""
-        flow, sphere, h, constraint = self.flow, self.bodies.spheres[0], self.history, self.constraint
+        flow, sphere, h, constraint = self.flow, self.immersed.spheres[0], self.history, self.constraint
         predicted = flow.predicted
         vectors, functions = constraint.first_pass()
         flow.solve([flow.predictor_rhs(), *vectors], [predicted, *functions])
@@ -224,9 +224,9 @@ class FictitiousDomainModel(FlowModel):
             constraint = self.constraint
             new = constraint.field(flow.predicted, float(velocities[0]) - self._extrapolated, flow.work)
             # the interior's momentum / rho, int phi u = U V_phi + eps I(lambda) (_linearise_brinkman)
-            interiors = velocities * self.bodies.volumes + constraint.regularisation * constraint.hold_force()
+            interiors = velocities * self.immersed.volumes + constraint.regularisation * constraint.hold_force()
         else:
-            new = self.bodies.field(flow.predicted, coupling.rigid_amplitudes(self.integrals, velocities), flow.work)
+            new = self.immersed.field(flow.predicted, coupling.rigid_amplitudes(self.integrals, velocities), flow.work)
             interiors = velocities * self.integrals.volume
         if not math.isfinite(new.norm()):
             raise FloatingPointError(f"the flow field became non-finite at t = {(self.step + 1) * self.dt:.6g} s")
@@ -251,11 +251,11 @@ class FictitiousDomainModel(FlowModel):
         (bodies.Body.start_velocity: motion.velocity, second_sphere.velocity: the quasi-steady drag of an
         approach or of a pair moving together, benchmarks/pair_stokes.py); the flow's states are left at
         that steady state."""
-        velocities = np.array([body.start_velocity for body in self.bodies_on_axis])
+        velocities = np.array([body.start_velocity for body in self.bodies])
         if self.constraint is not None:
-            steady = SteadyBrinkmanStokes(self.flow, self.bodies.spheres[0], self.regularisation(), tolerance=1e-6)
+            steady = SteadyBrinkmanStokes(self.flow, self.immersed.spheres[0], self.regularisation(), tolerance=1e-6)
         else:
-            steady = SteadyStokes(self.flow, self.bodies.spheres)
+            steady = SteadyStokes(self.flow, self.immersed.spheres)
         try:
             forces, integrals = steady.solve(velocities)
         finally:
@@ -286,7 +286,7 @@ class FictitiousDomainModel(FlowModel):
         except (ValueError, KeyError, CheckpointMismatch) as err:
             raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
         velocities, interiors = ([body_array(v) for v in state[key]] for key in ("velocities", "interiors"))
-        count = len(self.bodies_on_axis)
+        count = len(self.bodies)
         if any(len(v) != count for v in velocities):
             raise CheckpointError(f"the checkpoint holds {len(velocities[0])} sphere(s), this scene {count}: "
                                   "the scene was changed")
@@ -319,7 +319,7 @@ class FictitiousDomainModel(FlowModel):
         solves = operator.back_solves
         single = operator.single_solve_time / operator.single_solves if operator.single_solves else None
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
-        displaced = np.array([body.displaced_mass for body in self.bodies_on_axis])
+        displaced = np.array([body.displaced_mass for body in self.bodies])
         matrix = self.last_force.added_mass if self.last_force is not None else None
         return {
             "timings_s": self.timings,
@@ -335,9 +335,9 @@ class FictitiousDomainModel(FlowModel):
                                             else None),
             "mesh_key": self.domain.spec.key(),
             "added_mass_over_displaced": per_body(matrix / displaced[:, None]) if matrix is not None else None,
-            "indicator_volume_over_sphere": per_body(self.bodies.volumes / np.array(
-                [body.sphere.volume for body in self.bodies_on_axis])),
-            "pair_min_flow_gap_m": min(self.bodies.min_gaps, default=None),
+            "indicator_volume_over_sphere": per_body(self.immersed.volumes / np.array(
+                [body.sphere.volume for body in self.bodies])),
+            "pair_min_flow_gap_m": min(self.immersed.min_gaps, default=None),
             "steady_gmres_iterations": self.steady_iterations,
             **(self.constraint_report() if self.constraint is not None else {}),
         }
@@ -345,7 +345,7 @@ class FictitiousDomainModel(FlowModel):
     def constraint_report(self) -> dict:
         """The Brinkman constraint's cost and how rigid the interior is at the end (max |u - U e_z| where
         phi = 1)."""
-        constraint, band = self.constraint, self.bodies.spheres[0].band
+        constraint, band = self.constraint, self.immersed.spheres[0].band
         slip = constraint.interior_slip(self.flow.now, float(self.history.velocity[0]), band.radius - band.width)
         return {"constraint": self.settings.constraint, "constraint_cg_iterations": constraint.iterations,
                 "constraint_cg_iterations_per_step": constraint.iterations / max(self.steps_this_run, 1),
@@ -354,6 +354,6 @@ class FictitiousDomainModel(FlowModel):
 
     def destroy(self) -> None:
         """Free the PETSc objects (the mesh and the report's numbers stay)."""
-        for owner in (self.constraint, self.bodies, self.flow):
+        for owner in (self.constraint, self.immersed, self.flow):
             if owner is not None:
                 owner.destroy()
