@@ -9,7 +9,7 @@ Records in benchmarks/history/: refactor_check_before_issue25.json (at 0d4af21),
 refactor_check_after_issue25.json (after its items 1-4, at c16a6dd: the same within 1.1e-11 but for
 ode-pair-wall's one added wall record, a column at rest closing its last approach as one sphere does) and
 refactor_check_issue25_done.json (fd and ale without a one-sphere path, the package smaller: the same as
-the record before within 1e-10, with ode-three and fd-three added; the next refactor's baseline).
+the record before within 1e-10, with ode-three, fd-three and ale-three added; the next refactor's baseline).
 
 --compare prints each run's largest relative difference and lists the numbers that moved by more than
 --rtol (1e-10 by default); numbers both below ZERO (1e-12, SI) in size are round-off zeros and compare
@@ -56,6 +56,7 @@ CASES = {
     "ode-three": ("three-spheres-wall", "ode", {"run.end_time": 0.09}),
     "fd-three": ("three-spheres-wall", "fd", {"numerics.fd.cells_per_diameter": 12, "run.end_time": 0.09,
                                               "numerics.fd.checkpoint_every": 0}),
+    "ale-three": ("three-spheres-wall", "ale", {"numerics.ale.cells_per_diameter": 6, "run.end_time": 0.09}),
 }
 ROOT = Path("results") / "refactor_check"
 

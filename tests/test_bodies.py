@@ -62,10 +62,10 @@ def test_further_spheres_need_a_second_sphere():
         scenes.from_dict(data)
 
 
-@pytest.mark.parametrize("model,spheres", [("ib", 2), ("ale", 3), ("ib", 3)])
+@pytest.mark.parametrize("model,spheres", [("ib", 2), ("ib", 3)])
 def test_a_model_that_runs_fewer_spheres_refuses_before_writing(model, spheres, tmp_path):
-    """A pair for the model that runs one sphere, three for the ale and ib models: refused by name, with the
-    models that can run it, before the run directory exists."""
+    """A pair and three spheres for the model that runs one sphere: refused by name, with the models that
+    can run them, before the run directory exists."""
     assert models.MODELS[model].max_spheres < spheres
     preset, what = {2: ("yang-hunt2006-pair", "a pair of spheres"), 3: (THREE, "3 spheres")}[spheres]
     with pytest.raises(models.ModelError) as err:

@@ -1,4 +1,4 @@
-"""Finite-element building blocks shared by the mesh-based models (fd now, ale later).
+"""Finite-element building blocks shared by the mesh-based models (fd and ale).
 
 - `mesh`: the axisymmetric meridian half-plane, meshed by gmsh on rank 0 and cached.
 - `forms`: pure functions returning the r-weighted UFL forms of axisymmetric flow.

@@ -9,7 +9,7 @@ the distance d from them, size = fine_size + grading * d, up to `coarse_size`.
 The boundary carries named physical groups (WALL z = 0, AXIS r = 0, OUTER r = R,
 TOP z = Z) so a model can pick its conditions per side.  A boundary-fitted model
 cuts the spheres on the axis out of the half-plane (`holes=(SphereHole(...), ...)`,
-lowest first): their surfaces are the groups SPHERE, SPHERE_2, each meshed at its
+lowest first): their surfaces are the groups SPHERE, SPHERE_2, ..., each meshed at its
 own size, and the thin gap to the wall or between two surfaces keeps a set number
 of triangles across.
 
@@ -35,8 +35,9 @@ from .. import cachedir
 # physical group tags
 FLUID = 1
 WALL, AXIS, OUTER, TOP, SPHERE, SPHERE_2 = 1, 2, 3, 4, 5, 6
-BOUNDARY_NAMES = {WALL: "wall", AXIS: "axis", OUTER: "outer", TOP: "top", SPHERE: "sphere", SPHERE_2: "sphere_2"}
-SPHERE_TAGS = (SPHERE, SPHERE_2)  # the surface of the k-th hole from the bottom
+SPHERE_TAGS = tuple(range(SPHERE, SPHERE + 8))  # the surface of the k-th hole from the bottom (at most 8)
+BOUNDARY_NAMES = {WALL: "wall", AXIS: "axis", OUTER: "outer", TOP: "top", SPHERE: "sphere",
+                  **{tag: f"sphere_{k + 1}" for k, tag in enumerate(SPHERE_TAGS) if k}}
 MESH_FORMAT_VERSION = 1  # part of the cache key: bump when the meshing below changes
 
 

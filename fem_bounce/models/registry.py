@@ -146,7 +146,7 @@ MODELS: dict[str, ModelInfo] = {
         resolution_key="numerics.ale.cells_per_diameter", resolution_unit="cells/D",
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.ale.cfl",
         checkpoint_every_key="numerics.ale.checkpoint_every", checkpoint_files=("flow.npz",),
-        fields_key="numerics.ale.output_every", colour="C3", max_spheres=2,
+        fields_key="numerics.ale.output_every", colour="C3", max_spheres=8,  # one mesh tag per hole (fem.mesh)
         sources=("models/ale", "fem"), max_initial_gap=RESOLVED_MAX_GAP),
 }
 

@@ -492,7 +492,9 @@ class AleModel(FlowModel):
         displaced = np.array([body.displaced_mass for body in self.bodies])
         between = {}
         if len(self.bodies) > 1:
-            between = {"min_mesh_pair_delta": stats.min_mesh_pair_gap / pair_diameter(*self.scene.spheres),
+            # the smallest gap between neighbours over the smallest neighbouring pair's 2a* (equal spheres: exact)
+            smallest = min(pair_diameter(a, b) for a, b in zip(self.scene.spheres, self.scene.spheres[1:]))
+            between = {"min_mesh_pair_delta": stats.min_mesh_pair_gap / smallest,
                        "holds_m": list(self.holds)}
         return {
             "solver": "steady" if self.steady else "march",
