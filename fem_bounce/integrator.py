@@ -326,9 +326,9 @@ class BodyIntegrator:
             rhs[k] = self.bodies[k].prescribed(t)[1]
         return mass, rhs
 
-    def _residual(self, t: float, y, ydot) -> np.ndarray:
+    def _residual(self, t: float, y, ydot, terms: dict | None = None) -> np.ndarray:
         count = len(self.bodies)
-        mass, rhs = self._balance(t, y)
+        mass, rhs = self._balance(t, y, terms)
         rates = self._rates(y)
         out = np.empty(self.n)
         out[0:2 * count:2] = np.asarray(ydot[0:2 * count:2]) - np.diff(rates, prepend=0.0)  # the gaps' rates
@@ -343,7 +343,8 @@ class BodyIntegrator:
     def _ijacobian(self, ts, t, y, ydot, a, A, P) -> bool:
         y, ydot = np.array(y.array_r), np.array(ydot.array_r)
         count, n = len(self.bodies), self.n
-        base = self._residual(t, y, ydot)
+        terms = self._terms(t, y)  # at the base state: for its residual and the exact blocks below
+        base = self._residual(t, y, ydot, terms)
         jac = np.zeros((n, n))
         lengths = [self.bodies[0].diameter] + [pair.diameter for pair in self.pairs]
         for k in range(2 * count):  # by differences in the gaps and velocities (the gap rows too: they are linear)
@@ -351,7 +352,6 @@ class BodyIntegrator:
             shifted = y.copy()
             shifted[k] += step
             jac[:, k] = (self._residual(t, shifted, ydot) - base) / step
-        terms = self._terms(t, y)
         mass, _ = self._balance(t, y, terms)
         gaps, velocities = np.arange(0, 2 * count, 2), np.arange(1, 2 * count, 2)
         jac[gaps, gaps] += a
