@@ -53,15 +53,23 @@ class Prediction:
         return np.asarray(radii, dtype=float) + self.gaps_now + self.dt * self.mean_velocities
 
 
-def flow_gaps(gaps, diameters, holds) -> np.ndarray:
+def flow_gaps(gaps, diameters, holds, held=None) -> np.ndarray:
     """Where a resolved flow places the bodies: their lowest points above z = 0 [m], the predicted `gaps`
     with sphere 1 kept at least holds[0] above the wall and each sphere k + 1 at least holds[k + 1] above
     sphere k's flow position (the near-wall correction holds the flow's geometry at delta_sl and adds
-    what it misses; contact.py; BodyIntegrator.hold_gaps).  A hold of 0 places them where predicted."""
+    what it misses; contact.py; BodyIntegrator.hold_gaps).  A hold of 0 places them where predicted.
+    `held` (a mask over the bodies): those stay at their entries of `gaps`, and a moving sphere just below
+    a held one stays at least its hold below it."""
     placed = np.array(gaps, dtype=float)
-    placed[0] = max(placed[0], holds[0])
+    held = np.zeros(len(placed), dtype=bool) if held is None else np.asarray(held, dtype=bool)
+    for k in range(len(placed) - 2, -1, -1):
+        if held[k + 1] and not held[k]:
+            placed[k] = min(placed[k], placed[k + 1] - diameters[k] - holds[k + 1])
+    if not held[0]:
+        placed[0] = max(placed[0], holds[0])
     for k in range(1, len(placed)):
-        placed[k] = max(placed[k], placed[k - 1] + diameters[k - 1] + holds[k])
+        if not held[k]:
+            placed[k] = max(placed[k], placed[k - 1] + diameters[k - 1] + holds[k])
     return placed
 
 

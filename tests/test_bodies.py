@@ -220,3 +220,15 @@ def test_three_spheres_settle_onto_the_wall_with_the_ode_model(tmp_path):
     energy = 0.5 * masses @ speeds**2 + weights @ heights
     assert energy.max() <= energy[0] * (1.0 + 1e-6)
     assert energy[-1] < 0.5 * energy[0]  # the liquid and the contacts took half of it by now
+
+
+def test_the_flow_keeps_held_spheres_and_a_moving_one_off_a_held_one_above_it():
+    """flow_gaps with a held mask: held spheres stay where given (sphere 1 here below its wall hold), a moving
+    sphere predicted into the held one above it stops at the pair's hold below it, and one above a held
+    sphere is kept its hold above it."""
+    diameters, holds = [0.02, 0.02, 0.02], (0.004, 0.002, 0.003)
+    placed = flow_gaps([0.001, 0.03, 0.046], diameters, holds, held=[True, False, True])
+    assert placed[0] == pytest.approx(0.001) and placed[2] == pytest.approx(0.046)
+    assert placed[1] == pytest.approx(0.046 - 0.02 - 0.003)  # below the held sphere 3 by its hold
+    placed = flow_gaps([0.001, 0.015, 0.046], diameters, holds, held=[True, False, True])
+    assert placed[1] == pytest.approx(0.001 + 0.02 + 0.002)  # above the held sphere 1 by its hold

@@ -263,14 +263,14 @@ class AleModel(FlowModel):
     # -- one step -------------------------------------------------------------------------------
     def next_centers(self, prediction: Prediction) -> tuple[np.ndarray, bool]:
         """(z, held): where the mesh puts the spheres' centres at t_{n+1} [m], the controller's AB2
-        prediction or, where it would pass a wall or pair hold, that hold (flow_gaps), and whether a hold
-        stopped a moving sphere; a held sphere stays put."""
-        predicted = prediction.gaps
-        gaps = flow_gaps(predicted, self.diameters, self.holds)
-        stopped = gaps > predicted
+        prediction or, where it would pass a wall or pair hold, that hold (flow_gaps: also below a held
+        sphere), and whether a hold stopped a moving sphere; a held sphere stays put."""
+        held = np.array([body.held for body in self.bodies])
+        predicted = np.where(held, [body.initial_gap for body in self.bodies], prediction.gaps)
+        gaps = flow_gaps(predicted, self.diameters, self.holds, held)
+        stopped = (gaps != predicted) & ~held
         centers = np.where(stopped, gaps + self.radii, prediction.centers(self.radii))
-        held_spheres = np.array([body.held for body in self.bodies])
-        return np.where(held_spheres, self.domain.initial_centers, centers), bool(np.any(stopped & ~held_spheres))
+        return np.where(held, self.domain.initial_centers, centers), bool(np.any(stopped))
 
     # -- the FlowModel interface ------------------------------------------------------------------
     def build(self, integrator) -> None:

@@ -160,15 +160,10 @@ class FictitiousDomainModel(FlowModel):
         but no closer than the contact model's hold gaps (flow_model.flow_gaps; below them the contact
         model adds what the flow misses); a sphere approaching a held one from below stops at the pair's
         hold gap under it."""
-        held, bodies = self.held, self.bodies
-        diameters = [body.diameter for body in bodies]
-        start = np.array([body.initial_gap for body in bodies])
-        gaps = np.where(held, start, prediction.gaps)
-        for k in range(len(gaps) - 2, -1, -1):
-            if held[k + 1] and not held[k]:
-                gaps[k] = min(gaps[k], gaps[k + 1] - diameters[k] - self.hold_gaps[k + 1])
-        gaps = np.where(held, start, flow_gaps(gaps, diameters, self.hold_gaps))
-        return gaps + np.array([body.sphere.radius for body in bodies])
+        bodies = self.bodies
+        gaps = np.where(self.held, [body.initial_gap for body in bodies], prediction.gaps)
+        return (flow_gaps(gaps, [body.diameter for body in bodies], self.hold_gaps, self.held)
+                + np.array([body.sphere.radius for body in bodies]))
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         self.immersed.place(self.predicted_centers(prediction))
