@@ -19,12 +19,16 @@ PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
 def under_mpi_futures() -> bool:
-    """True on the master of `python -m mpi4py.futures` with at least one worker rank.  mpi4py 3.1 has
-    no public query for it; its shared pool is the attribute that the `-m mpi4py.futures` launcher sets."""
+    """True on the master of `python -m mpi4py.futures` with at least one worker rank.  mpi4py has no
+    public query for it; its shared pool is the attribute that the `-m mpi4py.futures` launcher sets
+    (in `mpi4py.futures._core` since mpi4py 4, `_lib` before)."""
     from mpi4py import MPI
-    from mpi4py.futures import _lib
 
-    return getattr(_lib, "SharedPool", None) is not None and MPI.COMM_WORLD.size > 1
+    try:
+        from mpi4py.futures import _core as launcher
+    except ImportError:
+        from mpi4py.futures import _lib as launcher
+    return getattr(launcher, "SharedPool", None) is not None and MPI.COMM_WORLD.size > 1
 
 
 def petsc_on_self() -> None:
