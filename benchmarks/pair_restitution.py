@@ -119,7 +119,7 @@ def force_budget(run_dir: Path, model: str, scene) -> dict:
     budget = {}
     for name, force in terms.items():
         rate = force[1] / masses[1] - force[0] / masses[0]
-        budget[name] = [float(np.trapz(rate[a:b + 1], t[a:b + 1])) for a, b in phases]
+        budget[name] = [float(np.trapezoid(rate[a:b + 1], t[a:b + 1])) for a, b in phases]
     relative = d["velocity_2"] - d["velocity_1"]
     budget["velocity change"] = [float(relative[b] - relative[a]) for a, b in phases]
     budget["contact duration [s]"] = float(t[touching[-1]] - t[touching[0]])

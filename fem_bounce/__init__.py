@@ -19,6 +19,11 @@ Errors:   Error, the base of SceneError, ModelError, OutputError, CheckpointErro
 """
 __version__ = "0.1.0"
 
+try:  # PyPI's FEniCSx wheel (dolfinx-solver-real) loads MPI ahead of PETSc and dolfinx only when imported first
+    import dolfinx_solver  # noqa: F401
+except ImportError:  # conda-forge or a system FEniCSx: nothing to order
+    pass
+
 from .api import (
     Collision, CheckpointError, Error, Impact, ModelError, OutputError, Rebound, Result, RunDiverged, RunFailed,
     RunInterrupted, RunnerError, Scene, SceneError, Table, compare, load, model_names, presets, restitution, resume,

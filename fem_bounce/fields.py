@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-XINCLUDE = "http://www.w3.org/2001/XInclude"
+# dolfinx 0.5 wrote the XInclude namespace with http, 0.10 and later with https
+XINCLUDE_NAMESPACES = ("https://www.w3.org/2001/XInclude", "http://www.w3.org/2001/XInclude")
 
 
 @dataclass
@@ -50,7 +51,8 @@ def _read_segment(path: Path) -> list[Snapshot]:
         """(points, triangles) of the mesh a time grid refers to: a moving mesh (ale) writes one per
         snapshot and names it in the xpointer; otherwise the file's first mesh."""
         name = next(iter(meshes))
-        include = grid.find(f"{{{XINCLUDE}}}include")
+        include = next((found for namespace in XINCLUDE_NAMESPACES
+                        if (found := grid.find(f"{{{namespace}}}include")) is not None), None)
         if include is not None:
             match = re.search(r"@Name='([^']+)'", include.get("xpointer", ""))
             if match and match.group(1) in meshes:

@@ -2,6 +2,8 @@ import warnings
 
 import pytest
 
+import fem_bounce  # noqa: F401  first, so that MPI loads ahead of PETSc and dolfinx (see fem_bounce/__init__.py)
+
 
 @pytest.fixture(autouse=True)
 def _quiet_re_warnings():
@@ -9,6 +11,21 @@ def _quiet_re_warnings():
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*axisymmetric.*")
         yield
+
+
+@pytest.fixture
+def mpiexec():
+    """The MPI launcher of the MPI this Python uses: the one beside it in a venv (the PyPI stack's MPICH; another
+    MPI's mpirun cannot start it), else the first mpiexec on PATH (conda, a system MPI)."""
+    import shutil
+    import sys
+    from pathlib import Path
+
+    beside = Path(sys.executable).parent / "mpiexec"
+    launcher = str(beside) if beside.is_file() else shutil.which("mpiexec")
+    if launcher is None:
+        pytest.skip("no mpiexec")
+    return launcher
 
 
 @pytest.fixture

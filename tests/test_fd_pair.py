@@ -79,7 +79,7 @@ def test_a_step_has_a_symmetric_positive_added_mass_matrix(falling_column):
     reached = np.linspace(-0.01, -0.09, count)
     fd.complete(reached, fd.dt)
     for sphere, velocity in zip(fd.immersed.spheres, reached):
-        assert sphere.interior(fd.flow.now.vector) == pytest.approx(velocity * sphere.volume, rel=1e-9)
+        assert sphere.interior(fd.flow.now.x.petsc_vec) == pytest.approx(velocity * sphere.volume, rel=1e-9)
     assert fd.history.velocity == pytest.approx(reached)
 
 

@@ -14,6 +14,8 @@ from dolfinx.fem.petsc import LinearProblem
 from mpi4py import MPI
 
 from fem_bounce.fem import forms
+from fem_bounce.fem.compat import collapse
+from fem_bounce.fem.taylor_hood import taylor_hood_space
 
 RHO_C, MU = 3.0, 0.7  # a BDF2 mass coefficient and a viscosity, both of order one
 
@@ -35,9 +37,7 @@ def strong_residual(u, p, r):
 
 def solve(n, comm=MPI.COMM_WORLD):
     domain = mesh.create_unit_square(comm, n, n, diagonal=mesh.DiagonalType.crossed)
-    cell = domain.ufl_cell()
-    W = fem.FunctionSpace(domain, ufl.MixedElement([ufl.VectorElement("Lagrange", cell, 2),
-                                                    ufl.FiniteElement("Lagrange", cell, 1)]))
+    W = taylor_hood_space(domain)
     x = ufl.SpatialCoordinate(domain)
     r = forms.radial_coordinate(domain)
     u_ex, p_ex = exact(x)
@@ -46,17 +46,17 @@ def solve(n, comm=MPI.COMM_WORLD):
     a = forms.stokes_operator(u, p, v, q, RHO_C, MU, r, dx)
     L = forms.source(strong_residual(u_ex, p_ex, r), v, r, dx)
 
-    V, _ = W.sub(0).collapse()
+    V, _ = collapse(W.sub(0))
     u_bc = fem.Function(V)
-    u_bc.interpolate(fem.Expression(u_ex, V.element.interpolation_points()))
+    u_bc.interpolate(fem.Expression(u_ex, V.element.interpolation_points))
     fdim = domain.topology.dim - 1
     outer = mesh.locate_entities_boundary(
         domain, fdim, lambda x: np.isclose(x[0], 1.0) | np.isclose(x[1], 0.0) | np.isclose(x[1], 1.0))
     axis = mesh.locate_entities_boundary(domain, fdim, lambda x: np.isclose(x[0], 0.0))
-    Vr, _ = W.sub(0).sub(0).collapse()
-    Q, _ = W.sub(1).collapse()
+    Vr, _ = collapse(W.sub(0).sub(0))
+    Q, _ = collapse(W.sub(1))
     p_bc = fem.Function(Q)
-    p_bc.interpolate(fem.Expression(p_ex, Q.element.interpolation_points()))
+    p_bc.interpolate(fem.Expression(p_ex, Q.element.interpolation_points))
     corner = fem.locate_dofs_geometrical((W.sub(1), Q), lambda x: np.isclose(x[0], 1.0) & np.isclose(x[1], 1.0))
     bcs = [
         fem.dirichletbc(u_bc, fem.locate_dofs_topological((W.sub(0), V), fdim, outer), W.sub(0)),
@@ -64,8 +64,8 @@ def solve(n, comm=MPI.COMM_WORLD):
                         W.sub(0).sub(0)),
         fem.dirichletbc(p_bc, corner, W.sub(1)),
     ]
-    problem = LinearProblem(a, L, bcs=bcs, petsc_options={"ksp_type": "preonly", "pc_type": "lu",
-                                                          "pc_factor_mat_solver_type": "mumps"})
+    options = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+    problem = LinearProblem(a, L, bcs=bcs, petsc_options_prefix="test_forms_", petsc_options=options)
     w = problem.solve()
     uh, ph = w.split()
 

@@ -6,6 +6,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from fem_bounce.fem import mesh as halfplane
+from fem_bounce.fem.compat import geometry_cells
 
 SPEC = halfplane.HalfPlane(radius=0.05, height=0.08, fine_size=0.002, coarse_size=0.01, grading=0.2,
                            refined=(halfplane.Box(r_max=0.01, z_min=0.0, z_max=0.03),))
@@ -33,7 +34,7 @@ def test_half_plane_area_boundaries_and_sizes(cache):
     assert lengths["axis"] == pytest.approx(SPEC.height) and lengths["top"] == pytest.approx(SPEC.radius)
     # triangle sizes follow the field: fine inside the box, graded, capped far away
     x = mesh.geometry.x[:, :2]
-    cells = mesh.geometry.dofmap.array.reshape(-1, 3)
+    cells = geometry_cells(mesh)
     edges = np.linalg.norm(x[cells] - x[np.roll(cells, 1, axis=1)], axis=2).max(axis=1)
     centroid = x[cells].mean(axis=1)
     target = SPEC.size_at(centroid[:, 0], centroid[:, 1])

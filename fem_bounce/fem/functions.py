@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .compat import collapse
+
 
 class CheckpointMismatch(RuntimeError):
     """The stored dof coordinates do not match this mesh."""
@@ -32,10 +34,10 @@ def scalar_components(space, path: str = "") -> list[tuple[str, object]]:
 
 def _local_dofs(sub):
     """(parent dof indices, coordinates) of the owned dofs of a scalar sub-space."""
-    collapsed, parent = sub.collapse()
+    collapsed, parent = collapse(sub)
     owned = collapsed.dofmap.index_map.size_local
     coordinates = collapsed.tabulate_dof_coordinates()[:owned, :2]
-    return np.asarray(parent)[:owned], coordinates
+    return parent[:owned], coordinates
 
 
 def gather_values(function) -> dict | None:
@@ -57,12 +59,12 @@ def scatter_values(function, data: dict, tolerance: float) -> None:
         if name not in data:
             raise CheckpointMismatch(f"component {name} is missing from the checkpoint")
         coordinates, values = data[name]
-        collapsed, parent = sub.collapse()
+        collapsed, parent = collapse(sub)
         local = collapsed.tabulate_dof_coordinates()[:, :2]
         distance, index = cKDTree(coordinates).query(local)
         if local.size and distance.max() > tolerance:
             raise CheckpointMismatch(f"component {name}: a dof lies {distance.max():.3g} m from every stored one")
-        function.x.array[np.asarray(parent)] = values[index]
+        function.x.array[parent] = values[index]
     function.x.scatter_forward()
 
 

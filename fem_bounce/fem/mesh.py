@@ -13,17 +13,21 @@ lowest first): their surfaces are the groups SPHERE, SPHERE_2, ..., each meshed 
 own size, and the thin gap to the wall or between two surfaces keeps a set number
 of triangles across.
 
-gmsh runs on rank 0 only; `dolfinx.io.gmshio` distributes the mesh.  The .msh
+gmsh runs on rank 0 only; `dolfinx.io.gmsh` distributes the mesh.  The .msh
 file is cached under the mesh cache directory (see `cache_directory`), keyed by
-a hash of the spec, so a convergence study or a restart never meshes twice.
+a hash of the spec and the gmsh version (another release meshes the same spec
+differently), so a convergence study or a restart never meshes twice.
 """
 from __future__ import annotations
 
 import dataclasses
 import hashlib
+import importlib.metadata
 import json
 import os
 import shutil
+import signal
+import threading
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -141,7 +145,7 @@ class HalfPlane:
 
     def key(self) -> str:
         """A short hash of everything that shapes the mesh (the cache file name)."""
-        data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION}
+        data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION, "gmsh": gmsh_version()}
         if not self.holes:
             del data["holes"]  # meshes without a hole keep the keys they had before holes existed
         for box in data["refined"]:
@@ -222,17 +226,30 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
     gmsh.model.mesh.generate(2)
 
 
+def gmsh_version() -> str:
+    """The gmsh library's version (part of a mesh's cache key), read without loading the library."""
+    try:
+        return importlib.metadata.version("gmsh")
+    except importlib.metadata.PackageNotFoundError:  # a gmsh installed without Python metadata
+        import gmsh
+
+        return gmsh.__version__
+
+
 def create_mesh(comm, spec: HalfPlane, cache: bool = True):
     """(mesh, cell_tags, facet_tags) of the half-plane, distributed over comm.
 
     Rank 0 reads the cached .msh file, or meshes and caches it; every rank takes part
     in the distribution.  The cache file is written atomically, so concurrent runs
-    that need the same mesh are safe."""
+    that need the same mesh are safe.  gmsh leaves the process's SIGINT handler as it found it
+    (its Python API sets the default one and does not put the old one back), so Ctrl-C still
+    ends a run with its summary."""
     import gmsh
-    from dolfinx.io import gmshio
+    from dolfinx.io import gmsh as gmsh_io
 
     if comm.rank == 0:
-        gmsh.initialize()
+        handler = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
+        gmsh.initialize(interruptible=False)
         gmsh.option.setNumber("General.Terminal", 0)
         path = cache_directory() / f"halfplane-{spec.key()}.msh"
         try:
@@ -248,11 +265,13 @@ def create_mesh(comm, spec: HalfPlane, cache: bool = True):
                 gmsh.clear()
             # always read the file back: a fresh and a cached mesh are then identical to the last bit
             gmsh.merge(str(path))
-            result = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=2)
+            result = gmsh_io.model_to_mesh(gmsh.model, comm, 0, gdim=2)
             if not cache:
                 shutil.rmtree(path.parent)
         finally:
             gmsh.finalize()
+            if handler is not None:
+                signal.signal(signal.SIGINT, handler)
     else:
-        result = gmshio.model_to_mesh(None, comm, 0, gdim=2)
-    return result
+        result = gmsh_io.model_to_mesh(None, comm, 0, gdim=2)
+    return result.mesh, result.cell_tags, result.facet_tags

@@ -8,13 +8,14 @@ velocity the pressure is pinned at one far corner.
 """
 from __future__ import annotations
 
+import basix.ufl
 import numpy as np
-import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import apply_lifting, assemble_vector, set_bc
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .compat import collapse
 from .mesh import AXIS, OUTER, TOP, WALL
 
 SIDE_KINDS = ("no-slip", "slip", "inflow", "outflow")
@@ -57,7 +58,7 @@ def side_constraints(facet_tags, sides: dict[int, str]) -> tuple[list[tuple[int,
 
 def pressure_pin(W, mesh):
     """p = 0 at the domain's far corner (largest r and z), for a pressure fixed only up to a constant."""
-    Q, _ = W.sub(1).collapse()
+    Q, _ = collapse(W.sub(1))
     x = mesh.geometry.x
     corner = x[:, :2].max(axis=0) if x.size else np.full(2, -np.inf)
     corner = np.array([mesh.comm.allreduce(corner[k], op=MPI.MAX) for k in range(2)])
@@ -80,9 +81,10 @@ def lifted_rhs(b: PETSc.Vec, L, a, bcs) -> PETSc.Vec:
 
 
 def taylor_hood_space(mesh) -> fem.FunctionSpace:
-    cell = mesh.ufl_cell()
-    return fem.FunctionSpace(mesh, ufl.MixedElement([ufl.VectorElement("Lagrange", cell, 2),
-                                                     ufl.FiniteElement("Lagrange", cell, 1)]))
+    """The mixed space of (u, p): continuous P2 velocity (r, z) and P1 pressure."""
+    cell = mesh.basix_cell()
+    velocity = basix.ufl.element("Lagrange", cell, 2, shape=(2,))
+    return fem.functionspace(mesh, basix.ufl.mixed_element([velocity, basix.ufl.element("Lagrange", cell, 1)]))
 
 
 def owned_dirichlet_rows(bcs) -> np.ndarray:

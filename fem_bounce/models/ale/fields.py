@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import basix.ufl
 import ufl
 from dolfinx import fem
 from dolfinx.io import XDMFFile
@@ -26,14 +27,13 @@ class MovingFieldWriter:
         self._mesh = None
 
     def _spaces(self, mesh, W) -> None:
-        cell = mesh.ufl_cell()
-        self.velocity = fem.Function(fem.FunctionSpace(mesh, ufl.VectorElement("Lagrange", cell, 1)),
-                                     name="velocity")
-        scalars = fem.FunctionSpace(mesh, ("Lagrange", 1))
+        vectors = basix.ufl.element("Lagrange", mesh.basix_cell(), 1, shape=(2,))
+        self.velocity = fem.Function(fem.functionspace(mesh, vectors), name="velocity")
+        scalars = fem.functionspace(mesh, ("Lagrange", 1))
         self.pressure = fem.Function(scalars, name="pressure")
         self.vorticity = fem.Function(scalars, name="vorticity")
         self.state = fem.Function(W)
-        self._curl = fem.Expression(forms.vorticity(ufl.split(self.state)[0]), scalars.element.interpolation_points())
+        self._curl = fem.Expression(forms.vorticity(ufl.split(self.state)[0]), scalars.element.interpolation_points)
         self._mesh = mesh
 
     def write(self, state: fem.Function, t: float) -> None:

@@ -70,6 +70,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ...fem import forms
+from ...fem.compat import collapse
 from ...fem.mesh import AXIS, SPHERE
 from ...fem.solver import FactorizedOperator, ReusedFactorOperator
 from ...fem.taylor_hood import (SIDE_KINDS, lifted_rhs, owned_dirichlet_rows, pressure_pin, step_coefficients,
@@ -150,7 +151,7 @@ class SphereFlow:
         self.matrix = assemble_matrix(self.a, bcs=self.bcs)
         self.matrix.assemble()
         self.operator: FactorizedOperator | ReusedFactorOperator | None = None
-        self.rhs = create_vector(self.L)
+        self.rhs = create_vector(self.W)
 
     def set_time_step(self, dt: float, previous: float | None = None) -> None:
         """The coming step's length dt [s] and the one before it (default dt): the BDF and extrapolation
@@ -168,7 +169,7 @@ class SphereFlow:
 
         def component_bc(component: int, facets, name: str | None = None):
             sub = W.sub(0).sub(component)
-            space, _ = sub.collapse()
+            space, _ = collapse(sub)
             g = fem.Function(space)
             if name is not None:
                 self.values[name] = g
@@ -190,11 +191,11 @@ class SphereFlow:
         self.pressure_pinned = pinned
         # phi_k = e_z on sphere k: a Dirichlet condition of value 1 set into a zero vector
         sub = W.sub(0).sub(1)
-        space, _ = sub.collapse()
+        space, _ = collapse(sub)
         one = fem.Function(space)
         one.x.array[:] = 1.0
         for phi, dofs in zip(self.phis, sphere_dofs):
-            set_bc(phi.vector, [fem.dirichletbc(one, dofs, sub)])
+            set_bc(phi.x.petsc_vec, [fem.dirichletbc(one, dofs, sub)])
             phi.x.scatter_forward()
 
     def per_sphere(self, values) -> np.ndarray:
@@ -220,7 +221,7 @@ class SphereFlow:
     def commit(self, velocity_change) -> None:
         """The step's field x_ref + sum_k velocity_change_k x_unit,k becomes u^n; the history shifts."""
         for change, unit in zip(self.per_sphere(velocity_change), self.units):
-            self.solution.vector.axpy(change, unit.vector)
+            self.solution.x.petsc_vec.axpy(change, unit.x.petsc_vec)
         self.solution.x.scatter_forward()
         for older, newer in zip(self.states[::-1], self.states[-2::-1]):
             older.x.array[:] = newer.x.array
@@ -274,7 +275,7 @@ class SphereFlow:
     def _solve(self, with_history: bool, out: fem.Function) -> None:
         b = lifted_rhs(self.rhs, self.L if with_history else None, self.a, self.bcs)
         start = time.perf_counter()
-        self.operator.solve(b, out.vector)  # "reuse": out holds the initial guess
+        self.operator.solve(b, out.x.petsc_vec)  # "reuse": out holds the initial guess
         self.solve_s += time.perf_counter() - start
         out.x.scatter_forward()
 
@@ -341,7 +342,7 @@ class SphereFlow:
         A.assemble()
         solver = FactorizedOperator(A, self.prefix + "steady_")
         correction = fem.Function(self.W)
-        b = create_vector(F)
+        b = create_vector(self.W)
         x.x.array[:] = 0.0
         try:
             for iteration in range(max_iterations if convection else 1):
@@ -354,14 +355,14 @@ class SphereFlow:
                 with b.localForm() as local:
                     local.set(0.0)
                 assemble_vector(b, F)
-                apply_lifting(b, [J], [self.bcs], x0=[x.vector], scale=-1.0)
+                apply_lifting(b, [J], [self.bcs], x0=[x.x.petsc_vec], alpha=-1.0)
                 b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
                 b.scale(-1.0)
-                set_bc(b, self.bcs, x.vector, 1.0)
-                solver.solve(b, correction.vector)
+                set_bc(b, self.bcs, x.x.petsc_vec, 1.0)
+                solver.solve(b, correction.x.petsc_vec)
                 correction.x.scatter_forward()
                 x.x.array[:] += correction.x.array
-                size = correction.vector.norm() / max(x.vector.norm(), 1e-300)
+                size = correction.x.petsc_vec.norm() / max(x.x.petsc_vec.norm(), 1e-300)
                 if log is not None:
                     log(f"steady iteration {iteration}: |dx|/|x| = {size:.2e}")
                 if size < rtol:
@@ -407,5 +408,5 @@ def set_velocity(state: fem.Function, velocity: tuple[float, float]) -> None:
     state.x.array[:] = 0.0
     W = state.function_space
     for component in range(2):
-        _, dofs = W.sub(0).sub(component).collapse()
+        _, dofs = collapse(W.sub(0).sub(component))
         state.x.array[dofs] = velocity[component]

@@ -37,6 +37,7 @@ from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, s
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ...fem.compat import geometry_cells
 from ...fem.mesh import OUTER, SPHERE, TOP, WALL
 from ...fem.solver import FactorizedOperator
 
@@ -58,13 +59,13 @@ class MeshMotion:
     def __init__(self, mesh, facet_tags, center, prefix: str = "ale_mesh_", sphere_tags: tuple = (SPHERE,)):
         self.mesh = mesh
         self.reference_center = center
-        self.space = fem.FunctionSpace(mesh, ("Lagrange", 1))
+        self.space = fem.functionspace(mesh, ("Lagrange", 1))
         self.extensions = [fem.Function(self.space, name=f"psi_{k + 1}") for k in range(len(sphere_tags))]
         self.psi = self.extensions[0]
         if len(sphere_tags) == 1:
             self.psi.name = "psi"
         self._solve_extensions(facet_tags, sphere_tags, prefix)
-        self.cells = mesh.geometry.dofmap.array.reshape(-1, 3)
+        self.cells = geometry_cells(mesh)
         self.reference = mesh.geometry.x[:, :2].copy()
         self.extension_nodes = [self._at_geometry_nodes(psi) for psi in self.extensions]
         self.psi_nodes = self.extension_nodes[0]
@@ -103,7 +104,7 @@ class MeshMotion:
                 apply_lifting(b, [a], [bcs])
                 b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
                 set_bc(b, bcs)
-                solver.solve(b, psi.vector)
+                solver.solve(b, psi.x.petsc_vec)
                 psi.x.scatter_forward()
         finally:
             solver.destroy()
@@ -113,7 +114,7 @@ class MeshMotion:
     def _at_geometry_nodes(self, function: fem.Function) -> np.ndarray:
         """Values of a P1 function at the mesh's geometry nodes (the two numberings differ)."""
         node_of_dof = np.empty(function.x.array.size, dtype=np.int64)
-        dofs = self.space.dofmap.list.array.reshape(-1, 3)
+        dofs = self.space.dofmap.list
         node_of_dof[dofs.ravel()] = self.cells.ravel()
         values = np.empty(self.reference.shape[0])
         values[node_of_dof] = function.x.array

@@ -1,11 +1,12 @@
 """Moving the flow to a new mesh after remeshing, keeping it divergence-free and its momentum.
 
-dolfinx 0.5.2 cannot interpolate between non-matching meshes, so the old mesh and one
-finite-element function on it are gathered onto every rank as a serial copy
-(`SerialField`), where any point can be looked up (bounding-box tree, `Function.eval`);
+The old mesh and one finite-element function on it are gathered onto every rank as a serial
+copy (`SerialField`), where any point can be looked up (bounding-box tree, `Function.eval`);
 each rank then evaluates it at its own new degrees of freedom (`interpolate_from`).
 Points of the new mesh that fall just outside the old one (the two polygons approximating
-the sphere differ) take the value of the nearest old cell, extrapolated.
+the sphere differ) take the value of the nearest old cell, extrapolated: dolfinx's own
+non-matching interpolation (`Function.interpolate_nonmatching`) leaves such points without a
+value.
 
 Interpolation leaves a field that is not discretely divergence-free on the new mesh; the
 next step's pressure would remove that in one step, as a force spike on the sphere.
@@ -26,6 +27,7 @@ difference between the two meshes' polygonal sphere volumes.  model.py reports b
 """
 from __future__ import annotations
 
+import basix.ufl
 import numpy as np
 import ufl
 from dolfinx import fem, geometry
@@ -34,6 +36,7 @@ from dolfinx.fem.petsc import assemble_matrix, create_vector
 from mpi4py import MPI
 
 from ...fem import forms
+from ...fem.compat import collapse, geometry_cells
 from ...fem.functions import gather_values, scatter_values
 from ...fem.solver import FactorizedOperator, ReusedFactorOperator
 from ...fem.taylor_hood import lifted_rhs, owned_dirichlet_rows
@@ -42,7 +45,7 @@ from ...fem.taylor_hood import lifted_rhs, owned_dirichlet_rows
 def _gather_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:
     """(points (N, 2), triangles (M, 3)) of the whole mesh as it is now, on every rank."""
     owned = mesh.topology.index_map(mesh.topology.dim).size_local
-    cells = mesh.geometry.dofmap.array.reshape(-1, 3)[:owned]
+    cells = geometry_cells(mesh)[:owned]
     corners = mesh.geometry.x[cells, :2].reshape(-1, 2)
     corners = np.concatenate(mesh.comm.allgather(corners))
     points, index = np.unique(corners, axis=0, return_inverse=True)
@@ -57,16 +60,16 @@ class SerialField:
     def __init__(self, function: fem.Function, tolerance: float):
         mesh = function.function_space.mesh
         points, triangles = _gather_mesh(mesh)
-        domain = ufl.Mesh(ufl.VectorElement("Lagrange", mesh.ufl_cell(), 1))
-        self.mesh = dmesh.create_mesh(MPI.COMM_SELF, triangles, points, domain)
-        copy = fem.Function(fem.FunctionSpace(self.mesh, function.function_space.ufl_element()))
+        domain = ufl.Mesh(basix.ufl.element("Lagrange", mesh.basix_cell(), 1, shape=(2,)))
+        self.mesh = dmesh.create_mesh(MPI.COMM_SELF, triangles, domain, points)
+        copy = fem.Function(fem.functionspace(self.mesh, function.function_space.ufl_element()))
         data = mesh.comm.bcast(gather_values(function), root=0)
         scatter_values(copy, data, tolerance)
         # Function.eval cannot evaluate a mixed function: keep its parts (u, p) as functions of their own
         count = copy.function_space.num_sub_spaces
         self.parts = [copy.sub(k).collapse() for k in range(count)] if count else [copy]
         tdim = self.mesh.topology.dim
-        self.tree = geometry.BoundingBoxTree(self.mesh, tdim)
+        self.tree = geometry.bb_tree(self.mesh, tdim)
         cells = np.arange(self.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
         self.midpoints = geometry.create_midpoint_tree(self.mesh, tdim, cells)
 
@@ -74,7 +77,7 @@ class SerialField:
         """Values (n, value size) of one part (the k-th sub-function of a mixed function) at points (n, 2) [m]."""
         xyz = np.zeros((len(points), 3))
         xyz[:, :2] = points
-        candidates = geometry.compute_collisions(self.tree, xyz)
+        candidates = geometry.compute_collisions_points(self.tree, xyz)
         colliding = geometry.compute_colliding_cells(self.mesh, candidates, xyz)
         cells = np.full(len(points), -1, dtype=np.int32)
         for k in range(len(points)):
@@ -92,10 +95,10 @@ def interpolate_from(source: SerialField, target: fem.Function) -> None:
     space = target.function_space
     subspaces = [space.sub(k) for k in range(space.num_sub_spaces)] if space.num_sub_spaces else [space]
     for part, sub in enumerate(subspaces):
-        collapsed, parent = sub.collapse()
+        collapsed, parent = collapse(sub)
         values = source.evaluate(collapsed.tabulate_dof_coordinates()[:, :2], part)
         # a blocked (vector) space lists each node once: its components are consecutive dofs
-        target.x.array[np.asarray(parent)] = values.reshape(-1)
+        target.x.array[parent] = values.reshape(-1)
     target.x.scatter_forward()
 
 
@@ -116,7 +119,7 @@ class DivergenceFreeProjection:
         self.bcs = bcs
         self.matrix = assemble_matrix(self.a, bcs=bcs)
         self.matrix.assemble()
-        self.rhs = create_vector(self.L)
+        self.rhs = create_vector(W)
         self.solver = ReusedFactorOperator(self.matrix, prefix + "reuse_", rtol=rtol,
                                            fixed_rows=owned_dirichlet_rows(bcs)) if reuse else \
             FactorizedOperator(self.matrix, prefix)
@@ -135,9 +138,9 @@ class DivergenceFreeProjection:
         """Replace the velocity of the mixed (u, p) `function` by its projection (its pressure is kept)."""
         self.field.x.array[:] = function.x.array
         b = lifted_rhs(self.rhs, self.L, self.a, self.bcs)
-        self.solver.solve(b, self.field.vector)
+        self.solver.solve(b, self.field.x.petsc_vec)
         self.field.x.scatter_forward()
-        _, velocity = function.function_space.sub(0).collapse()
+        _, velocity = collapse(function.function_space.sub(0))
         function.x.array[velocity] = self.field.x.array[velocity]
 
     def destroy(self) -> None:

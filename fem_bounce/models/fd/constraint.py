@@ -40,6 +40,8 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ...fem.compat import collapse
+
 
 class ConstraintError(ArithmeticError):
     """Conjugate gradients broke down or did not reach the tolerance."""
@@ -73,11 +75,11 @@ class RigidConstraint:
         self._image = flow.rhs.duplicate()
         self.phi_lambda = flow.rhs.duplicate()  # Phi lambda and Phi lambda_1, for the time loop's first pass
         self.phi_unit = flow.rhs.duplicate()
-        _, self._uz_dofs = W.sub(0).sub(1).collapse()
+        _, self._uz_dofs = collapse(W.sub(0).sub(1))
         # 1 on the velocity dofs without a Dirichlet condition, 0 elsewhere (pressure, boundary values)
         active = fem.Function(W)
-        active.x.array[W.sub(0).collapse()[1]] = 1.0
-        self.flow.force_rhs(active.vector)  # (ghosts are summed into owners: only != 0 counts)
+        active.x.array[collapse(W.sub(0))[1]] = 1.0
+        self.flow.force_rhs(active.x.petsc_vec)  # (ghosts are summed into owners: only != 0 counts)
         active.x.scatter_forward()
         self._active = (active.x.array != 0.0).astype(float)
         self._has_unit = False
@@ -109,7 +111,7 @@ class RigidConstraint:
         s.x.array[:] -= response.x.array + eps * x.x.array
         s.x.array[:] *= self._active
         r = self.apply_phi(s, self._residual)
-        rr = s.vector.dot(r)
+        rr = s.x.petsc_vec.dot(r)
         phi_x = self.apply_phi(x, self._phi_x)  # kept up to date below, for the stopping bound
         if rr <= self._goal(x, phi_x):
             return 0, True
@@ -120,7 +122,7 @@ class RigidConstraint:
             self.flow.solve([phi_p], [z])
             q = self.apply_phi(z, self._image)
             q.axpy(eps, phi_p)  # Phi T p
-            curvature = p.vector.dot(q)
+            curvature = p.x.petsc_vec.dot(q)
             if not curvature > 0.0:
                 raise ConstraintError(f"the rigid-body constraint's CG broke down (p.Phi T p = {curvature:g})")
             alpha = rr / curvature
@@ -129,7 +131,7 @@ class RigidConstraint:
             response.x.array[:] += alpha * z.x.array
             s.x.array[:] -= alpha * (eps * p.x.array + z.x.array * self._active)
             r.axpy(-alpha, q)
-            rr_new = s.vector.dot(r)
+            rr_new = s.x.petsc_vec.dot(r)
             if rr_new <= self._goal(x, phi_x):
                 return iteration, True
             beta, rr = rr_new / rr, rr_new
@@ -138,7 +140,7 @@ class RigidConstraint:
 
     def _goal(self, x: fem.Function, phi_x: PETSc.Vec) -> float:
         """The CG's stopping bound on |s|_Phi^2, (tolerance |eps x|_Phi)^2 (phi_x = Phi x)."""
-        return (self.tolerance * self.regularisation) ** 2 * x.vector.dot(phi_x)
+        return (self.tolerance * self.regularisation) ** 2 * x.x.petsc_vec.dot(phi_x)
 
     # -- a step ------------------------------------------------------------------------------
     def first_pass(self) -> tuple[list, list]:
@@ -170,17 +172,17 @@ class RigidConstraint:
 
     def hold_force(self) -> float:
         """The z-force 2 pi int phi lambda_z r dx [N] (lambda pushes the fluid by minus this)."""
-        return self.sphere.interior(self.density.vector)
+        return self.sphere.interior(self.density.x.petsc_vec)
 
     def unit_force(self) -> float:
         """d(hold_force)/dU [N s/m]."""
-        return self.sphere.interior(self.unit.vector)
+        return self.sphere.interior(self.unit.x.petsc_vec)
 
     def field(self, predicted: fem.Function, shift: float, out: PETSc.Vec) -> PETSc.Vec:
         """u = u~ - A^-1 Phi (lambda + shift lambda_1) as a W-vector; lambda moves to lambda + shift lambda_1."""
-        predicted.vector.copy(out)
-        out.axpy(-1.0, self.response.vector)
-        out.axpy(-shift, self.unit_response.vector)
+        predicted.x.petsc_vec.copy(out)
+        out.axpy(-1.0, self.response.x.petsc_vec)
+        out.axpy(-shift, self.unit_response.x.petsc_vec)
         if shift:
             self.density.x.array[:] += shift * self.unit.x.array
             self.response.x.array[:] += shift * self.unit_response.x.array
@@ -191,11 +193,11 @@ class RigidConstraint:
         W = self.flow.W
         worst = 0.0
         for component, target in ((0, 0.0), (1, velocity)):
-            space, dofs = W.sub(0).sub(component).collapse()
+            space, dofs = collapse(W.sub(0).sub(component))
             x = space.tabulate_dof_coordinates()
             inside = np.hypot(x[:, 0], x[:, 1] - self.sphere.center) <= depth
             if inside.any():
-                worst = max(worst, float(np.abs(velocity_field.x.array[np.asarray(dofs)[inside]] - target).max()))
+                worst = max(worst, float(np.abs(velocity_field.x.array[dofs[inside]] - target).max()))
         return self.flow.mesh.comm.allreduce(worst, op=MPI.MAX)
 
     def destroy(self) -> None:

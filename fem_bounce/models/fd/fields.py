@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import basix.ufl
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_vector
@@ -26,9 +27,9 @@ class FieldWriter:
     """Writes (velocity, pressure, vorticity) of a Taylor-Hood state to one XDMF time series."""
 
     def __init__(self, comm, mesh, W, path: Path):
-        cell = mesh.ufl_cell()
-        self.velocity = fem.Function(fem.FunctionSpace(mesh, ufl.VectorElement("Lagrange", cell, 1)), name="velocity")
-        scalars = fem.FunctionSpace(mesh, ("Lagrange", 1))
+        vectors = basix.ufl.element("Lagrange", mesh.basix_cell(), 1, shape=(2,))
+        self.velocity = fem.Function(fem.functionspace(mesh, vectors), name="velocity")
+        scalars = fem.functionspace(mesh, ("Lagrange", 1))
         self.pressure = fem.Function(scalars, name="pressure")
         self.vorticity = fem.Function(scalars, name="vorticity")
         self.state = fem.Function(W)
@@ -37,7 +38,7 @@ class FieldWriter:
         self._lumped_mass = fem.petsc.assemble_vector(fem.form(z * ufl.dx))
         self._lumped_mass.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self._curl = fem.form(forms.vorticity(ufl.split(self.state)[0]) * z * ufl.dx)
-        self._rhs = fem.petsc.create_vector(self._curl)
+        self._rhs = fem.petsc.create_vector(scalars)
         self.file = XDMFFile(comm, str(path), "w")
         self.file.write_mesh(mesh)
 
@@ -49,7 +50,7 @@ class FieldWriter:
             local.set(0.0)
         assemble_vector(self._rhs, self._curl)
         self._rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self.vorticity.vector.pointwiseDivide(self._rhs, self._lumped_mass)
+        self.vorticity.x.petsc_vec.pointwiseDivide(self._rhs, self._lumped_mass)
         self.vorticity.x.scatter_forward()
         for function in (self.velocity, self.pressure, self.vorticity):
             self.file.write_function(function, t)

@@ -23,6 +23,7 @@ from dolfinx.fem.petsc import assemble_matrix, create_vector, set_bc
 from petsc4py import PETSc
 
 from ...fem import forms
+from ...fem.compat import collapse
 from ...fem.mesh import AXIS
 from ...fem.solver import FactorizedOperator, FieldSplitOperator
 from ...fem.taylor_hood import (BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, side_constraints,
@@ -74,14 +75,14 @@ class FlowSolver:
             pressure.destroy()
         else:
             self.operator = FactorizedOperator(A, prefix)
-        self.rhs = create_vector(self.L_history)
+        self.rhs = create_vector(self.W)
         self.work = self.rhs.duplicate()
 
     def _field_indices(self, field: int) -> PETSc.IS:
         """The owned global indices of the velocity (0) or pressure (1) dofs of W, for a field split."""
         index_map = self.W.dofmap.index_map
-        _, dofs = self.W.sub(field).collapse()
-        dofs = np.asarray(dofs, dtype=np.int32)
+        _, dofs = collapse(self.W.sub(field))
+        dofs = dofs.astype(np.int32)
         owned = np.sort(dofs[dofs < index_map.size_local])
         return PETSc.IS().createGeneral(owned + index_map.local_range[0], comm=self.mesh.comm)
 
@@ -92,7 +93,7 @@ class FlowSolver:
 
         def component_bc(component: int, facets, value: float = 0.0):
             sub = W.sub(0).sub(component)
-            space, _ = sub.collapse()
+            space, _ = collapse(sub)
             g = fem.Function(space)
             g.x.array[:] = value
             dofs = fem.locate_dofs_topological((sub, space), fdim, facets)
@@ -113,7 +114,7 @@ class FlowSolver:
             state.x.array[:] = 0.0
             values = state.x.array.reshape(-1)
             for component in range(2):
-                sub_space, dofs = self.W.sub(0).sub(component).collapse()
+                _, dofs = collapse(self.W.sub(0).sub(component))
                 values[dofs] = velocity[component]
             state.x.scatter_forward()
 
@@ -125,21 +126,21 @@ class FlowSolver:
         """An assembled body-force vector made ready for a response with homogeneous boundary
         values: ghost contributions accumulated, Dirichlet rows zeroed (in place)."""
         force.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        set_bc(force, self.bcs, scale=0.0)
+        set_bc(force, self.bcs, alpha=0.0)
         return force
 
     def solve(self, rhs: list, solutions: list) -> None:
         """A x = b for each pair, in one pass over the factors."""
-        self.operator.solve_many(rhs, [x.vector for x in solutions])
+        self.operator.solve_many(rhs, [x.x.petsc_vec for x in solutions])
         for x in solutions:
             x.x.scatter_forward()
 
     def commit(self, new: PETSc.Vec) -> None:
         """u^{n-1} <- u^n <- new (a mixed-space vector), and so on down the history."""
         for older, newer in zip(self.states[::-1], self.states[-2::-1]):
-            older.vector.array[:] = newer.vector.array_r
+            older.x.array[:] = newer.x.array
             older.x.scatter_forward()
-        self.now.vector.array[:] = new.array_r
+        self.now.x.petsc_vec.array[:] = new.array_r
         self.now.x.scatter_forward()
 
     @property

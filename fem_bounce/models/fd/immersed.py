@@ -40,6 +40,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ...fem.compat import geometry_cells
 from ...scene import SceneError
 from .coupling import InteriorIntegrals
 from .fluid import FlowSolver
@@ -84,7 +85,7 @@ class BandAssembler:
         mesh = flow.mesh
         self.radius, self.width = radius, width
         owned = mesh.topology.index_map(2).size_local
-        nodes = mesh.geometry.dofmap.array.reshape(-1, 3)[:owned]
+        nodes = geometry_cells(mesh)[:owned]
         corners = mesh.geometry.x[nodes][:, :, :2]  # (cells, 3, 2)
         points, weights = basix.make_quadrature(basix.CellType.triangle, QUADRATURE_DEGREE)
         element = basix.create_element(basix.ElementFamily.P, basix.CellType.triangle, 2,
@@ -97,8 +98,8 @@ class BandAssembler:
         centroid = corners.mean(axis=1)
         self.centroid_r, self.centroid_z = centroid[:, 0], centroid[:, 1]
         self.reach = np.linalg.norm(corners - centroid[:, None, :], axis=2).max(axis=1)
-        self.dofs_r = flow.W.sub(0).sub(0).dofmap.list.array.reshape(-1, 6)[:owned]
-        self.dofs_z = flow.W.sub(0).sub(1).dofmap.list.array.reshape(-1, 6)[:owned]
+        self.dofs_r = flow.W.sub(0).sub(0).dofmap.list[:owned]
+        self.dofs_z = flow.W.sub(0).sub(1).dofmap.list[:owned]
         self.cells = np.zeros(0, dtype=np.int64)
         self.phi_weights = np.zeros((0, len(weights)))
 
@@ -233,17 +234,17 @@ class ImmersedBodies:
         return np.array([sphere.interior(vector) for sphere in self.spheres])
 
     def integrals(self, predicted: fem.Function) -> InteriorIntegrals:
-        return InteriorIntegrals(volume=self.volumes, predicted=self.interiors(predicted.vector),
-                                 forced=self.interiors(self.forced.vector),
-                                 unit=np.array([[sphere.interior(other.unit.vector) for other in self.spheres]
+        return InteriorIntegrals(volume=self.volumes, predicted=self.interiors(predicted.x.petsc_vec),
+                                 forced=self.interiors(self.forced.x.petsc_vec),
+                                 unit=np.array([[sphere.interior(other.unit.x.petsc_vec) for other in self.spheres]
                                                 for sphere in self.spheres]))
 
     def field(self, predicted: fem.Function, amplitudes, out: PETSc.Vec) -> PETSc.Vec:
         """u = u~ + y0 + sum_j s_j y1_j as a W-vector."""
-        predicted.vector.copy(out)
-        out.axpy(1.0, self.forced.vector)
+        predicted.x.petsc_vec.copy(out)
+        out.axpy(1.0, self.forced.x.petsc_vec)
         for sphere, s in zip(self.spheres, amplitudes):
-            out.axpy(float(s), sphere.unit.vector)
+            out.axpy(float(s), sphere.unit.x.petsc_vec)
         return out
 
     def destroy(self) -> None:

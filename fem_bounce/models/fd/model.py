@@ -142,7 +142,7 @@ class FictitiousDomainModel(FlowModel):
             self.constraint = RigidConstraint(self.flow, self.immersed.spheres[0], self.regularisation(),
                                               fd.constraint_tolerance, fd.unit_steps)
         velocities = np.array([body.start_velocity for body in self.bodies])
-        interiors = self.immersed.interiors(self.flow.now.vector)
+        interiors = self.immersed.interiors(self.flow.now.x.petsc_vec)
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocities] * order, [interiors] * order)
         self.timings["setup"] = time.perf_counter() - start

@@ -68,7 +68,7 @@ class SteadyStokes:
         self.iterations = 0
 
     def _homogeneous(self, vector: PETSc.Vec) -> PETSc.Vec:
-        set_bc(vector, self.flow.bcs, scale=0.0)
+        set_bc(vector, self.flow.bcs, alpha=0.0)
         return vector
 
     def operator(self, shell, f: PETSc.Vec, out: PETSc.Vec) -> None:
@@ -133,25 +133,25 @@ class SteadyStokes:
             force = self._steady_force(unit_force, rtol)
             state = flow.rhs.duplicate()
             self.stokes.solve(force, state)
-            flow.operator.solve(unit_force, held.unit.vector)  # y1_j, for the added mass
+            flow.operator.solve(unit_force, held.unit.x.petsc_vec)  # y1_j, for the added mass
             states.append(state)
             force.destroy()
             unit_force.destroy()
         interiors = np.array([[held.interior(state) for state in states] for held in spheres])  # K_ij
         amplitudes = np.linalg.solve(interiors, velocities * volumes)
         u, predicted = flow.now, flow.predicted
-        u.vector.set(0.0)
+        u.x.petsc_vec.set(0.0)
         for s, state in zip(amplitudes, states):
-            u.vector.axpy(float(s), state)
+            u.x.petsc_vec.axpy(float(s), state)
             state.destroy()
         u.x.scatter_forward()
-        self.matrices["mass"].mult(u.vector, self.vectors[1])
-        flow.operator.solve(self._homogeneous(self.vectors[1]), predicted.vector)
+        self.matrices["mass"].mult(u.x.petsc_vec, self.vectors[1])
+        flow.operator.solve(self._homogeneous(self.vectors[1]), predicted.x.petsc_vec)
         predicted.x.scatter_forward()
         for state in flow.states[1:]:
             state.x.array[:] = u.x.array
-        unit = np.array([[held.interior(other.unit.vector) for other in spheres] for held in spheres])
-        inside = np.array([held.interior(predicted.vector) for held in spheres])
+        unit = np.array([[held.interior(other.unit.x.petsc_vec) for other in spheres] for held in spheres])
+        inside = np.array([held.interior(predicted.x.petsc_vec) for held in spheres])
         integrals = InteriorIntegrals(volume=volumes, predicted=inside,
                                   forced=velocities * volumes - inside - unit @ amplitudes, unit=unit)
         forces = -flow.density * flow.c * (amplitudes * volumes - inside)
@@ -226,6 +226,6 @@ class _SteadyFlow:
         self.operator = operator
 
     def solve(self, rhs: list, solutions: list) -> None:
-        self.operator.solve_many(rhs, [x.vector for x in solutions])
+        self.operator.solve_many(rhs, [x.x.petsc_vec for x in solutions])
         for x in solutions:
             x.x.scatter_forward()
