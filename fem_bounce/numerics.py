@@ -45,8 +45,9 @@ class FdNumerics:
     constraint_tolerance: float = _setting(1e-2, 1e-12, 0.5)  # brinkman: relative accuracy of its force density
     unit_steps: int = _setting(2, 1, 100)  # brinkman: CG iterations a step that keep dlambda/dU current
     time_order: int = _setting(2, 1, 3)  # BDF/extrapolation order of the flow
-    # "direct": MUMPS LU, factorised once; "fieldsplit": GMRES with a Schur field split and BoomerAMG
-    # (options prefix fd_flow_fieldsplit_), for large meshes on many ranks (docs/performance.md)
+    # "direct": MUMPS LU, factorised once; "fieldsplit": GMRES with a Schur field split and algebraic multigrid
+    # (BoomerAMG, or GAMG where PETSc has no hypre; options prefix fd_flow_fieldsplit_), for large meshes on many
+    # ranks (docs/performance.md)
     solver: str = field(default="direct", metadata={"choices": ("direct", "fieldsplit")})
     interface_width: float = _setting(2.0, 0.25, 10.0)  # band inside the surface where phi falls to 0, in fine cells
     radius_offset: float = _setting(0.5, -3.0, 3.0)  # the indicator's outer edge at a + this * fine size

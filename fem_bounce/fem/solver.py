@@ -36,6 +36,16 @@ def _default_option(name: str, value) -> None:
         options[name] = value
 
 
+def _reproducible_krylov() -> None:
+    """Krylov methods whose digits do not depend on where their vectors lie in memory.  PETSc (3.20 and
+    later) computes the several dot products and updates of a Gram-Schmidt step (VecMDot, VecMAXPY) with one
+    BLAS gemv, whose OpenBLAS kernels sum in an order set by the arrays' alignment: the same solve then
+    differs in its last bits from one process to the next, and a restarted run no longer repeats the
+    uninterrupted one's digits.  The plain loops cost nothing measurable beside the back-solves they serve."""
+    _default_option("vec_mdot_use_gemv", False)
+    _default_option("vec_maxpy_use_gemv", False)
+
+
 def _counted_solve(operator, b: PETSc.Vec, x: PETSc.Vec) -> None:
     """operator.ksp.solve(b, x), its time and count added to the operator's tallies."""
     start = time.perf_counter()
@@ -179,6 +189,7 @@ class ReusedFactorOperator(FactorizedOperator):
         # preconditioned directions, so the solution needs no extra back-solve at the end as GMRES's does
         _default_option(f"{prefix}ksp_type", "fgmres")
         _default_option(f"{prefix}ksp_gmres_restart", limit)
+        _reproducible_krylov()
         self.rtol, self.factorisation_cost = rtol, factorisation_cost
         self.max_iterations, self.limit = max_iterations, limit
         self.fixed_rows = None if fixed_rows is None else np.asarray(fixed_rows, dtype=np.int64)
@@ -251,11 +262,12 @@ class ReusedFactorOperator(FactorizedOperator):
 
 class FieldSplitOperator:
     """The same interface as FactorizedOperator for a Taylor-Hood saddle point, solved iteratively:
-    GMRES preconditioned by a Schur-complement field split (velocity block by BoomerAMG, the Schur
-    complement approximated by -B diag(F)^-1 B^T, also BoomerAMG), for meshes where the direct
-    factorisation stops scaling.  `velocity`, `pressure`: PETSc index sets of the two fields.
-    Every option can be changed under `{prefix}` (e.g. -fd_flow_fieldsplit_ksp_rtol 1e-10,
-    -fd_flow_fieldsplit_fieldsplit_u_pc_hypre_boomeramg_strong_threshold 0.5)."""
+    GMRES preconditioned by a Schur-complement field split (velocity block by algebraic multigrid, the
+    Schur complement approximated by -B diag(F)^-1 B^T, also by multigrid), for meshes where the direct
+    factorisation stops scaling.  The multigrid is hypre's BoomerAMG where PETSc has hypre, PETSc's own
+    GAMG otherwise (the PyPI wheel has no hypre).  `velocity`, `pressure`: PETSc index sets of the two
+    fields.  Every option can be changed under `{prefix}` (e.g. -fd_flow_fieldsplit_ksp_rtol 1e-10,
+    -fd_flow_fieldsplit_fieldsplit_u_pc_type gamg)."""
 
     def __init__(self, A: PETSc.Mat, prefix: str, velocity: PETSc.IS, pressure: PETSc.IS, rtol: float = 1e-9):
         self.prefix = prefix
@@ -263,12 +275,14 @@ class FieldSplitOperator:
         defaults = {"ksp_type": "fgmres", "ksp_rtol": rtol, "ksp_atol": 1e-30, "ksp_gmres_restart": 100,
                     "ksp_max_it": 500, "pc_type": "fieldsplit", "pc_fieldsplit_type": "schur",
                     "pc_fieldsplit_schur_fact_type": "full", "pc_fieldsplit_schur_precondition": "selfp",
-                    "fieldsplit_u_ksp_type": "preonly", "fieldsplit_u_pc_type": "hypre",
-                    "fieldsplit_u_pc_hypre_type": "boomeramg",
-                    "fieldsplit_p_ksp_type": "preonly", "fieldsplit_p_pc_type": "hypre",
-                    "fieldsplit_p_pc_hypre_type": "boomeramg"}
+                    "fieldsplit_u_ksp_type": "preonly", "fieldsplit_p_ksp_type": "preonly"}
+        amg = ({"pc_type": "hypre", "pc_hypre_type": "boomeramg"} if PETSc.Sys.hasExternalPackage("hypre")
+               else {"pc_type": "gamg"})
+        for field in ("u", "p"):
+            defaults |= {f"fieldsplit_{field}_{name}": value for name, value in amg.items()}
         for name, value in defaults.items():
             _default_option(f"{prefix}{name}", value)
+        _reproducible_krylov()
         self.ksp = PETSc.KSP().create(A.getComm())
         self.ksp.setOptionsPrefix(prefix)
         self.ksp.setOperators(A)
