@@ -579,7 +579,14 @@ class BodyIntegrator:
             self._report(0.0, self.y.array_r)
         while True:
             self.ts.setMaxTime(t_end)
-            self.ts.solve(self.y)
+            try:
+                self.ts.solve(self.y)
+            except PETSc.Error as err:
+                # petsc4py 3.2x hands an exception raised in a callback (a penetration, the energy bound, a
+                # signal) back as PETSc error 101 with the original as its cause: raise the original
+                if err.__cause__ is not None and not isinstance(err.__cause__, PETSc.Error):
+                    raise err.__cause__ from None
+                raise
             if self._film_pending is None:
                 break
             self._film_jump()

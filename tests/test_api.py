@@ -175,7 +175,7 @@ def test_compare_returns_the_command_lines_table(tmp_path, monkeypatch):
 
 @pytest.mark.mpi
 def test_in_memory_run_is_the_same_on_every_rank(shared_tmp):
-    """Under mpirun the API runs on MPI.COMM_WORLD as the command line does: the serial ode model on rank 0,
+    """Under mpiexec the API runs on MPI.COMM_WORLD as the command line does: the serial ode model on rank 0,
     its result on every rank; in memory and on disk alike."""
     comm = MPI.COMM_WORLD
     scene = fb.load("li2011-case3", TOY)
@@ -198,17 +198,18 @@ def test_help_lists_every_public_name():
 
 
 def test_a_diverged_run_raises_with_what_it_computed(tmp_path, monkeypatch):
-    """The paper's spring with delta_ss = 0.0003 cannot stop case 3's sphere: the run diverges.  The error
-    carries the partial run; kept in memory, its message points at no directory and none is left."""
+    """The paper's spring with delta_ss = 0.0002 cannot stop case 3's sphere: the run diverges (at 0.0003 it stops
+    the sphere within 1e-11 m of the wall, or not, by round-off).  The error carries the partial run; kept in
+    memory, its message points at no directory and none is left."""
     monkeypatch.chdir(tmp_path)
-    scene = fb.load("li2011-case3", {"contact.model": "li2011", "contact.delta_ss": 0.0003})
+    scene = fb.load("li2011-case3", {"contact.model": "li2011", "contact.delta_ss": 0.0002})
     scratch = scratch_dirs()
     with pytest.raises(fb.RunDiverged) as err:
         fb.simulate(scene, "ode")
     assert isinstance(err.value, fb.RunFailed) and "outputs kept" not in str(err.value)
     partial = err.value.result
     assert partial.status.startswith("diverged") and partial.run_dir is None
-    assert partial.trajectory["gap"].min() < 0.0003 * scene.sphere.diameter  # it got into the contact layer
+    assert partial.trajectory["gap"].min() < 0.0002 * scene.sphere.diameter  # it got into the contact layer
     assert os.listdir(tmp_path) == [] and scratch_dirs() <= scratch
     with pytest.raises(fb.RunDiverged, match="outputs kept in") as err:
         fb.simulate(scene, "ode", out=tmp_path / "kept")

@@ -58,7 +58,11 @@ def assert_same_run(reference, continued) -> None:
     assert [i["impact_speed"] for i in b["impacts"]] == pytest.approx([i["impact_speed"] for i in a["impacts"]])
     assert len(b.get("collisions", [])) == len(a.get("collisions", []))  # a pair's, with the wall or each other
     for collision, again in zip(a.get("collisions", []), b.get("collisions", [])):
-        assert again == pytest.approx(collision, rel=1e-9, abs=1e-12)
+        numbers = {key for key, value in collision.items() if isinstance(value, float)}
+        assert {key: again[key] for key in numbers} == pytest.approx({key: collision[key] for key in numbers},
+                                                                     rel=1e-9, abs=1e-12)
+        assert {key: again[key] for key in collision.keys() - numbers} == \
+            {key: collision[key] for key in collision.keys() - numbers}
     if list(reference.glob("fields*.xdmf")):  # the field snapshots continue as one series, none doubled
         times = [snapshot.time for snapshot in fields.read_snapshots(continued)]
         assert times == pytest.approx([snapshot.time for snapshot in fields.read_snapshots(reference)])
