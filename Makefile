@@ -1,19 +1,20 @@
-# Two commands for a fresh Debian 12 machine (see README.md):
+# Two commands for a fresh machine (see README.md):
 #   make demo   install everything, then run the default scene
-#   make test   install everything, then lint (ruff) and run the tests serial and under mpirun -n 2
-# Re-running either is fast: each install step is skipped when nothing changed.
+#   make test   install everything, then lint (ruff) and run the tests serial and under mpiexec -n 2
+# Everything comes from PyPI as binary wheels (FEniCSx 0.11 with PETSc, MUMPS, OpenBLAS and MPICH:
+# pyproject.toml's extras "stack" and "test") into .venv, made from a Python >= 3.12.
+# Re-running either is fast: the install step is skipped when nothing changed.
 
-APT_PACKAGES := python3-dolfinx python3-gmsh python3-meshio python3-matplotlib python3-scipy \
-                python3-pytest python3-venv python3-setuptools openmpi-bin python3-h5py
-VENV   := .venv
-PY     := $(VENV)/bin/python
-SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
-# OpenMPI refuses to start as root unless told; CI and containers run as root.
-MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 mpirun
+VENV    := .venv
+PY      := $(VENV)/bin/python
+# MPICH's launcher from the wheel, beside the Python it starts (an OpenMPI mpiexec cannot start it)
+MPIEXEC := $(VENV)/bin/mpiexec
 PYTEST_ARGS ?=
-RUFF   := ruff==0.17.6
+# the system libraries gmsh's wheel links (X11 and OpenGL for its unused GUI), installed only if missing
+GMSH_LIBS := libglu1-mesa libgl1 libxrender1 libxcursor1 libxfixes3 libxft2 libxinerama1 libgomp1
+SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: demo test install system-packages clean
+.PHONY: demo test install clean
 
 demo: install
 	$(VENV)/bin/fem-bounce run
@@ -26,25 +27,23 @@ FRESH_CACHE = $(if $(CI),rm -rf .ci-cache/$(1) && XDG_CACHE_HOME=$(CURDIR)/.ci-c
 # The MPI subset first, so that the last line CI reads is the whole serial suite's summary.
 test: install
 	$(VENV)/bin/ruff check --no-cache .
-	$(call FRESH_CACHE,mpi) $(MPIRUN) -n 2 $(PY) tests/mpirun_pytest.py -q --color=no -m mpi $(PYTEST_ARGS)
+	$(call FRESH_CACHE,mpi) $(MPIEXEC) -n 2 $(PY) tests/mpi_pytest.py -q --color=no -m mpi $(PYTEST_ARGS)
 	$(call FRESH_CACHE,serial) $(PY) -m pytest -q $(PYTEST_ARGS)
 
 install: $(VENV)/.installed
 
-system-packages: .apt-stamp
-.apt-stamp:
-	@dpkg -s $(APT_PACKAGES) >/dev/null 2>&1 || { \
-	  $(SUDO) apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $(APT_PACKAGES); }
-	@touch $@
+# The first of python3.13, python3.12 and pyenv's 3.12+ versions that runs.
+find_python = for p in python3.13 python3.12 $$(ls -d $$( (pyenv root || echo $$HOME/.pyenv) 2>/dev/null)/versions/3.1[2-9]*/bin/python 2>/dev/null | sort -rV); do \
+	  $$p -c 'import sys; sys.exit(sys.version_info < (3, 12))' 2>/dev/null && { echo $$p; break; }; done
 
-# dolfinx and petsc4py import only under Debian's /usr/bin/python3, so the
-# virtual environment is made from it and sees the system packages.
-$(VENV)/.installed: .apt-stamp pyproject.toml
-	@[ -x $(PY) ] || /usr/bin/python3 -m venv --system-site-packages $(VENV)
-	$(PY) -m pip install -q --no-build-isolation --no-deps -e .
-	$(PY) -m pip install -q "$(RUFF)"
+$(VENV)/.installed: pyproject.toml
+	@[ -x $(PY) ] || { python=$$($(find_python)); \
+	  [ -n "$$python" ] || { echo "fem_bounce needs Python >= 3.12 (FEniCSx's wheels): none found; get one with e.g. 'uv python install 3.12' or 'pyenv install 3.12'" >&2; exit 1; }; \
+	  echo "making $(VENV) from $$python ($$($$python --version))"; $$python -m venv $(VENV); }
+	$(PY) -m pip install -q -e ".[stack,test]"
+	@$(PY) -c "import gmsh" 2>/dev/null || { \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $(GMSH_LIBS); }
 	@touch $@
 
 clean:
-	rm -rf $(VENV) .apt-stamp *.egg-info .ci-cache
+	rm -rf $(VENV) *.egg-info .ci-cache

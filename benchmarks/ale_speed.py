@@ -1,7 +1,7 @@
 """The ale model's speed at its 1 % setting (issue 24): case 3 with both factorisation paths side by side.
 
     python benchmarks/ale_speed.py                  # serial
-    mpirun -n 2 python benchmarks/ale_speed.py      # two ranks
+    mpiexec -n 2 python benchmarks/ale_speed.py      # two ranks
     python benchmarks/ale_speed.py --compilations   # forms compiled from an empty cache, then by a second run
 
 Runs Li case 3 (8 cells/D, surface_refinement 3) to the apex after the second impact (run.bounces = 2)

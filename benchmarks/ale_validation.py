@@ -10,7 +10,7 @@
     python benchmarks/ale_validation.py cost           # seconds per step and their split, 8-32 cells/D  ~5 min
     (Table 2, cases 1-7:  python benchmarks/table2.py --model ale)
 
-Times are for one core of a quiet 2-core machine; runs are serial (mpirun -n 2 works too).
+Times are for one core of a quiet 2-core machine; runs are serial (mpiexec -n 2 works too).
 Everything goes to results/ale/<study>/ (runs/ keeps each run directory; a finished run is
 reused unless --force), with a Markdown table <study>.md and, where it helps, a figure.
 """

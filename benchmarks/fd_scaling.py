@@ -2,7 +2,7 @@
 field-split iterative solver (numerics.fd.solver), on the case-3 geometry at three mesh sizes.
 
     python benchmarks/fd_scaling.py run --cells 24,48,87               # serial
-    mpirun -n 2 python benchmarks/fd_scaling.py run --cells 24,48,87   # 2 ranks
+    mpiexec -n 2 python benchmarks/fd_scaling.py run --cells 24,48,87   # 2 ranks
     python benchmarks/fd_scaling.py table                              # speedups from the history
 
 Each run marches Li case 3 from release for --steps steps (the same steps at every rank count) and

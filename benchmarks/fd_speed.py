@@ -1,14 +1,14 @@
 """Speed, memory and robustness of the fd model on Li case 3: the issue's benchmark numbers.
 
     python benchmarks/fd_speed.py resolution            # which resolution meets the 2 % apex criterion
-    mpirun -n 2 python benchmarks/fd_speed.py timing --cells 16
+    mpiexec -n 2 python benchmarks/fd_speed.py timing --cells 16
     python benchmarks/fd_speed.py density               # lowest stable density ratio, implicit vs explicit
 
 resolution  case 3 to the apex after the second impact at 8, 12, 16, 24, 32 cells per
             diameter; the first rebound's apex gap against the next finer mesh.  Serial.
 timing      case 3 to the apex after the second impact at one resolution: wall time, cost per
             step as a multiple of one back-solve, back-solves per step, peak memory (all ranks).
-            Run it under mpirun -n 2 and serially to compare.
+            Run it under mpiexec -n 2 and serially to compare.
 density     ten Cate's box with the sphere's density at ratio x the oil's, 8 cells per diameter,
             0.3 s: does the run complete without the speed oscillating?  Implicit and explicit.
 Results are merged into benchmarks/history/fd_speed.json with the date and machine.

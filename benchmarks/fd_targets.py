@@ -1,6 +1,6 @@
 """The fd model's speed targets of issue 12, each run and recorded with its history.
 
-    mpirun -n 2 python benchmarks/fd_targets.py case3 --cells 12       # case 3 to the second apex
+    mpiexec -n 2 python benchmarks/fd_targets.py case3 --cells 12       # case 3 to the second apex
     python benchmarks/fd_targets.py glycerol [--set numerics.fd.constraint=brinkman]
     python benchmarks/fd_targets.py table                               # what the history holds
 

@@ -3,7 +3,7 @@
     python benchmarks/fd_validation.py                       # every section, 16 cells per diameter
     python benchmarks/fd_validation.py brenner drag --cells 32
     python benchmarks/fd_validation.py brenner --set numerics.fd.constraint=brinkman
-    mpirun -n 2 python benchmarks/fd_validation.py cases
+    mpiexec -n 2 python benchmarks/fd_validation.py cases
 
 Sections (each a function of fem_bounce.studies.validation, runs under runs/fd-validation/):
   brenner   Stokes wall drag lambda at delta = 1, 0.5, 0.25 vs Brenner (1961)      ~1 min

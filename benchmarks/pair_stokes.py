@@ -19,7 +19,7 @@ main tabulates them and merges one record per model and resolution into benchmar
     python benchmarks/pair_stokes.py fd --cells 12 16 24      # 12 min on the shared 2-core machine
     python benchmarks/pair_stokes.py ale --cells 8 16 32      # 2 min
     python benchmarks/pair_stokes.py fd --cells 12 --far-field 100
-    mpirun -n 2 python benchmarks/pair_stokes.py fd ale --cells 16
+    mpiexec -n 2 python benchmarks/pair_stokes.py fd ale --cells 16
 
 No model named: both; no --cells: fd 16, ale 8 16 32; no --far-field: fd 50 D, ale 2000 D.
 

@@ -4,6 +4,7 @@ rebounds, final state, step count and a hash of trajectory.csv (rows to 10 digit
     python benchmarks/refactor_check.py > before.json     # on the old code
     python benchmarks/refactor_check.py --compare before.json   # on the new code: lists what moved
     python benchmarks/refactor_check.py --size 0d4af21          # the package's size then and now (no runs)
+    python benchmarks/refactor_check.py --found a.json --compare b.json   # two records, no runs
 
 Records in benchmarks/history/: refactor_check_before_issue25.json (at 0d4af21),
 refactor_check_after_issue25.json (after its items 1-4, at c16a6dd: the same within 1.1e-11 but for
@@ -169,6 +170,8 @@ def main() -> int:
     parser.add_argument("--rtol", type=float, default=1e-10,
                         help="relative difference a number may move by with --compare (default 1e-10)")
     parser.add_argument("--only", help="comma-separated case names")
+    parser.add_argument("--found", type=Path, help="no runs: compare this record (printed before, e.g. on another "
+                        "stack) with --compare's")
     parser.add_argument("--size", metavar="REV", help="no runs: the package's lines, modules and branches on "
                         "pair / second_sphere / mode at git revision REV and in the working tree")
     args = parser.parse_args()
@@ -178,7 +181,10 @@ def main() -> int:
             print(f"{key}: {before[key]} at {args.size}, {now[key]} now")
         return 0
     names = args.only.split(",") if args.only else list(CASES)
-    found = {name: fingerprint(name) for name in names}
+    if args.found:
+        found = {name: run for name, run in json.loads(args.found.read_text()).items() if name in names}
+    else:
+        found = {name: fingerprint(name) for name in names}
     if args.compare is None:
         print(json.dumps(found, indent=1))
         return 0

@@ -1,7 +1,7 @@
 """Time the standard cases and record the result, so that performance history stays visible.
 
     python benchmarks/speed.py                       # ODE cases, ~30 s
-    mpirun -n 2 python benchmarks/speed.py fd ib ale # resolved models, ~10 min on 2 cores
+    mpiexec -n 2 python benchmarks/speed.py fd ib ale # resolved models, ~10 min on 2 cores
 
 Each case is timed in-process (imports excluded) and appended to
 benchmarks/history/YYYY-MM-DD-MACHINE.json, which is committed.

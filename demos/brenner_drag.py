@@ -12,7 +12,7 @@ instead of marching through a viscous time of the domain.
 
 Run (about 30 s at 32 cells per diameter on one core; `--toy` takes a few seconds):
 
-    mpirun -n 2 python demos/brenner_drag.py --out runs/demo-brenner
+    mpiexec -n 2 python demos/brenner_drag.py --out runs/demo-brenner
     python demos/brenner_drag.py --toy
 
 The check at the end: |lambda / lambda_Brenner - 1| within 3 % at delta = 1, 0.5, 0.25

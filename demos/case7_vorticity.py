@@ -9,7 +9,7 @@ through the primary ring, at the apex, falling again, before the second impact.
 
 Run (about 4 minutes at 16 cells per diameter on one core; `--toy` about 20 s):
 
-    mpirun -n 2 python demos/case7_vorticity.py --out runs/demo-case7
+    mpiexec -n 2 python demos/case7_vorticity.py --out runs/demo-case7
     python demos/case7_vorticity.py --toy
 
 The check at the end: just before the first impact the primary ring beside the sphere and

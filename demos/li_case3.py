@@ -12,7 +12,7 @@ after the third impact (the preset's run.bounces).
 
 Run (about 2 minutes at 16 cells per diameter on one core; `--toy` about 20 s):
 
-    mpirun -n 2 python demos/li_case3.py --out runs/demo-case3
+    mpiexec -n 2 python demos/li_case3.py --out runs/demo-case3
     python demos/li_case3.py --toy
 
 The checks at the end: at least two rebounds and the first impact speed within 15 % of

@@ -10,7 +10,7 @@ rules and time step rules the bouncing runs use.
 
 Run (about 3 and 5 minutes at 16 cells per diameter on one core; `--toy` about 20 s):
 
-    mpirun -n 2 python demos/sphere_drag.py --out runs/demo-drag
+    mpiexec -n 2 python demos/sphere_drag.py --out runs/demo-drag
     python demos/sphere_drag.py --toy
 
 The check at the end: Cd within 3 % of the reference (10 % at toy size: 8 cells per

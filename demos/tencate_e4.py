@@ -12,7 +12,7 @@ so the coupling is implicit.
 
 Run (about 4 minutes at 16 cells per diameter on one core; `--toy` about 30 s):
 
-    mpirun -n 2 python demos/tencate_e4.py --out runs/demo-tencate
+    mpiexec -n 2 python demos/tencate_e4.py --out runs/demo-tencate
     python demos/tencate_e4.py --toy
 
 DIR/trajectory.png shows the velocity over the digitised data.  The check at the end:

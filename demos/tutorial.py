@@ -24,7 +24,7 @@
 # Run it as a script (about a minute on one core; the restitution sweep's planning is most of it):
 #
 #     python demos/tutorial.py --out runs/tutorial
-#     mpirun -n 2 python demos/tutorial.py --out runs/tutorial
+#     mpiexec -n 2 python demos/tutorial.py --out runs/tutorial
 #
 # or open it as a notebook (`jupytext --to notebook demos/tutorial.py`, or Jupyter with jupytext
 # installed opens it directly).  Every name used here is in `help(fem_bounce)` and docs/usage.md.
@@ -38,7 +38,7 @@ from pathlib import Path
 
 import matplotlib
 
-if "ipykernel" not in sys.modules:  # a script (also under mpirun): files only
+if "ipykernel" not in sys.modules:  # a script (also under mpiexec): files only
     matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
@@ -51,7 +51,7 @@ parser.add_argument("--out", type=Path, default=Path("runs/tutorial"), help="whe
 parser.add_argument("--toy", action="store_true", help="accepted for the test suite: the tutorial is toy-sized")
 args, _ = parser.parse_known_args()  # a notebook kernel passes arguments of its own
 out = args.out
-root = MPI.COMM_WORLD.rank == 0  # under mpirun every rank runs this; rank 0 prints and draws
+root = MPI.COMM_WORLD.rank == 0  # under mpiexec every rank runs this; rank 0 prints and draws
 say = print if root else (lambda *a, **k: None)
 if root:
     out.mkdir(parents=True, exist_ok=True)

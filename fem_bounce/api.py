@@ -11,7 +11,7 @@
 
 Each function is what the command of the same name runs (fem_bounce.cli calls them or shares their
 parts): the same checks, the same one-line errors (fem_bounce.Error and its kinds), the same run
-directory, the same study cache.  MPI is optional: under `mpirun` the runs use MPI.COMM_WORLD as the
+directory, the same study cache.  MPI is optional: under `mpiexec` the runs use MPI.COMM_WORLD as the
 command line does, serially they use the one process.
 """
 from __future__ import annotations
@@ -199,7 +199,7 @@ def _data_frame(columns):
 
 
 def _world(comm=None):
-    """The communicator a run uses: the caller's, else MPI.COMM_WORLD (one process when not under mpirun)."""
+    """The communicator a run uses: the caller's, else MPI.COMM_WORLD (one process when not under mpiexec)."""
     if comm is not None:
         return comm
     from mpi4py import MPI

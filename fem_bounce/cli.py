@@ -10,7 +10,7 @@
 
 Only this module, the Python API behind it (api.py, the default communicator of fem_bounce.simulate) and the
 demos touch MPI.COMM_WORLD (mpi_pool and the study runner ask its size, to find the workers of an mpi4py.futures
-pool).  Errors a user can cause print one line (on rank 0 only under mpirun) naming the field or path and exit
+pool).  Errors a user can cause print one line (on rank 0 only under mpiexec) naming the field or path and exit
 with status 2; a run that ends early prints one line and exits with 1 (diverged, or an output could not be
 written) or 128 + the signal (130 for SIGINT, 143 for SIGTERM) when interrupted.  What the libraries print
 (ffcx's compiler lines and ResourceWarnings on a form's first compile) goes to the run directory's run.log, not
@@ -120,9 +120,9 @@ def _parser() -> argparse.ArgumentParser:
 def _parallel_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--jobs", type=int, default=1, metavar="N",
                         help="runs at once in N local processes, each serial (default 1: one run at a time, "
-                             "on every rank under mpirun)")
+                             "on every rank under mpiexec)")
     parser.add_argument("--executor", choices=["local", "mpi"], default="local",
-                        help="mpi: the runs go to the workers of `mpirun -n K python -m mpi4py.futures -m "
+                        help="mpi: the runs go to the workers of `mpiexec -n K python -m mpi4py.futures -m "
                              "fem_bounce ...` (K - 1 of them); see docs/usage.md, Studies")
 
 
@@ -418,7 +418,7 @@ _RANK = 0  # this process's MPI rank: only rank 0 speaks
 
 
 def _say(text: str) -> None:
-    """One line on stderr, once under mpirun (every rank meets the same error)."""
+    """One line on stderr, once under mpiexec (every rank meets the same error)."""
     if _RANK == 0:
         print(f"fem-bounce: {text}", file=sys.stderr, flush=True)
 

@@ -1,6 +1,6 @@
 """A study's runs on the workers of an `mpi4py.futures` pool, and on local worker processes.
 
-    mpirun -n K python -m mpi4py.futures -m fem_bounce study ... --executor mpi
+    mpiexec -n K python -m mpi4py.futures -m fem_bounce study ... --executor mpi
 
 Under `-m mpi4py.futures` only rank 0 runs the command; the other K - 1 ranks wait for tasks and never
 join a collective call on COMM_WORLD.  PETSc initialises on COMM_WORLD by default, and that is

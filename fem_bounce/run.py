@@ -62,9 +62,9 @@ def signal_name(signum: int) -> str:
 
 
 class Interrupts:
-    """SIGINT (Ctrl-C) and SIGTERM (batch schedulers; mpirun passes both on as SIGTERM) as a request to
-    stop.  The first sets a flag that the run checks after every step, on every rank together, so it
-    ends between two steps with its summary written; a second raises StopNow at once.
+    """SIGINT (Ctrl-C) and SIGTERM (batch schedulers; MPICH's mpiexec passes Ctrl-C on as SIGINT, OpenMPI's
+    as SIGTERM) as a request to stop.  The first sets a flag that the run checks after every step, on every
+    rank together, so it ends between two steps with its summary written; a second raises StopNow at once.
 
         with Interrupts():
             simulate(...)        # any run inside, also through studies and the cache
@@ -463,7 +463,7 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
         def write_outputs() -> str:
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
-                _draw(out_dir)  # not after an interruption (mpirun kills 1 s after its SIGTERM) nor a failure
+                _draw(out_dir)  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
             return _interruption_note(run_dir, info) if status == "interrupted" else ""
 
         try:
@@ -484,15 +484,15 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
 
 
 def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **options) -> dict:
-    """A serial model under mpirun: rank 0 runs it on COMM_SELF while the other ranks wait without
+    """A serial model under mpiexec: rank 0 runs it on COMM_SELF while the other ranks wait without
     spinning, then every rank gets rank 0's summary, or its exception, so that no rank repeats the same
     serial solve and every rank ends the same way."""
     from mpi4py import MPI
 
     result, error, own = None, None, None
     if comm.rank == 0:
-        warnings.warn(f"the {model_name} model is serial: under mpirun it runs on rank 0 alone and the other "
-                      f"{comm.size - 1} rank(s) wait (no speed-up); run it without mpirun, or spread a study's "
+        warnings.warn(f"the {model_name} model is serial: under mpiexec it runs on rank 0 alone and the other "
+                      f"{comm.size - 1} rank(s) wait (no speed-up); run it without mpiexec, or spread a study's "
                       "runs with --jobs N or --executor mpi", stacklevel=3)
         try:
             result = simulate(scene, model_name, MPI.COMM_SELF, out_dir, **options)

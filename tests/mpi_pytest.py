@@ -1,6 +1,6 @@
 """Run pytest on every MPI rank; only rank 0 prints; the exit status is the worst rank's.
 
-    mpirun -n 2 python tests/mpirun_pytest.py -m mpi
+    mpiexec -n 2 python tests/mpi_pytest.py -m mpi
 """
 import os
 import sys

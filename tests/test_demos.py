@@ -1,5 +1,5 @@
 """Each demo runs end to end at toy size (8 cells per diameter; the tutorial as it is) and passes its own
-checks: serial in a subprocess, and under `mpirun -n 2` (as the demos' headers say to run them) in the MPI
+checks: serial in a subprocess, and under `mpiexec -n 2` (as the demos' headers say to run them) in the MPI
 pass of `make test`, where every rank runs the demo script in-process.
 
 The demos compare with the published references at the tolerances their headers
@@ -54,7 +54,7 @@ def test_demo_runs_at_toy_size(demo, tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("demo", sorted(PINNED))
 def test_demo_runs_on_every_rank_at_toy_size(demo, shared_tmp, monkeypatch, capsys):
-    """Under `mpirun -n 2 python tests/mpirun_pytest.py -m mpi`: the demo's script on both ranks; its own
+    """Under `mpiexec -n 2 python tests/mpi_pytest.py -m mpi`: the demo's script on both ranks; its own
     checks pass (exit status 0 on every rank) and its toy result is the serial pin (fd: 2 ranks give the
     serial result to solver precision)."""
     if MPI.COMM_WORLD.size < 2:

@@ -85,7 +85,7 @@ def test_the_implicit_coupling_keeps_a_light_sphere_stable():
 
 
 @pytest.mark.mpi
-def test_under_mpirun_rank_0_alone_runs_ib_and_every_rank_gets_the_serial_answer():
+def test_under_mpiexec_rank_0_alone_runs_ib_and_every_rank_gets_the_serial_answer():
     comm = MPI.COMM_WORLD
     sc = toy("li2011-case3", **{"run.bounces": 1})
     with warnings.catch_warnings(record=True) as caught:

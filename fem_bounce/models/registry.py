@@ -28,7 +28,7 @@ class ModelInfo:
     scaled_with_time_step: tuple = ()  # other step limits a time-step study scales alike
     checkpoint_every_key: str | None = None  # writes checkpoints (and so restarts) when set
     checkpoint_files: tuple = ()  # the data files every whole checkpoint holds
-    serial: bool = False  # a serial computation: under mpirun rank 0 runs it alone (run._serial_on_root)
+    serial: bool = False  # a serial computation: under mpiexec rank 0 runs it alone (run._serial_on_root)
     min_cells_across_blend_gap: float | None = None  # fewer and the force near the wall is off by > 5 %
     fields_key: str | None = None  # the setting that writes field snapshots every N steps
     trajectory_interval_key: str | None = None  # thins the trajectory rows to one per interval [s]

@@ -1,6 +1,6 @@
 """Mesh and time-step convergence of one model on one scene.
 
-    mpirun -n 2 fem-bounce study convergence li2011-case3 --model fd
+    mpiexec -n 2 fem-bounce study convergence li2011-case3 --model fd
     fem-bounce study convergence sphere-drag-re100 --model fd --levels 8,12,16,24
 
 A ladder of resolutions at the default time step, and a ladder of time steps (CFL) at the default

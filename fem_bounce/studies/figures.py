@@ -1,6 +1,6 @@
 """The paper's Fig. 9-12 regenerated from a model, beside the paper's data where it is tabulated.
 
-    mpirun -n 2 fem-bounce study figures --model fd
+    mpiexec -n 2 fem-bounce study figures --model fd
 
 - Fig. 9:  case 3 trajectory for delta_ss = 0.015, 0.017, 0.019 (the paper's contact model, contact.model = "li2011");
 - Fig. 10: case 3 velocity against gap;

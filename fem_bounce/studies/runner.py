@@ -2,14 +2,14 @@
 processes at once; the run cache (fem_bounce.cache) makes the result the same whichever way they go.
 
     fem-bounce study restitution --model fd --jobs 2          # 2 processes on this machine
-    mpirun -n 9 python -m mpi4py.futures -m fem_bounce study restitution --model fd --executor mpi
+    mpiexec -n 9 python -m mpi4py.futures -m fem_bounce study restitution --model fd --executor mpi
                                                               # 8 workers over an MPI allocation
 
-- jobs = 1 (the default): one run after the other on the study's communicator; under plain `mpirun`
+- jobs = 1 (the default): one run after the other on the study's communicator; under plain `mpiexec`
   each run uses every rank (the fd and ale models solve in parallel, ode and ib run on rank 0).
 - jobs = N > 1: N worker processes on this machine (multiprocessing, "spawn"), each run serial.
 - executor "mpi": the workers of an `mpi4py.futures` pool; the study runs on rank 0 of
-  `mpirun -n K python -m mpi4py.futures -m fem_bounce ...` and the K - 1 other ranks run one serial
+  `mpiexec -n K python -m mpi4py.futures -m fem_bounce ...` and the K - 1 other ranks run one serial
   run each at a time, so a study scales past one machine.
 
 Finished runs are read from the cache in the study's own process and never submitted, identical runs
@@ -47,14 +47,14 @@ class Runner:
         if executor == "mpi":
             if jobs != 1:
                 raise RunnerError("--jobs applies to --executor local; with --executor mpi the workers are the "
-                                  "mpirun ranks after the first")
+                                  "mpiexec ranks after the first")
             if not under_mpi_futures():
                 raise RunnerError("--executor mpi runs the study's runs on the workers of an mpi4py.futures pool: "
-                                  "start it as `mpirun -n K python -m mpi4py.futures -m fem_bounce study ... "
+                                  "start it as `mpiexec -n K python -m mpi4py.futures -m fem_bounce study ... "
                                   "--executor mpi` with K >= 2 (K - 1 workers)")
         elif jobs > 1 and comm.size > 1:
-            raise RunnerError(f"--jobs {jobs} starts its own processes: run it without mpirun, or spread the runs "
-                              "over MPI ranks with `mpirun -n K python -m mpi4py.futures -m fem_bounce ... "
+            raise RunnerError(f"--jobs {jobs} starts its own processes: run it without mpiexec, or spread the runs "
+                              "over MPI ranks with `mpiexec -n K python -m mpi4py.futures -m fem_bounce ... "
                               "--executor mpi`")
         self.comm, self.jobs, self.executor = comm, jobs, executor
         self.root = Path(root or default_root()).absolute()
@@ -186,7 +186,7 @@ class Runner:
 
     def _stop_workers(self, futures: dict, signum: int) -> None:
         """Cancel the runs not yet started; with a signal, ask the local workers' runs to stop too (an
-        MPI pool's workers receive mpirun's SIGTERM themselves)."""
+        MPI pool's workers receive mpiexec's SIGTERM themselves)."""
         for future in futures:
             future.cancel()
         if signum and self.executor == "local":

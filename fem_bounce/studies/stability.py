@@ -1,6 +1,6 @@
 """Where each method fails: sweeps of density ratio, time step, resolution near contact and delta_sl.
 
-    mpirun -n 2 fem-bounce study stability --model fd
+    mpiexec -n 2 fem-bounce study stability --model fd
     fem-bounce study stability --model ode                # only the density sweep applies
 
 Each run (li2011-case3 to the first apex unless another scene is given) is classified

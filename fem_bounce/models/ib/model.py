@@ -23,7 +23,7 @@ impact speed; halved if the measured CFL number exceeds `max_cfl`):
    flow is completed with f0 + (V' - V_n) f1.
 
 The flow is a 2-D problem of 10^4-10^5 unknowns solved serially (PETSc on
-COMM_SELF): under mpirun the run goes to rank 0 alone while the other ranks wait
+COMM_SELF): under mpiexec the run goes to rank 0 alone while the other ranks wait
 (fem_bounce.run.SERIAL; a one-line warning says so), so no rank repeats the solve
 and results do not depend on the number of ranks.  Many ib runs use many cores
 through a study's --jobs N or --executor mpi (fem_bounce.studies.runner).
