@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import errno
 import fcntl
 import json
 import os
@@ -264,10 +265,16 @@ class RunDirectory:
 
     def _check_place(self) -> None:
         path = self.path
+        loop = OutputError(f"{path} is a loop of symbolic links; choose another --out")
+        try:
+            os.stat(path)
+        except OSError as err:
+            if err.errno == errno.ELOOP:  # Python 3.13's Path.resolve no longer says so
+                raise loop from None
         try:
             why = _protected(path)
-        except RuntimeError:  # Path.resolve met a loop of symbolic links
-            raise OutputError(f"{path} is a loop of symbolic links; choose another --out") from None
+        except RuntimeError:  # Python 3.12's Path.resolve met a loop of symbolic links
+            raise loop from None
         except OSError as err:  # a name too long for the filesystem, ...
             raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
         if why is not None:
