@@ -109,8 +109,8 @@ class ModelInfo:
 
 
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
-CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "bodies.py", "integrator.py", "bounces.py", "motion.py",
-                "flow_model.py", "steppers.py", "run.py", "errors.py", "output.py", "models/__init__.py",
+CORE_SOURCES = ("scene.py", "materials.py", "theory.py", "contact.py", "bodies.py", "integrator.py", "bounces.py",
+                "motion.py", "flow_model.py", "steppers.py", "run.py", "errors.py", "output.py", "models/__init__.py",
                 "pair_contact.py", "pair_theory.py")
 MANY = 1000  # the ode model's sphere count has no limit of its own
 # The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh
