@@ -45,8 +45,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
 from . import scene as scenes
+from ._version import __version__
 from .errors import Error
 
 TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_history", "f_added_mass", "f_theory",
