@@ -434,6 +434,16 @@ def _scene_changes(saved_text: str, scene) -> list[str]:
             if saved.get(key) != now.get(key) and key not in RESTART_MAY_CHANGE]
 
 
+def out_path(text: str | Path | None) -> Path | None:
+    """An output directory as the user gave it (--out, out=): an empty string is refused, not read as the
+    current directory."""
+    if text is None:
+        return None
+    if not str(text).strip():
+        raise OutputError("--out is empty: give a directory, e.g. --out runs/mine")
+    return Path(text)
+
+
 def unused_directory(base: Path) -> Path:
     """base, or base-2, base-3, ... : the first that does not exist yet."""
     candidate, n = Path(base), 1

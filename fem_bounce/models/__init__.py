@@ -7,6 +7,7 @@ Modules are imported on demand so the ODE model needs neither dolfinx nor gmsh.
 from __future__ import annotations
 
 import importlib
+from collections.abc import Sequence
 
 from ..errors import Error
 from . import registry
@@ -37,6 +38,21 @@ def flow_model_class(entry: ModelInfo):
         return getattr(importlib.import_module(entry.module), entry.class_name)
     except ModuleNotFoundError as err:
         raise ModelError(f"model {name!r} needs {err.name}, which is not installed (see README.md)") from None
+
+
+def model_list(names: str | Sequence[str]) -> list[str]:
+    """The models of a comparison ("ode,fd" or a list, as --models), each known and installed."""
+    if isinstance(names, str):
+        names = names.split(",")
+    names = [name.strip() for name in names if name.strip()]
+    if not names:
+        raise ModelError("--models needs at least one model, e.g. --models ode,ib")
+    if len(set(names)) < len(names):
+        twice = sorted({name for name in names if names.count(name) > 1})
+        raise ModelError(f"--models names {', '.join(twice)} more than once: each model runs once")
+    for name in names:
+        get(name)
+    return names
 
 
 def check_scene(entry: ModelInfo, scene) -> None:
