@@ -10,6 +10,7 @@ import importlib
 from collections.abc import Sequence
 
 from ..errors import Error
+from ..scene import SceneError
 from . import registry
 from .registry import BEST_FIRST, MODELS, ModelInfo
 
@@ -65,8 +66,6 @@ def check_scene(entry: ModelInfo, scene) -> None:
                          f"{', '.join(registry.running(spheres))}")
     d = scene.sphere.diameter
     if entry.max_initial_gap is not None and scene.initial_gap > entry.max_initial_gap * d:
-        from ..scene import SceneError
-
         raise SceneError(
             f"initial_gap = {scene.initial_gap:.4g} m is {scene.initial_gap / d:.3g} D: the {entry.name} model meshes "
             f"the whole path, allowed up to {entry.max_initial_gap:g} D (a sphere reaches its terminal speed within "

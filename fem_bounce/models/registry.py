@@ -13,6 +13,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from .. import scene as scenes
+
 
 @dataclass(frozen=True)
 class ModelInfo:
@@ -95,8 +97,6 @@ class ModelInfo:
 
     def default_resolution(self) -> float:
         """The resolution a scene gets when it does not set one."""
-        from .. import scene as scenes
-
         section, name = self.resolution_key.split(".")[1:]
         numerics = scenes.Numerics()
         return {f.name: f.default for f in dataclasses.fields(getattr(numerics, section))}[name]
