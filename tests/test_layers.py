@@ -50,6 +50,7 @@ LAYERS = {
     "fem_bounce.fields": OUTPUTS,
     # the finite-element toolkit the resolved models share
     "fem_bounce.fem": FEM,
+    "fem_bounce.fem.compat": FEM,
     "fem_bounce.fem.domain": FEM,
     "fem_bounce.fem.forms": FEM,
     "fem_bounce.fem.functions": FEM,
