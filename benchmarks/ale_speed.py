@@ -15,7 +15,7 @@ outputs).  Then the floor: one assembly, one factorisation, one back-solve and o
 with the matrix timed on the first mesh, and the time a step would take with one assembly and two
 back-solves.  The machine's load average is recorded: timings compare only within one run.
 
-The runs go through fem_bounce.cli.run_logged, as `fem-bounce run` makes them: on a cold form cache the
+The runs go through fem_bounce.run.run_logged, as `fem-bounce run` makes them: on a cold form cache the
 compiler's log goes to each run's run.log, not the terminal.  --compilations runs, with an empty form
 cache (XDG_CACHE_HOME in a new temporary folder), case 3 at 4 cells/D to its first apex, then at 5 cells/D
 with another density and step: the form compiler's compilations and seconds in each (the second should
@@ -40,7 +40,7 @@ from mpi4py import MPI
 import ffcx.codegeneration.jit as ffcx_jit
 import numpy as np
 from fem_bounce import scene
-from fem_bounce.cli import run_logged
+from fem_bounce.run import run_logged
 from provenance import commit
 
 HERE = Path(__file__).resolve().parent

@@ -23,7 +23,7 @@ import numpy as np
 from mpi4py import MPI
 
 from fem_bounce import scene
-from fem_bounce.cli import run_logged
+from fem_bounce.run import run_logged
 from provenance import commit
 
 HERE = Path(__file__).resolve().parent

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from fem_bounce import contact, ehd, scene
+from fem_bounce import contact, ehd, materials, scene
 from fem_bounce.studies.restitution import legendre_fit
 from provenance import commit
 
@@ -61,7 +61,7 @@ class Setting:
         self.diameter = sc.sphere.diameter
         self.density, self.viscosity = sc.sphere.density, sc.liquid.viscosity
         self.density_ratio = sc.density_ratio
-        self.e_star = contact.reduced_modulus(sc.sphere.youngs_modulus, sc.sphere.poisson_ratio,
+        self.e_star = materials.reduced_modulus(sc.sphere.youngs_modulus, sc.sphere.poisson_ratio,
                                               sc.wall.youngs_modulus, sc.wall.poisson_ratio)
         self.roughness = sc.sphere.roughness + sc.wall.roughness
         self.scene = sc
@@ -80,7 +80,7 @@ class Setting:
                 "min_pressure_MPa": r.min_pressure * pressure_scale / 1e6,
                 "overlap_time_us": None if r.contact_time is None else r.contact_time * h0 / speed * 1e6,
                 "hertz_time_us": contact.hertz_contact_time(self.radius, self.mass, self.e_star, speed) * 1e6,
-                "x_d_um": contact.elastohydrodynamic_gap(self.radius, self.e_star, self.viscosity, speed) * 1e6,
+                "x_d_um": materials.elastohydrodynamic_gap(self.radius, self.e_star, self.viscosity, speed) * 1e6,
                 "steps": r.steps, "seconds": round(time.perf_counter() - start, 2)}
 
     def lubricated_hertz(self, stokes: float, dry_restitution: float, h0: float = H0) -> float:

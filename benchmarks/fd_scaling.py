@@ -25,7 +25,7 @@ from mpi4py import MPI
 
 from fem_bounce import scene
 from fem_bounce.models.fd.domain import time_step
-from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+from fem_bounce.run import run_logged as simulate  # the libraries' output goes to the run's run.log
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_scaling.json"

@@ -27,7 +27,7 @@ from mpi4py import MPI
 
 from fem_bounce import output, scene
 from fem_bounce.errors import RunDiverged
-from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+from fem_bounce.run import run_logged as simulate  # the libraries' output goes to the run's run.log
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_speed.json"

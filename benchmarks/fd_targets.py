@@ -27,7 +27,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from fem_bounce import scene
-from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+from fem_bounce.run import run_logged as simulate  # the libraries' output goes to the run's run.log
 from provenance import stamp
 
 HERE = Path(__file__).resolve().parent

@@ -130,7 +130,7 @@ def force_check() -> dict:
     """Run FORCE_RUNS (simulate, serial) and print each one's e, St and force budget."""
     from mpi4py import MPI
 
-    from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+    from fem_bounce.run import run_logged as simulate  # the libraries' output goes to the run's run.log
 
     out = []
     for label, model, changes in FORCE_RUNS:

@@ -36,7 +36,7 @@ from mpi4py import MPI
 
 from fem_bounce import scene as scenes
 from fem_bounce.errors import RunDiverged
-from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+from fem_bounce.run import run_logged as simulate  # the libraries' output goes to the run's run.log
 
 CASES = {
     "ode-case3": ("li2011-case3", "ode", {"run.bounces": 2}),

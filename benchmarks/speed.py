@@ -20,7 +20,7 @@ from mpi4py import MPI
 
 from fem_bounce import scene
 from fem_bounce.studies import restitution_planning as restitution
-from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+from fem_bounce.run import run_logged as simulate  # the libraries' output goes to the run's run.log
 from fem_bounce.integrator import BodyIntegrator
 
 

@@ -19,7 +19,7 @@ from mpi4py import MPI
 
 from fem_bounce import reference, scene
 from fem_bounce.errors import RunDiverged
-from fem_bounce.cli import run_logged as simulate  # the libraries' output goes to the run's run.log
+from fem_bounce.run import run_logged as simulate  # the libraries' output goes to the run's run.log
 from provenance import commit
 
 

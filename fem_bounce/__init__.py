@@ -17,7 +17,7 @@ Studies:  restitution (e against St), compare (several models on one scene), Tab
 Errors:   Error, the base of SceneError, ModelError, OutputError, CheckpointError, RunnerError,
           RunFailed, RunDiverged, RunInterrupted
 """
-__version__ = "0.1.0"
+from ._version import __version__ as __version__  # re-exported
 
 try:  # PyPI's FEniCSx wheel (dolfinx-solver-real) loads MPI ahead of PETSc and dolfinx only when imported first
     import dolfinx_solver  # noqa: F401

@@ -10,9 +10,15 @@
     table = fb.restitution("ode", points=6)                       # e against St, as `fem-bounce restitution`
 
 Each function is what the command of the same name runs (fem_bounce.cli calls them or shares their
-parts): the same checks, the same one-line errors (fem_bounce.Error and its kinds), the same run
-directory, the same study cache.  MPI is optional: under `mpiexec` the runs use MPI.COMM_WORLD as the
+parts, which live below both: run.run_logged, run.restart_target, output.out_path, models.model_list,
+studies.runner.study_runner): the same checks, the same one-line errors (fem_bounce.Error and its kinds), the
+same run directory, the same study cache.  MPI is optional: under `mpiexec` the runs use MPI.COMM_WORLD as the
 command line does, serially they use the one process.
+
+`import fem_bounce` imports neither PETSc nor matplotlib: the run and the studies (which import PETSc) are
+imported when a function first needs them, because under `python -m mpi4py.futures` PETSc must be given
+COMM_SELF before it starts (fem_bounce.mpi_pool), and plots.py selects matplotlib's Agg backend, which must
+not replace a notebook's own on import.
 """
 from __future__ import annotations
 
@@ -207,15 +213,6 @@ def _world(comm=None):
     return MPI.COMM_WORLD
 
 
-def _out_path(text: str | Path | None) -> Path | None:
-    """An output directory; an empty string is refused, not read as the current directory."""
-    if text is None:
-        return None
-    if not str(text).strip():
-        raise OutputError("--out is empty: give a directory, e.g. --out runs/mine")
-    return Path(text)
-
-
 class _Scratch:
     """A temporary directory that every rank sees (rank 0 makes it and removes it), for a run or a study
     kept in memory: nothing is left where the user looks."""
@@ -267,7 +264,7 @@ def simulate(scene: Scene | str | Path, model: str = "ode", out: str | Path | No
                                  for key, value in settings.items()})
     _models.get(model)  # an unknown or missing model fails before anything runs, as on the command line
     comm = _world(comm)
-    out = _out_path(out)
+    out = _output.out_path(out)
     command = f"fem_bounce.simulate({scene.name!r}, {model!r}" + (f", out={str(out)!r})" if out else ")")
     if out is not None:
         return _run(scene, model, comm, out, True, force=force, command=command, progress=progress, plots=plots)
@@ -280,16 +277,16 @@ def resume(run_dir: str | Path, model: str | None = None, *, progress: bool = Fa
            comm=None) -> Result:
     """Continue the killed fd, ib or ale run in run_dir from its last checkpoint (`fem-bounce run --restart
     DIR`): the scene is run_dir/scene.toml, the model the checkpoint's (model, if given, must match)."""
-    from .cli import _restart
+    from . import run
 
     run_dir = Path(run_dir)
-    scene, model = _restart(run_dir, model)
+    scene, model = run.restart_target(run_dir, model)
     return _run(scene, model, _world(comm), run_dir, True, restart=True, progress=progress, plots=plots,
                 command=f"fem_bounce.resume({str(run_dir)!r})")
 
 
 def _run(scene: Scene, model: str, comm, run_dir: Path, kept: bool, **options) -> Result:
-    from .cli import run_logged
+    from .run import run_logged
 
     try:
         run_logged(scene, model, comm, run_dir, **options)
@@ -321,18 +318,6 @@ class Table(list):
         return _data_frame(list(self))
 
 
-def _study_runner(jobs: int, executor: str, comm=None, cache: str | Path | None = None):
-    """(the study's communicator, its Runner) from --jobs and --executor.  Under mpi4py.futures only rank 0
-    runs the study, so it works on COMM_SELF and leaves COMM_WORLD to the pool."""
-    from mpi4py import MPI
-
-    from .studies.runner import Runner
-
-    if comm is None:
-        comm = MPI.COMM_SELF if executor == "mpi" else MPI.COMM_WORLD
-    return comm, Runner(comm, jobs, executor, root=cache)
-
-
 @_public
 def restitution(model: str = "ode", *, points: int | None = None, st_range: tuple[float, float] = (1.0, 1000.0),
                 overrides: Mapping[str, Any] | Iterable[str] | None = None, out: str | Path | None = None,
@@ -346,33 +331,19 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
     `jobs` local processes or an mpi4py.futures pool (executor="mpi"), as --jobs and --executor.
     out=DIR also writes restitution.csv, .json and .png there; out=None keeps only the cache."""
     from .studies import restitution as study
+    from .studies.runner import study_runner
 
     points = (40 if model == "ode" else 12) if points is None else points
     st_min, st_max = st_range
     if points < 2 or not 0 < st_min < st_max:
         raise SceneError("restitution: need --points >= 2 and 0 < --st-min < --st-max")
     _models.get(model)
-    out = _out_path(out)
+    out = _output.out_path(out)
     changes = _overrides(overrides)
-    comm, runner = _study_runner(jobs, executor, comm, cache)
+    comm, runner = study_runner(jobs, executor, comm, cache)
     with runner, _Scratch(comm) if out is None else contextlib.nullcontext(out) as where:
         rows = study.run(model, comm, where, points, (st_min, st_max), overrides=changes, runner=runner)
     return Table(rows, study.compare(rows))
-
-
-def _model_list(names: str | Sequence[str]) -> list[str]:
-    """The models of a comparison ("ode,fd" or a list), each known and installed."""
-    if isinstance(names, str):
-        names = names.split(",")
-    names = [name.strip() for name in names if name.strip()]
-    if not names:
-        raise _models.ModelError("--models needs at least one model, e.g. --models ode,ib")
-    if len(set(names)) < len(names):
-        twice = sorted({name for name in names if names.count(name) > 1})
-        raise _models.ModelError(f"--models names {', '.join(twice)} more than once: each model runs once")
-    for name in names:
-        _models.get(name)
-    return names
 
 
 @_public
@@ -385,11 +356,11 @@ def compare(scene: Scene | str | Path, models: str | Sequence[str] = ("ode", "fd
     comparison.csv and comparison.png; out=None keeps only the cache."""
     from .studies import compare as study
 
-    names = _model_list(models)
+    names = _models.model_list(models)
     if not isinstance(scene, Scene):
         scene = load(scene)
     comm = _world(comm)
-    out = _out_path(out)
+    out = _output.out_path(out)
     command = command or f"fem_bounce.compare({scene.name!r}, {','.join(names)!r})"
     with _Scratch(comm) if out is None else contextlib.nullcontext(out) as where:
         rows = study.compare(scene, names, comm, where, force=force, progress=progress, command=command)

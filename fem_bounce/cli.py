@@ -14,13 +14,16 @@ pool).  Errors a user can cause print one line (on rank 0 only under mpiexec) na
 with status 2; a run that ends early prints one line and exits with 1 (diverged, or an output could not be
 written) or 128 + the signal (130 for SIGINT, 143 for SIGTERM) when interrupted.  What the libraries print
 (ffcx's compiler lines and ResourceWarnings on a form's first compile) goes to the run directory's run.log, not
-the terminal (`fem-bounce run --verbose`: to both).
+the terminal (`fem-bounce run --verbose`: to both; fem_bounce.library_log).
+
+A parser and printer over the library below it: the API (api.py), the run (run.run_logged, run.restart_target)
+and the studies.  The modules that import PETSc (run.py and the studies) are imported inside the commands, once
+main has given PETSc COMM_SELF under an mpi4py.futures pool (fem_bounce.mpi_pool).
 """
 from __future__ import annotations
 
 import argparse
 import contextlib
-import logging
 import math
 import os
 import shlex
@@ -29,8 +32,11 @@ import sys
 import warnings
 from pathlib import Path
 
-from . import api, models, output
+from . import api, library_log, models, output
 from . import scene as scenes
+from .errors import RunFailed, RunInterrupted, RunnerError
+from .library_log import LIBRARY_LOG, say
+from .mpi_pool import petsc_on_self, under_mpi_futures
 
 DEFAULT_SCENE = "li2011-case3"
 
@@ -131,24 +137,10 @@ def _unused_directory(comm, base: Path) -> Path:
     return comm.bcast(output.unused_directory(base) if comm.rank == 0 else None, root=0)
 
 
-def run_logged(scene: scenes.Scene, model: str, comm, out: Path, **options) -> dict:
-    """One run as `fem-bounce run` makes it, also behind fem_bounce.simulate: run.simulate(**options) with
-    what the libraries say kept for out/run.log once the run has begun (a refused run leaves out as it was)."""
-    from .errors import RunFailed
-    from .run import simulate
-
-    with _library_output():
-        try:
-            summary = simulate(scene, model, comm, out, **options)
-        except RunFailed:  # diverged, interrupted or failed: begun, so its directory is a run's
-            _LIBRARY_LOG.keep(out, comm)
-            raise
-        _LIBRARY_LOG.keep(out, comm)
-    return summary
-
-
 def _cmd_run(args) -> int:
     from mpi4py import MPI
+
+    from . import run
 
     comm = MPI.COMM_WORLD
     if args.restart is not None:
@@ -161,7 +153,7 @@ def _cmd_run(args) -> int:
             raise output.OutputError("--force does not apply to --restart: nothing is replaced")
         if args.accuracy is not None:
             raise scenes.SceneError("--accuracy does not apply to --restart: the scene is DIR/scene.toml")
-        scene, model = _restart(args.restart, args.model)
+        scene, model = run.restart_target(args.restart, args.model)
         out = args.restart
     else:
         scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
@@ -169,14 +161,14 @@ def _cmd_run(args) -> int:
         if args.accuracy is not None:
             scene, model = _scene_for_accuracy(scene, args.accuracy, args.model)
         models.get(model)  # fail early on an unknown or missing model
-        out = api._out_path(args.out) or _unused_directory(comm, Path("runs") / f"{scene.name}-{model}")
+        out = output.out_path(args.out) or _unused_directory(comm, Path("runs") / f"{scene.name}-{model}")
     _route_warnings()
-    _LIBRARY_LOG.verbose = args.verbose
+    LIBRARY_LOG.verbose = args.verbose
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     if comm.rank == 0:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
-    summary = run_logged(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                         command=command, progress=not args.quiet)
+    summary = run.run_logged(scene, model, comm, out, force=args.force, restart=args.restart is not None,
+                             command=command, progress=not args.quiet)
     if comm.rank == 0:
         _print_records(summary)
     return 0
@@ -188,10 +180,10 @@ def _cmd_compare(args) -> int:
     from .studies import compare
 
     comm = MPI.COMM_WORLD
-    names = api._model_list(args.models)
+    names = models.model_list(args.models)
     _route_warnings()
     scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
-    out = api._out_path(args.out) or _unused_directory(comm, Path("runs") / f"compare-{scene.name}")
+    out = output.out_path(args.out) or _unused_directory(comm, Path("runs") / f"compare-{scene.name}")
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
     rows = api.compare(scene, names, out, force=args.force, progress=not args.quiet, comm=comm, command=command)
     if comm.rank == 0:
@@ -217,23 +209,9 @@ def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | Non
         raise scenes.SceneError(f"--accuracy {accuracy}: no recorded setting reaches it for {scene.name}")
     if requested and requested != pick["model"]:
         raise models.ModelError(f"--accuracy {accuracy} picks the {pick['model']} model, not {requested}")
-    _say(f"--accuracy {key}: {pick['model']} with {pick['setting']} "
-         f"(recorded error {pick['error']:.2%} on {', '.join(pick['quantities'])})")
+    say(f"--accuracy {key}: {pick['model']} with {pick['setting']} "
+        f"(recorded error {pick['error']:.2%} on {', '.join(pick['quantities'])})")
     return scene.replace(**pick["setting"]), pick["model"]
-
-
-def _restart(run_dir: Path, requested: str | None) -> tuple[scenes.Scene, str]:
-    """The scene (DIR/scene.toml) and the model (the one that wrote DIR's checkpoint) a restart continues."""
-    model = output.RunDirectory(run_dir).newest_checkpoint().model
-    if model not in models.registry.restarting():
-        raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
-                                f"checkpoints (only {', '.join(models.registry.restarting())} can --restart): "
-                                "it is not a checkpoint this version wrote")
-    if requested and requested != model:
-        raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
-    scene = scenes.load(run_dir / "scene.toml")
-    models.get(model)
-    return scene, model
 
 
 def _number(value: float, decimals: int = 1) -> str:
@@ -308,14 +286,16 @@ def _cmd_restitution(args) -> int:
                   f"({found['compared_runs']} runs){critical}; e = {found['e_at_largest_St']:.3f} at St "
                   f"{found['largest_St']:.4g}")
     if found["failed"]:
-        _say(f"error: {len(found['failed'])} of {len(rows)} runs failed (marked in restitution.csv and the figure, "
-             f"not counted as e = 0): " + "; ".join(found["failed"][:3]) + (" ..." if len(found["failed"]) > 3 else ""))
+        say(f"error: {len(found['failed'])} of {len(rows)} runs failed (marked in restitution.csv and the figure, "
+            f"not counted as e = 0): " + "; ".join(found["failed"][:3]) + (" ..." if len(found["failed"]) > 3 else ""))
         return 1
     return 0
 
 
 def _cmd_study(args) -> int:
-    comm, runner = api._study_runner(args.jobs, args.executor)
+    from .studies.runner import study_runner
+
+    comm, runner = study_runner(args.jobs, args.executor)
     with runner:  # its worker processes end with the study
         return _study(args, comm, runner)
 
@@ -330,7 +310,7 @@ def _study(args, comm, runner) -> int:
     _route_warnings()
     scene_name = getattr(args, "scene", None)
     default_out = "-".join(["study", args.kind, *([scene_name] if scene_name else []), *model_names])
-    out = api._out_path(args.out) or Path("results") / default_out
+    out = output.out_path(args.out) or Path("results") / default_out
 
     def numbers(text: str | None, option: str = "--levels") -> tuple | None:
         try:
@@ -414,80 +394,8 @@ def _stability_sweeps(text: str | None, model: str) -> dict:
     return {k: v for k, v in stability.SWEEPS.items() if k in chosen}
 
 
-_RANK = 0  # this process's MPI rank: only rank 0 speaks
-
-
-def _say(text: str) -> None:
-    """One line on stderr, once under mpiexec (every rank meets the same error)."""
-    if _RANK == 0:
-        print(f"fem-bounce: {text}", file=sys.stderr, flush=True)
-
-
 # Where a warning from these packages starts, it is theirs, not the user's business (parts of its file's path).
 _LIBRARIES = {"ffcx", "cffi", "dolfinx", "ufl", "setuptools", "distutils"}
-
-
-class _LibraryLog(logging.Handler):
-    """What the libraries say, kept for the run directory's run.log instead of the terminal.  On a form's
-    first compile ffcx leaves its C file open (a ResourceWarning) and cffi's distutils logs the compiler's
-    command lines at INFO on the root logger (ffcx's import put a stderr handler there), between the run's
-    own lines; whether that happens depends on the machine's form cache, not on the run."""
-
-    def __init__(self):
-        super().__init__(logging.DEBUG)
-        self.setFormatter(logging.Formatter("%(levelname)s:%(name)s:%(message)s"))
-        self.lines: list[str] = []
-        self.verbose = False  # run --verbose: every line on the terminal (stderr) as well
-
-    def emit(self, record: logging.LogRecord) -> None:
-        self._add(self.format(record))
-        if not self.verbose and record.levelno >= logging.WARNING:  # a library's own warning still shows, on one line
-            _say(f"{record.levelname.lower()}: {record.name}: {record.getMessage().splitlines()[0]}")
-
-    def add_warning(self, message, category, filename: str, lineno: int) -> None:
-        self._add(warnings.formatwarning(message, category, filename, lineno, "").rstrip())
-
-    def _add(self, line: str) -> None:
-        """A line for run.log, and under --verbose for the terminal too (rank 0)."""
-        self.lines.append(line)
-        if self.verbose and _RANK == 0:
-            print(line, file=sys.stderr, flush=True)
-
-    def keep(self, run_dir: Path | None, comm) -> None:
-        """Append what was said to run_dir/run.log (rank 0; nothing to say, no file); dropped without a run
-        directory.  Called only once the run has begun: a refused run leaves its --out as it was."""
-        lines, self.lines = self.lines, []
-        if comm.rank != 0 or not lines or run_dir is None or not output.is_run_directory(run_dir):
-            return
-        with contextlib.suppress(OSError):  # a courtesy: an unwritable directory has said so already
-            with open(Path(run_dir) / "run.log", "a") as stream:
-                stream.write("\n".join(lines) + "\n")
-
-
-_LIBRARY_LOG = _LibraryLog()
-
-
-@contextlib.contextmanager
-def _library_output():
-    """The libraries' logging into _LIBRARY_LOG alone while a command runs; as it was afterwards."""
-    root = logging.getLogger()
-    if _LIBRARY_LOG in root.handlers:  # already (a run inside a command): as it is
-        yield
-        return
-    before = root.handlers[:]
-    for handler in before:
-        root.removeHandler(handler)
-    root.addHandler(_LIBRARY_LOG)  # and ffcx's logging.basicConfig() on import does nothing
-    if not _LIBRARY_LOG.verbose:
-        for name in ("ffcx", "FFCX", "UFL"):  # their INFO lines would go to run.log only anyway
-            logging.getLogger(name).setLevel(logging.WARNING)
-    _LIBRARY_LOG.lines.clear()
-    try:
-        yield
-    finally:
-        root.removeHandler(_LIBRARY_LOG)
-        for handler in before:
-            root.addHandler(handler)
 
 
 _SHOWN: set[str] = set()  # the warnings printed by this command: each once, however often it recurs
@@ -496,10 +404,10 @@ _SHOWN: set[str] = set()  # the warnings printed by this command: each once, how
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """The package's warnings as one line each, each once; a library's (ffcx's unclosed files...) into run.log."""
     if issubclass(category, ResourceWarning) or not _LIBRARIES.isdisjoint(Path(filename).parts):
-        _LIBRARY_LOG.add_warning(message, category, filename, lineno)
+        LIBRARY_LOG.add_warning(message, category, filename, lineno)
     elif str(message) not in _SHOWN:
         _SHOWN.add(str(message))
-        _say(f"warning: {message}")
+        say(f"warning: {message}")
 
 
 def _route_warnings() -> None:
@@ -508,43 +416,38 @@ def _route_warnings() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    global _RANK
     from mpi4py import MPI
-
-    from .errors import RunFailed, RunInterrupted
-    from .mpi_pool import petsc_on_self, under_mpi_futures
 
     if under_mpi_futures():
         petsc_on_self()  # rank 0 of an mpi4py.futures pool: the workers never join PETSc's COMM_WORLD
-    from .run import Interrupts, signal_name
-    from .studies.runner import RunnerError
+    from .run import Interrupts, signal_name  # PETSc: after the line above
 
-    _RANK = MPI.COMM_WORLD.rank
+    library_log.RANK = MPI.COMM_WORLD.rank
     args = _parser().parse_args(argv)
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
                "study": _cmd_study, "compare": _cmd_compare}[args.command]
     graceful = args.command != "scenes"  # runs stop between two steps; listing scenes stops at once
     _SHOWN.clear()
-    with warnings.catch_warnings(), _library_output(), \
-            (Interrupts(announce=_RANK == 0) if graceful else contextlib.nullcontext()):
+    with warnings.catch_warnings(), library_log.library_output(), \
+            (Interrupts(announce=library_log.RANK == 0) if graceful else contextlib.nullcontext()):
         warnings.simplefilter("always")
         _route_warnings()
         try:
             return command(args)
         except (scenes.SceneError, models.ModelError, output.OutputError, RunnerError) as err:
-            _say(f"error: {err}")
+            say(f"error: {err}")
             return 2
         except RunInterrupted as err:
-            _say(str(err))
+            say(str(err))
             return 128 + err.signum
         except RunFailed as err:
-            _say(str(err) if str(err).startswith("diverged") else f"error: {err}")
+            say(str(err) if str(err).startswith("diverged") else f"error: {err}")
             return 1
         except KeyboardInterrupt as err:
             signum = getattr(err, "signum", signal.SIGINT)
-            _say(f"interrupted by {signal_name(signum)}")
+            say(f"interrupted by {signal_name(signum)}")
             return 128 + signum
         except OSError as err:  # the terminal's or a redirection's output failed (a full disk, /dev/full, ...)
             sys.stdout = open(os.devnull, "w")  # so that the interpreter's last flush does not fail again
-            _say(f"error: cannot write the output: {err.strerror or err}")
+            say(f"error: cannot write the output: {err.strerror or err}")
             return 1

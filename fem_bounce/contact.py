@@ -48,6 +48,7 @@ import functools
 import math
 
 from . import ehd
+from .materials import elastohydrodynamic_gap, reduced_modulus
 from .motion import is_free
 from .scene import Scene
 from .theory import TheoryForces
@@ -70,11 +71,6 @@ def blend(delta: float, delta_sl: float) -> float:
 def elastic_shape(x: float) -> float:
     """F(x) of eq. 4.9; continued past x < 0 (penetration) by the same exponential."""
     return 0.0 if x >= 1.0 else (math.exp(-x) - _E_INV) / (1.0 - _E_INV)
-
-
-def reduced_modulus(e1: float, nu1: float, e2: float, nu2: float) -> float:
-    """E* = [(1 - nu1^2)/E1 + (1 - nu2^2)/E2]^-1 [Pa]."""
-    return 1.0 / ((1.0 - nu1**2) / e1 + (1.0 - nu2**2) / e2)
 
 
 # -- Hertz's contact (Johnson 1985, sections 4.2 and 11.1) ----------------------------------------------
@@ -130,13 +126,6 @@ def tsuji_damping(dry_restitution: float) -> float:
     if dry_restitution <= 0.0:
         return 100.0
     return float(brentq(lambda c: _damped_restitution(c) - dry_restitution, 0.0, 100.0, xtol=1e-10))
-
-
-def elastohydrodynamic_gap(radius: float, e_star: float, viscosity: float, speed: float) -> float:
-    """x_d = (4 theta mu V a*^(3/2))^(2/5), theta = 1 / (pi E*) [m]: the gap at which the elasticity
-    parameter of Davis, Serayssol & Hinch (1986) reaches one, so that the film's pressure flattens the
-    surfaces by as much as the gap (0.43 um for Li et al.'s case 3 at 0.39 m/s)."""
-    return (4.0 * viscosity * abs(speed) * radius**1.5 / (math.pi * e_star)) ** 0.4
 
 
 class ContactLaw:

@@ -23,7 +23,7 @@ mu V0 a^2 / h0) the problem has two numbers only,
 and reads  dH/dT = (1 / 12 R) d/dR (R H^3 dP/dR),  H = X + R^2 / 2 + epsilon int P S K / (R + S) dS,
 dV/dT = F / (6 pi St),  F = 2 pi int P R dR.  (For a sphere on a wall St is the package's
 rho_p V D / (9 mu), `Scene.stokes`.)  The gap at which epsilon evaluated with the gap itself reaches one
-is x_d = (4 theta mu V a^(3/2))^(2/5) (`fem_bounce.contact.elastohydrodynamic_gap`): X_d = epsilon^(2/5).
+is x_d = (4 theta mu V a^(3/2))^(2/5) (`fem_bounce.materials.elastohydrodynamic_gap`): X_d = epsilon^(2/5).
 
 Numerics (docs/ehd.md):
 - a radial grid, uniform over the Hertz contact radius and past it (inner_factor times

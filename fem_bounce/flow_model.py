@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .bodies import scene_bodies
 from .integrator import FluidForce
 
 
@@ -137,8 +138,6 @@ class FlowModel(ABC):
 
     def initial_velocities(self) -> list[np.ndarray]:
         """The predictor's history at the start, newest first, each an array over the bodies [m/s]."""
-        from .bodies import scene_bodies
-
         return [np.array([body.start_velocity for body in scene_bodies(self.scene)])]
 
     # -- one step ---------------------------------------------------------------------------------

@@ -54,7 +54,7 @@ def start_worker() -> None:
     quiet = logging.StreamHandler(sys.stderr)
     quiet.setLevel(logging.WARNING)
     logging.getLogger().handlers[:] = [quiet]  # ffcx's logging.basicConfig() then adds no handler of its own
-    from .run import Interrupts
+    from .run import Interrupts  # PETSc: after petsc_on_self() above (the module docstring)
 
     Interrupts(announce=False).__enter__()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -84,6 +84,6 @@ def run_one(scene, model: str, root: str) -> str:
 
     from mpi4py import MPI
 
-    from .cache import cached_run
+    from .cache import cached_run  # PETSc, in a worker that start_worker gave COMM_SELF
 
     return str(cached_run(scene, model, MPI.COMM_SELF, root=Path(root)))

@@ -46,8 +46,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
 from . import scene as scenes
+from ._version import __version__
 from .errors import Error
 
 TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_history", "f_added_mass", "f_theory",
@@ -439,6 +439,16 @@ def _scene_changes(saved_text: str, scene) -> list[str]:
     return [f"{key} {saved.get(key, 'unset')!r} -> {now.get(key, 'unset')!r}"
             for key in sorted(saved.keys() | now.keys())
             if saved.get(key) != now.get(key) and key not in RESTART_MAY_CHANGE]
+
+
+def out_path(text: str | Path | None) -> Path | None:
+    """An output directory as the user gave it (--out, out=): an empty string is refused, not read as the
+    current directory."""
+    if text is None:
+        return None
+    if not str(text).strip():
+        raise OutputError("--out is empty: give a directory, e.g. --out runs/mine")
+    return Path(text)
 
 
 def unused_directory(base: Path) -> Path:

@@ -30,8 +30,9 @@ import math
 
 import numpy as np
 
-from .contact import ContactGaps, ContactLaw, reduced_modulus
 from .bodies import scene_bodies
+from .contact import ContactGaps, ContactLaw
+from .materials import reduced_modulus
 from .pair_theory import PairAddedMass, PairResistance
 from .scene import Scene, reduced_radius
 

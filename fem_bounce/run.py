@@ -42,6 +42,7 @@ from . import scene as scenes
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
 from .integrator import BodyIntegrator, PenetrationError
+from .library_log import LIBRARY_LOG, library_output
 from .progress import Monitor, ProgressBar
 from .steppers import Stepper, stepper_for
 
@@ -517,9 +518,40 @@ def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **option
 
 
 def _draw(out_dir: Path) -> None:
-    from . import plots as drawing
+    from . import plots as drawing  # matplotlib (and its Agg backend) only for a run that draws
 
     try:
         drawing.draw_run(out_dir)
     except OSError as err:
         raise output.OutputError(f"cannot draw the figures in {out_dir}: {err.strerror or err}") from None
+
+
+# -- a run as `fem-bounce run` and fem_bounce.simulate start it ----------------------------------------------
+
+
+def run_logged(scene, model_name: str, comm, out_dir: Path, **options) -> dict:
+    """One run as `fem-bounce run` and fem_bounce.simulate make it: simulate(**options) with what the libraries
+    say kept for out_dir/run.log once the run has begun (a refused run leaves out_dir as it was; library_log)."""
+    with library_output():
+        try:
+            summary = simulate(scene, model_name, comm, out_dir, **options)
+        except RunFailed:  # diverged, interrupted or failed: begun, so its directory is a run's
+            LIBRARY_LOG.keep(out_dir, comm)
+            raise
+        LIBRARY_LOG.keep(out_dir, comm)
+    return summary
+
+
+def restart_target(run_dir: Path, requested: str | None) -> tuple[scenes.Scene, str]:
+    """The scene (DIR/scene.toml) and the model (the one that wrote DIR's checkpoint) a restart of run_dir
+    continues (`fem-bounce run --restart DIR`, fem_bounce.resume); `requested`, when given, must be that model."""
+    model = output.RunDirectory(run_dir).newest_checkpoint().model
+    if model not in models.registry.restarting():
+        raise models.ModelError(f"the checkpoint in {run_dir} names the model {model!r}, which writes no "
+                                f"checkpoints (only {', '.join(models.registry.restarting())} can --restart): "
+                                "it is not a checkpoint this version wrote")
+    if requested and requested != model:
+        raise models.ModelError(f"{run_dir} was run with --model {model}, not {requested}")
+    scene = scenes.load(run_dir / "scene.toml")
+    models.get(model)
+    return scene, model

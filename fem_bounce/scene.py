@@ -27,6 +27,7 @@ from typing import Any
 
 from . import numerics, reference
 from .errors import Error
+from .materials import elastohydrodynamic_gap, reduced_modulus
 
 AXISYMMETRIC_RE_LIMIT = 250.0  # paper section 2.1: axisymmetric flow below Re ~ 210-250
 # An unbounded scene's largest initial gap, in diameters: far beyond any wall effect (Brenner's correction
@@ -508,8 +509,6 @@ class Scene:
         if self.second_sphere is not None:
             raise SceneError('contact.model = "ehd" is not implemented for a pair of spheres (second_sphere): the film '
                              'collision is integrated for one sphere and a wall only; use "lubricated-hertz"')
-        from .contact import elastohydrodynamic_gap, reduced_modulus  # contact imports this module
-
         radius = self.sphere.radius
         high = min(0.1 * radius, c.delta_sl * self.sphere.diameter)
         low = 0.0

@@ -6,7 +6,7 @@ import warnings
 import pytest
 from mpi4py import MPI
 
-from fem_bounce import cli, output
+from fem_bounce import cli, library_log, output
 
 CONTRACT_SUMMARY = {"scene", "model", "impacts", "rebounds", "wall_time_s", "steps", "ranks", "versions", "command"}
 
@@ -40,7 +40,7 @@ def test_library_output_goes_to_run_log_not_the_terminal(tmp_path, capsys):
     run_dir = tmp_path / "run"
     output.RunDirectory(run_dir).prepare()
     root = logging.getLogger()
-    with warnings.catch_warnings(), cli._library_output():
+    with warnings.catch_warnings(), library_log.library_output():
         warnings.simplefilter("always")
         cli._route_warnings()
         warnings.warn_explicit("unclosed file <libffcx_forms_0.c>", ResourceWarning, "/anywhere/gc.py", 1)
@@ -50,13 +50,13 @@ def test_library_output_goes_to_run_log_not_the_terminal(tmp_path, capsys):
         root.setLevel(logging.INFO)  # what distutils does while cffi compiles a form
         logging.info("x86_64-linux-gnu-gcc -c libffcx_forms_0.c")
         root.setLevel(level)
-        cli._LIBRARY_LOG.keep(run_dir, MPI.COMM_SELF)
+        library_log.LIBRARY_LOG.keep(run_dir, MPI.COMM_SELF)
     assert capsys.readouterr().err.splitlines() == ["fem-bounce: warning: the package's own warning"]
     log = (run_dir / "run.log").read_text()
     for line in ("ResourceWarning: unclosed file <libffcx_forms_0.c>", "ffcx/jit.py:2: DeprecationWarning: old API",
                  "INFO:root:x86_64-linux-gnu-gcc -c libffcx_forms_0.c"):
         assert line in log
-    assert cli._LIBRARY_LOG not in root.handlers  # logging as it was, once the command is over
+    assert library_log.LIBRARY_LOG not in root.handlers  # logging as it was, once the command is over
 
 
 def test_existing_directory_is_never_silently_replaced(tmp_path, capsys):

@@ -7,10 +7,10 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from fem_bounce import contact, ehd
+from fem_bounce import contact, ehd, materials
 
 # a steel sphere (D = 9.5 mm) in 85 % glycerol on Zerodur (li2011-table3-steel-85) at St 20, h0 = 20 um
-STEEL_ZERODUR = contact.reduced_modulus(200e9, 0.33, 91e9, 0.24)
+STEEL_ZERODUR = materials.reduced_modulus(200e9, 0.33, 91e9, 0.24)
 A, RHO, MU, H0 = 0.00475, 7600.0, 0.109, 20e-6
 MASS = 4.0 / 3.0 * math.pi * A**3 * RHO
 
@@ -19,8 +19,8 @@ def test_groups_in_si_match_their_definitions():
     speed = 9.0 * MU * 20.0 / (RHO * 2 * A)  # St = rho_p V D / (9 mu) = 20
     assert ehd.film_stokes(MASS, A, MU, speed) == pytest.approx(20.0, rel=1e-12)
     eps = ehd.elasticity_parameter(A, STEEL_ZERODUR, MU, speed, H0)
-    # epsilon at the gap x_d is one: x_d = (4 theta mu V a^1.5)^0.4 (contact.elastohydrodynamic_gap)
-    x_d = contact.elastohydrodynamic_gap(A, STEEL_ZERODUR, MU, speed)
+    # epsilon at the gap x_d is one: x_d = (4 theta mu V a^1.5)^0.4 (materials.elastohydrodynamic_gap)
+    x_d = materials.elastohydrodynamic_gap(A, STEEL_ZERODUR, MU, speed)
     assert ehd.elasticity_parameter(A, STEEL_ZERODUR, MU, speed, x_d) == pytest.approx(1.0, rel=1e-12)
     assert eps == pytest.approx((x_d / H0) ** 2.5, rel=1e-12)
     # Hertz's deepest overlap in DSH's groups equals contact.hertz_depth

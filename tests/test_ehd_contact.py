@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from fem_bounce import contact, ehd, scene
+from fem_bounce import contact, ehd, materials, scene
 from fem_bounce.integrator import BodyIntegrator
 
 
@@ -62,7 +62,7 @@ def test_rebound_resumes_at_the_handover_with_e_times_v_in(run):
     # the film's e recomputed from the scene: the inertia is the sphere's mass plus its added mass at h0
     (t0, v0), *_ = run.jumps[0]
     s = run.scene
-    e_star = contact.reduced_modulus(s.sphere.youngs_modulus, s.sphere.poisson_ratio, s.wall.youngs_modulus,
+    e_star = materials.reduced_modulus(s.sphere.youngs_modulus, s.sphere.poisson_ratio, s.wall.youngs_modulus,
                                      s.wall.poisson_ratio)
     mass = s.sphere.mass + run.theories[0].added_mass(h0)[0]
     assert mass > s.sphere.mass + 0.5 * s.displaced_mass  # C_M near the wall exceeds 1/2

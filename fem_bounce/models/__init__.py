@@ -7,8 +7,10 @@ Modules are imported on demand so the ODE model needs neither dolfinx nor gmsh.
 from __future__ import annotations
 
 import importlib
+from collections.abc import Sequence
 
 from ..errors import Error
+from ..scene import SceneError
 from . import registry
 from .registry import BEST_FIRST, MODELS, ModelInfo
 
@@ -39,6 +41,21 @@ def flow_model_class(entry: ModelInfo):
         raise ModelError(f"model {name!r} needs {err.name}, which is not installed (see README.md)") from None
 
 
+def model_list(names: str | Sequence[str]) -> list[str]:
+    """The models of a comparison ("ode,fd" or a list, as --models), each known and installed."""
+    if isinstance(names, str):
+        names = names.split(",")
+    names = [name.strip() for name in names if name.strip()]
+    if not names:
+        raise ModelError("--models needs at least one model, e.g. --models ode,ib")
+    if len(set(names)) < len(names):
+        twice = sorted({name for name in names if names.count(name) > 1})
+        raise ModelError(f"--models names {', '.join(twice)} more than once: each model runs once")
+    for name in names:
+        get(name)
+    return names
+
+
 def check_scene(entry: ModelInfo, scene) -> None:
     """Refuse a scene the model cannot run at all, before anything is written: more spheres than it runs
     (ModelError), or a release above what it meshes (scene.SceneError)."""
@@ -49,8 +66,6 @@ def check_scene(entry: ModelInfo, scene) -> None:
                          f"{', '.join(registry.running(spheres))}")
     d = scene.sphere.diameter
     if entry.max_initial_gap is not None and scene.initial_gap > entry.max_initial_gap * d:
-        from ..scene import SceneError
-
         raise SceneError(
             f"initial_gap = {scene.initial_gap:.4g} m is {scene.initial_gap / d:.3g} D: the {entry.name} model meshes "
             f"the whole path, allowed up to {entry.max_initial_gap:g} D (a sphere reaches its terminal speed within "

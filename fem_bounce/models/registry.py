@@ -13,6 +13,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from .. import scene as scenes
+
 
 @dataclass(frozen=True)
 class ModelInfo:
@@ -95,8 +97,6 @@ class ModelInfo:
 
     def default_resolution(self) -> float:
         """The resolution a scene gets when it does not set one."""
-        from .. import scene as scenes
-
         section, name = self.resolution_key.split(".")[1:]
         numerics = scenes.Numerics()
         return {f.name: f.default for f in dataclasses.fields(getattr(numerics, section))}[name]
@@ -109,8 +109,8 @@ class ModelInfo:
 
 
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
-CORE_SOURCES = ("scene.py", "theory.py", "contact.py", "bodies.py", "integrator.py", "bounces.py", "motion.py",
-                "flow_model.py", "steppers.py", "run.py", "errors.py", "output.py", "models/__init__.py",
+CORE_SOURCES = ("scene.py", "materials.py", "theory.py", "contact.py", "bodies.py", "integrator.py", "bounces.py",
+                "motion.py", "flow_model.py", "steppers.py", "run.py", "errors.py", "output.py", "models/__init__.py",
                 "pair_contact.py", "pair_theory.py")
 MANY = 1000  # the ode model's sphere count has no limit of its own
 # The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh

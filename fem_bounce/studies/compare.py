@@ -22,7 +22,10 @@ import math
 import shutil
 from pathlib import Path
 
-from .. import models, output
+from .. import models, output, reference
+from ..cache import cached_run, default_root
+from ..plots import draw_run, units
+from ..run import on_root
 from ..scene import SceneError
 
 MAX_IMPACTS = 3  # columns per impact in the table
@@ -32,10 +35,6 @@ def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = Fa
                command: str = "") -> list[Path]:
     """Each model's run (through the cache) copied to out_dir/NAME; returns those directories,
     diverged runs included (their summary.json says so and the comparison shows it)."""
-    from ..cache import cached_run, default_root
-    from ..plots import draw_run
-    from ..run import on_root
-
     for name in names:
         models.get(name)  # an unknown or missing model fails before anything runs
     out_dir = Path(out_dir)
@@ -117,9 +116,6 @@ def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from .. import reference
-    from ..plots import units
 
     fig, axes = plt.subplots(2, 3, figsize=(14, 7.5))
     (ax_gap, ax_vel, ax_cost), (ax_imp, ax_apex, ax_e) = axes

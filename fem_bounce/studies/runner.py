@@ -196,3 +196,13 @@ class Runner:
 
 
 _ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def study_runner(jobs: int, executor: str, comm=None, cache: str | Path | None = None) -> tuple:
+    """(the study's communicator, its Runner) from --jobs and --executor.  Under mpi4py.futures only rank 0
+    runs the study, so it works on COMM_SELF and leaves COMM_WORLD to the pool."""
+    from mpi4py import MPI
+
+    if comm is None:
+        comm = MPI.COMM_SELF if executor == "mpi" else MPI.COMM_WORLD
+    return comm, Runner(comm, jobs, executor, root=cache)
