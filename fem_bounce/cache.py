@@ -1,9 +1,10 @@
 """Finished runs, reused: a study asks for (scene, model) and gets the run directory.
 
 A run is keyed by its resolved scene (as TOML), its model and the code that computes it: a hash of the
-shared core (scene, theory, contact, sphere integrator, run driver) and of that model's own modules, so
-redrawing a figure never re-runs a simulation, changing the physics never reuses a stale answer, and
-adding or changing one model leaves the other models' runs valid.  (numerics.py is data: its values
+shared core (scene, theory, contact, sphere integrator, run driver) and of that model's own modules, and
+the versions of the numerical libraries under them (another PETSc or gmsh moves the digits), so
+redrawing a figure never re-runs a simulation, changing the physics or the stack never reuses a stale
+answer, and adding or changing one model leaves the other models' runs valid.  (numerics.py is data: its values
 enter through the resolved scene.)  An interrupted
 study resumes where it stopped: finished runs are found, unfinished ones run again.
 
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+from importlib import metadata
 from pathlib import Path
 
 from . import cachedir, models
@@ -41,8 +43,25 @@ def code_version(model: str) -> str:
     return digest.hexdigest()[:12]
 
 
+# the distributions whose versions move a run's digits: the PyPI stack's wheel, or conda-forge's packages
+STACK_DISTRIBUTIONS = ("numpy", "scipy", "dolfinx-solver-real", "fenics-dolfinx", "petsc4py", "fenics-basix",
+                       "fenics-ffcx", "fenics-ufl", "gmsh")
+
+
+@functools.cache
+def stack_version() -> str:
+    """The installed versions of STACK_DISTRIBUTIONS (those present), read without importing them."""
+    found = []
+    for name in STACK_DISTRIBUTIONS:
+        try:
+            found.append(f"{name}=={metadata.version(name)}")
+        except metadata.PackageNotFoundError:
+            pass
+    return ",".join(found)
+
+
 def run_key(scene: scenes.Scene, model: str) -> str:
-    text = f"{model}\n{code_version(model)}\n{scenes.dumps(scene)}"
+    text = f"{model}\n{code_version(model)}\n{stack_version()}\n{scenes.dumps(scene)}"
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

@@ -21,14 +21,18 @@ PR_SET_PDEATHSIG = 1  # linux/prctl.h
 def under_mpi_futures() -> bool:
     """True on the master of `python -m mpi4py.futures` with at least one worker rank.  mpi4py has no
     public query for it; its shared pool is the attribute that the `-m mpi4py.futures` launcher sets
-    (in `mpi4py.futures._core` since mpi4py 4, `_lib` before)."""
+    (in `mpi4py.futures._core` since mpi4py 4, `_lib` before; 3.1 has both modules, the pool in `_lib`)."""
+    import importlib
+
     from mpi4py import MPI
 
-    try:
-        from mpi4py.futures import _core as launcher
-    except ImportError:
-        from mpi4py.futures import _lib as launcher
-    return getattr(launcher, "SharedPool", None) is not None and MPI.COMM_WORLD.size > 1
+    for name in ("mpi4py.futures._core", "mpi4py.futures._lib"):
+        try:
+            if getattr(importlib.import_module(name), "SharedPool", None) is not None:
+                return MPI.COMM_WORLD.size > 1
+        except ImportError:
+            continue
+    return False
 
 
 def petsc_on_self() -> None:
