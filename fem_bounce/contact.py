@@ -131,7 +131,8 @@ def tsuji_damping(dry_restitution: float) -> float:
 class ContactLaw:
     """The solid contact of two surfaces on the axis (module docstring), for a reduced radius `radius`
     [m] (a for the wall), reduced mass `mass` [kg], E* `e_star` [Pa], the liquid's `viscosity` [Pa s],
-    the surfaces' combined `roughness` [m] and the gap scale `length` (D, or 2a* for a pair) [m].
+    the surfaces' combined `roughness` [m], the gap scale `length` (D, or 2a* for a pair) [m] and the
+    lowest gauge pressure a film holds, `cavitation_pressure` [Pa] (None: any; Scene.cavitation_pressure).
 
     One contact: `boundary(speed)` is the gap where it begins at the approach speed, `engage(speed)`
     the number it fixes there (W_o for li2011, h_c for lubricated-hertz), `force(gap, rate, engaged)` its
@@ -139,7 +140,7 @@ class ContactLaw:
     much of it is left, `boundary(speed, engaged)` where it ends."""
 
     def __init__(self, contact, radius: float, mass: float, e_star: float, viscosity: float, roughness: float,
-                 length: float):
+                 length: float, cavitation_pressure: float | None):
         self.radius, self.mass, self.e_star, self.length = radius, mass, e_star, length
         self.viscosity, self.roughness = viscosity, roughness
         self.gap_factor = contact.contact_gap_factor
@@ -148,7 +149,7 @@ class ContactLaw:
         self.hertz = contact.model == "lubricated-hertz"
         self.ehd = contact.model == "ehd"  # the film collision at the handover gap (module docstring)
         self.handover = contact.ehd_handover
-        self.cavitation = None if contact.ehd_cavitation == "off" else float(contact.ehd_cavitation)
+        self.cavitation = cavitation_pressure
         self.stiffness = hertz_stiffness(radius, e_star)
         self.damping = tsuji_damping(self.dry_restitution) * math.sqrt(mass * self.stiffness) if self.hertz else 0.0
         # the smallest admissible gap: the spring's own position for li2011, Hertz's small strain here
@@ -196,7 +197,7 @@ class ContactLaw:
         """The film collision (contact.model = "ehd") of a sphere arriving at the handover gap h0 at `speed`
         [m/s] (> 0, towards the wall) with the inertia `mass` [kg] (the sphere's mass and its added mass at
         h0), the constant `force` [N] besides the film's (positive away from the wall: minus the net
-        weight), the liquid's viscosity, E* and contact.ehd_cavitation (fem_bounce.ehd.collide;
+        weight), the liquid's viscosity, E* and the cavitation pressure (fem_bounce.ehd.collide;
         dimensionless result, lengths in h0, times in h0 / speed)."""
         return ehd.collide(self.radius, mass, self.e_star, self.viscosity, speed, self.handover,
                            cavitation_pressure=self.cavitation, external_force=force)
@@ -244,7 +245,7 @@ class ContactModel(ContactGaps):
         self.e_star = reduced_modulus(sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus,
                                       wall.poisson_ratio)
         self.law = ContactLaw(scene.contact, sphere.radius, sphere.mass, self.e_star, scene.liquid.viscosity,
-                              sphere.roughness + wall.roughness, self.diameter)
+                              sphere.roughness + wall.roughness, self.diameter, scene.cavitation_pressure)
         self.theory = TheoryForces(scene)
         # the hold and the correction belong to a free sphere's dynamics (see the module docstring)
         self.correcting = scene.near_wall_law == "correction" and is_free(scene)

@@ -62,7 +62,7 @@ class PairContactModel(ContactGaps):
         self.e_star = reduced_modulus(first.youngs_modulus, first.poisson_ratio, second.youngs_modulus,
                                       second.poisson_ratio)
         self.law = ContactLaw(c, self.reduced_radius, self.reduced_mass, self.e_star, scene.liquid.viscosity,
-                              first.roughness + second.roughness, self.diameter)
+                              first.roughness + second.roughness, self.diameter, scene.cavitation_pressure)
         self.stokes_drags = 6.0 * math.pi * scene.liquid.viscosity * self.radii  # 6 pi mu a_i [N s/m]
         self._liquid = scene.liquid
         # the hold and the correction belong to a resolved flow with a free sphere (as at the wall)
