@@ -268,13 +268,15 @@ class PairResistance:
         table = np.array([exact_series(a1, a2, h) for h in gaps])
         # the constant left after the singular terms at the table's lower end
         self._remainder = table[0] - _singular_part(a1, a2, gaps[0])
+        self._remainders = tuple(self._remainder.ravel().tolist())
         squeeze = gaps / (gaps + self.a_star)
         smooth = np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1) * squeeze[:, None]
         spline = CubicSpline(log_gap, smooth, axis=0)
         # plain floats for a scalar evaluation without numpy overhead
         self.gaps = gaps  # [m], the table's knots
         self._knots = log_gap.tolist()
-        self._coefficients = [tuple(tuple(spline.c[p, i, :]) for p in range(4)) for i in range(len(gaps) - 1)]
+        self._coefficients = [tuple(tuple(spline.c[p, i, :].tolist()) for p in range(4))
+                              for i in range(len(gaps) - 1)]
 
     def coefficients(self, h: float) -> tuple[float, float, float, float]:
         """(X11, X12, X21, X22) at gap h [m]: plain floats, for right-hand sides."""
@@ -293,9 +295,11 @@ class PairResistance:
         x = math.log(h)
         i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
         t = x - self._knots[i]
-        c3, c2, c1, c0 = self._coefficients[i]
-        y11, y12, y22 = (((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3))
-        dy11, dy12, dy22 = ((3.0 * c3[j] * t + 2.0 * c2[j]) * t + c1[j] for j in range(3))
+        (a11, a12, a22), (b11, b12, b22), (c11, c12, c22), (e11, e12, e22) = self._coefficients[i]
+        y11, y12, y22 = (((a11 * t + b11) * t + c11) * t + e11, ((a12 * t + b12) * t + c12) * t + e12,
+                         ((a22 * t + b22) * t + c22) * t + e22)
+        dy11, dy12, dy22 = ((3.0 * a11 * t + 2.0 * b11) * t + c11, (3.0 * a12 * t + 2.0 * b12) * t + c12,
+                            (3.0 * a22 * t + 2.0 * b22) * t + c22)
         unsqueeze = (h + self.a_star) / h
         squeeze_rate = -self.a_star / (h * h)  # d(unsqueeze)/dh
         x12, d12 = y12 * unsqueeze, dy12 / h * unsqueeze + y12 * squeeze_rate
@@ -311,7 +315,7 @@ class PairResistance:
         k = a2 / a1
         log_weight = (1.0 + 7.0 * k + k * k) / (5.0 * (1.0 + k) ** 2)
         singular, slope = lubrication(a1, a2, h), -a_star / (h * h) - log_weight / h
-        (r11, r12), (r21, r22) = self._remainder.tolist()
+        r11, r12, r21, r22 = self._remainders
         own1, own2 = a_star / a1, a_star / a2
         return ((own1 * singular + r11, -own1 * singular + r12, -own2 * singular + r21, own2 * singular + r22),
                 (own1 * slope, -own1 * slope, -own2 * slope, own2 * slope))
@@ -457,7 +461,8 @@ class PairAddedMass:
         spline = CubicSpline(log_gap, np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1), axis=0)
         self.gaps = np.exp(log_gap)  # [m], the table's knots
         self._knots = log_gap.tolist()
-        self._coefficients = [tuple(tuple(spline.c[p, i, :]) for p in range(4)) for i in range(len(log_gap) - 1)]
+        self._coefficients = [tuple(tuple(spline.c[p, i, :].tolist()) for p in range(4))
+                              for i in range(len(log_gap) - 1)]
         self._lowest = tuple(float(v) for v in spline(log_gap[0]))
 
     def coefficients(self, h: float) -> tuple[tuple[float, float, float, float], tuple[float, float, float, float]]:
@@ -476,14 +481,17 @@ class PairAddedMass:
         x = math.log(h)
         i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
         t = x - self._knots[i]
-        c3, c2, c1, c0 = self._coefficients[i]
-        value = [((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3)]
-        rate = [(3.0 * c3[j] * t + 2.0 * c2[j]) * t + c1[j] for j in range(3)]  # dC/d(ln h)
-        slope = [rate[j] / h for j in range(3)]
-        curvature = [(6.0 * c3[j] * t + 2.0 * c2[j] - rate[j]) / (h * h) for j in range(3)]
-        return ((value[0], value[1], self._ratio * value[1], value[2]),
-                (slope[0], slope[1], self._ratio * slope[1], slope[2]),
-                (curvature[0], curvature[1], self._ratio * curvature[1], curvature[2]))
+        (a11, a12, a22), (b11, b12, b22), (c11, c12, c22), (e11, e12, e22) = self._coefficients[i]
+        v11, v12, v22 = (((a11 * t + b11) * t + c11) * t + e11, ((a12 * t + b12) * t + c12) * t + e12,
+                         ((a22 * t + b22) * t + c22) * t + e22)
+        # dC/d(ln h) and d2C/d(ln h)2
+        r11, r12, r22 = ((3.0 * a11 * t + 2.0 * b11) * t + c11, (3.0 * a12 * t + 2.0 * b12) * t + c12,
+                         (3.0 * a22 * t + 2.0 * b22) * t + c22)
+        q11, q12, q22 = 6.0 * a11 * t + 2.0 * b11, 6.0 * a12 * t + 2.0 * b12, 6.0 * a22 * t + 2.0 * b22
+        square, ratio = h * h, self._ratio
+        s11, s12, s22 = r11 / h, r12 / h, r22 / h
+        k11, k12, k22 = (q11 - r11) / square, (q12 - r12) / square, (q22 - r22) / square
+        return (v11, v12, ratio * v12, v22), (s11, s12, ratio * s12, s22), (k11, k12, ratio * k12, k22)
 
     def __call__(self, h: float) -> tuple[np.ndarray, np.ndarray]:
         """(C, dC/dh) at gap h [m] as 2x2 arrays."""

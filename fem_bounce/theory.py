@@ -310,6 +310,13 @@ class TheoryForces:
         _, slope, curvature = self.added_mass_slopes(gap)
         return -0.5 * velocity**2 * slope, -0.5 * velocity**2 * curvature, -velocity * slope
 
+    def history_sensitivity(self, inertia: float, duration: float) -> np.ndarray:
+        """How far an error in each history mode z_i moves the velocity, per unit of z_i [-]: its force
+        c_i dz_i (c_i at the Re where the fit weighs mode i most) acting for min(T_i, duration) [s] on the
+        `inertia` [kg], the sphere's mass and added mass.  Positive (a mode no Re weighs counts as 1e-30)."""
+        largest = self.stokes_drag * self._weights.max(axis=0)[:self.n_history]
+        return np.maximum(largest * np.minimum(self.history_times[:self.n_history], duration) / inertia, 1e-30)
+
     def history_coefficients(self, velocity: float) -> np.ndarray:
         """c_i = 6 pi mu a w_i(Re) [N s/m]: f_H = -K_H^(3/2) sum_i c_i z_i, z_i from the history ODEs; the wall
         factor K_H^(3/2) (contact.history_wall_factor) is the integrator's."""
