@@ -119,7 +119,9 @@ class ForceTerms:
     weighs by `blend`; `theory_mass` its added masses (C_M,i m_l,i on the diagonal, each neighbouring pair's
     beyond the isolated spheres'); `correction`, `correction_mass` and `elastic` are added whole.  Values are
     lists over the spheres, derivatives lists of entries (sphere k, column c, d/dy_c) or, for the added
-    masses, (k, j, c, dM_kj/dy_c): plain Python, which a few numbers per sphere cost less than numpy."""
+    masses, (k, j, c, dM_kj/dy_c): plain Python, which a few numbers per sphere cost less than numpy.  What
+    sphere k feels of the wall through its height h_k = h_1 + sum of the gaps below it is kept as d/dh_k
+    (`theory_height_slopes`, `theory_mass_height_slopes`), spread over those gaps by the Jacobian."""
 
     def __init__(self, count: int):
         self.count = count
@@ -134,6 +136,8 @@ class ForceTerms:
         self.elastic, self.correction, self.correction_mass = [0.0] * count, [0.0] * count, [0.0] * count
         self.theory_mass = [[0.0] * count for _ in range(count)]
         self.history_factors = [1.0] * count  # K_H^(3/2)
+        self.theory_height_slopes = [0.0] * count  # d f_thr,k / d h_k
+        self.theory_mass_height_slopes = [0.0] * count  # d (C_M,k m_l,k) / d h_k
         self.theory_slopes: list[tuple[int, int, float]] = []
         self.other_slopes: list[tuple[int, int, float]] = []  # of the elastic and correction forces
         self.blend_slopes: list[tuple[int, int, float]] = []
@@ -182,7 +186,6 @@ class BodyIntegrator:
         # what the force terms and the residual reuse at every call (ForceTerms, forces, residual)
         self._terms = ForceTerms(count)
         self._diameters = [b.diameter for b in self.bodies]
-        self._height_columns = [range(0, 2 * k + 1, 2) for k in range(count)]  # the gaps that sum to h_k
         self._rate_slope_array = np.where(self.held, 0.0, 1.0)  # d(dh_k/dt)/dV_k
         self._rate_slopes = self._rate_slope_array.tolist()
         self._gap_columns, self._velocity_columns = np.arange(0, 2 * count, 2), np.arange(1, 2 * count, 2)
@@ -228,6 +231,7 @@ class BodyIntegrator:
         self.y = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
         self.y.setArray(np.r_[start, np.zeros(n - len(start))])
         self._residual_out = np.zeros(n)
+        self._forces_state, self._forces_engaged = b"", None  # the state `forces` saw last
         # The Jacobian's nonzeros: the gaps' and velocities' block, each sphere's velocity with its own
         # history modes, and the modes' diagonal.  Sparse, so that LU (nested dissection) eliminates the
         # modes at no fill: a dense LU of five spheres' 180 unknowns cost 15 times more per step.
@@ -316,8 +320,17 @@ class BodyIntegrator:
         """Every force term at the state y [SI] with its derivatives (ForceTerms; the object is reused: read it
         before the next call).  A sphere's drag, added mass and history see the wall at its height (sphere 1
         through its contact's film, ContactLaw.film: inside a Hertz contact the lubrication is evaluated at
-        h_c and faded out); each neighbouring pair's interaction, added mass and contact its pair gap."""
+        h_c and faded out); each neighbouring pair's interaction, added mass and contact its pair gap.
+
+        The last state's terms are kept: the Rosenbrock step evaluates its Jacobian and its first stage at
+        the state it starts from, which the previous step's trajectory row has seen (4 evaluations a step
+        instead of 6).  The forces depend on y and on what each contact fixed when it began, not on t."""
         f, count = self._terms, len(self.bodies)
+        contact_states = tuple(contact.record.engaged_now for contact in self.contacts)
+        state = y.tobytes()
+        if contact_states == self._forces_engaged and state == self._forces_state:
+            return f
+        self._forces_engaged = None  # until the terms below are whole
         f.clear()
         v = f.velocities = y[1:2 * count:2].tolist()
         rate_slopes = self._rate_slopes  # dr_k/dV_k: 0 for a held sphere, whose gap stays
@@ -332,7 +345,7 @@ class BodyIntegrator:
             if self.uses_theory and self.contact is not None:
                 f.blend[0], slope = self.contact.blend_slope(heights[0])
                 f.blend_slopes.append((0, 0, slope))
-        slopes, mass_slopes = f.theory_slopes, f.theory_mass_slopes
+        slopes = f.theory_slopes
         for k, theory in enumerate(self.theories):
             # the wall as this sphere sees it: (gap, share of the lubrication left, their d/d height)
             if k == 0 and wall is not None:
@@ -341,20 +354,20 @@ class BodyIntegrator:
                 film = (heights[k], 1.0, 1.0, 0.0)
             self._wall_films[k] = film
             gap, share, gap_slope, share_slope = film
-            below, velocity = self._height_columns[k], 2 * k + 1  # the gaps that sum to h_k; V_k
+            velocity = 2 * k + 1  # V_k's column
             drag, d_gap, d_share, d_velocity = theory.drag_slopes(gap, v[k], share)
             f.drag[k] = drag
             d_height = d_gap * gap_slope + d_share * share_slope
-            slopes += [(k, column, d_height) for column in below]
             slopes.append((k, velocity, d_velocity))
             c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
             f.theory_mass[k][k] += c_m
-            mass_slopes += [(k, k, column, c_m_slope * gap_slope) for column in below]
+            f.theory_mass_height_slopes[k] = c_m_slope * gap_slope
             term = 0.0
             if share == 1.0:  # C_M is held with the film inside a Hertz contact: no velocity term there
                 term, d_gap, d_velocity = theory.added_mass_velocity_term_slopes(gap, v[k])
-                slopes += [(k, column, d_gap * gap_slope) for column in below]
+                d_height += d_gap * gap_slope
                 slopes.append((k, velocity, d_velocity))
+            f.theory_height_slopes[k] += d_height
             f.am_velocity[k] = term
             f.theory[k] += drag + term
         for contact in self.pair_contacts:
@@ -373,6 +386,7 @@ class BodyIntegrator:
             f.other_slopes += [(0, 0, d_gap * gap_slope + d_share * share_slope), (0, 1, d_velocity)]
             f.correction_mass[0] += mass
             f.correction_mass_slopes.append((0, 0, d_mass * gap_slope))
+        self._forces_state, self._forces_engaged = state, contact_states
         return f
 
     def _pair_forces(self, f: ForceTerms, contact: Contact, gap: float, v: list, rates: list) -> None:
@@ -425,8 +439,7 @@ class BodyIntegrator:
         if self._drag_scaled_history:
             gap, share, gap_slope, share_slope = self._wall_films[k]
             factor, d_gap, d_share = self.theories[k].wall_factor_slopes(gap, share)
-            d_height = -memory * (d_gap * gap_slope + d_share * share_slope)
-            f.theory_slopes += [(k, column, d_height) for column in self._height_columns[k]]
+            f.theory_height_slopes[k] -= memory * (d_gap * gap_slope + d_share * share_slope)
             for lower in self._adjacent_pairs[k]:  # the pairs below and above it
                 gap, share, gap_slope, share_slope = self._pair_films[lower]
                 side = 3 if lower < k else 0  # (X22 or X11) in (11, 12, 21, 22)
@@ -508,6 +521,9 @@ class BodyIntegrator:
                 theory_mass = np.array(f.theory_mass[k])
                 motion[k, column] += slope * ((theory_mass - added_mass[k]) @ accelerations
                                               - (f.theory[k] - explicit[k]))
+        for k in range(count):  # through the sphere's height, every gap below it
+            motion[k, 0:2 * k + 1:2] += blend[k] * (f.theory_mass_height_slopes[k] * accelerations[k]
+                                                    - f.theory_height_slopes[k])
         motion[self._imposed] = 0.0
         jac = np.zeros((n, n))
         gaps, velocities = self._gap_columns, self._velocity_columns
@@ -539,34 +555,37 @@ class BodyIntegrator:
 
     # -- events and records ---------------------------------------------------------------
     def _event_list(self) -> list:
-        """(contact, kind, indicator(y) dimensionless, direction, terminate) of each event located."""
+        """(contact, kind, indicator(y, rates) dimensionless, direction, terminate) of each event located;
+        rates are the spheres' dh_i/dt (`_rates`), computed once for all the indicators."""
         events = []
         vu = self.scene.velocity_unit
         for contact in self.contacts:
             moving = [k for k in (contact.lower, contact.upper) if k is not None and self.free[k]]
             if not moving and contact.lower is None:  # an imposed path that reaches the wall is an error in it
-                events.append((contact, "path", lambda y: y[0] / self.bodies[0].diameter, -1, True))
+                events.append((contact, "path", lambda y, rates: y[0] / self.bodies[0].diameter, -1, True))
             if not moving:
                 continue
-            rate = (lambda c: lambda y: c.rate(self._rates(y)))(contact)
             length, law, index = contact.model.diameter, contact.law, contact.gap_index  # D or 2a*
 
-            def at_contact(y, c=contact, rate=rate, length=length, index=index):
+            def at_contact(y, rates, c=contact, length=length, index=index):
                 if c.law.ehd and c.record.phase == "rebound":
                     return 1.0  # resumed at h0 after a film collision: the next one starts after the apex
-                return (y[index] - c.law.boundary(max(-rate(y), 0.0), c.record.engaged_now)) / length
+                return (y[index] - c.law.boundary(max(-c.rate(rates), 0.0), c.record.engaged_now)) / length
             events += [
                 (contact, "contact", at_contact, 0, law.ehd),  # ehd: h0 ends the solve, advance() jumps
-                (contact, "turn", lambda y, rate=rate: rate(y) / vu - self._turning_offset, 0, False),
-                (contact, "blend", lambda y, c=contact, i=index, d=length: (y[i] - c.model.blend_gap) / d, 0, False),
-                (contact, "penetration", lambda y, i=index, d=length, law=law: (y[i] - law.floor) / d, -1, True),
+                (contact, "turn", lambda y, rates, c=contact: c.rate(rates) / vu - self._turning_offset, 0, False),
+                (contact, "blend", lambda y, rates, c=contact, i=index, d=length: (y[i] - c.model.blend_gap) / d, 0,
+                 False),
+                (contact, "penetration", lambda y, rates, i=index, d=length, law=law: (y[i] - law.floor) / d, -1,
+                 True),
             ]
         return events
 
     def _indicators(self, ts, t, y, values) -> None:
         y = y.array_r
+        rates = self._rates(y).tolist()
         for k, (_, _, indicator, _, _) in enumerate(self._events):
-            values[k] = indicator(y)
+            values[k] = indicator(y, rates)
 
     def _post_event(self, ts, events, t, y, forward) -> None:
         y = y.array_r

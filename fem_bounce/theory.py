@@ -328,7 +328,7 @@ class TheoryForces:
         row, share, rate = history_row(self.reynolds(velocity))
         if share is None:
             return self.stokes_drag * float(self._weights[row] @ modes), 0.0
-        below, above = float(self._weights[row] @ modes), float(self._weights[row + 1] @ modes)
+        below, above = (self._weights[row:row + 2] @ modes).tolist()
         sign = 1.0 if velocity > 0.0 else -1.0 if velocity < 0.0 else 0.0
         return (self.stokes_drag * ((1.0 - share) * below + share * above),
                 self.stokes_drag * (above - below) * rate * self._re_per_speed * sign)
