@@ -237,6 +237,21 @@ def _far_field_slopes(a1: float, a2: float, h: float) -> tuple[tuple[float, ...]
     return (x11, x12, x21, x22), (d11, d12, d21, d22)
 
 
+def _log_gap_spline(knots: list[float], coefficients: list, h: float) -> tuple[tuple[float, float, float], ...]:
+    """Three cubic splines in x = ln h (knots, and per interval the coefficients of (x - knot)^3 ... ^0 of
+    each, as CubicSpline.c), evaluated at the gap h [m] with their first and second derivatives in x:
+    ((f11, f12, f22), (df/dx ...), (d2f/dx2 ...)), plain floats.  Ends: the first and last cubic go on."""
+    x = math.log(h)
+    i = min(max(bisect.bisect_right(knots, x) - 1, 0), len(coefficients) - 1)
+    t = x - knots[i]
+    (a11, a12, a22), (b11, b12, b22), (c11, c12, c22), (e11, e12, e22) = coefficients[i]
+    return ((((a11 * t + b11) * t + c11) * t + e11, ((a12 * t + b12) * t + c12) * t + e12,
+             ((a22 * t + b22) * t + c22) * t + e22),
+            ((3.0 * a11 * t + 2.0 * b11) * t + c11, (3.0 * a12 * t + 2.0 * b12) * t + c12,
+             (3.0 * a22 * t + 2.0 * b22) * t + c22),
+            (6.0 * a11 * t + 2.0 * b11, 6.0 * a12 * t + 2.0 * b12, 6.0 * a22 * t + 2.0 * b22))
+
+
 class PairResistance:
     """X(h) of `resistance` for one pair of radii, tabulated once and interpolated: the series costs
     milliseconds near contact, an ODE right-hand side needs microseconds.
@@ -292,14 +307,7 @@ class PairResistance:
             return self._lubrication_slopes(h)
         if h > self.h_max:
             return _far_field_slopes(self.a1, self.a2, h)
-        x = math.log(h)
-        i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
-        t = x - self._knots[i]
-        (a11, a12, a22), (b11, b12, b22), (c11, c12, c22), (e11, e12, e22) = self._coefficients[i]
-        y11, y12, y22 = (((a11 * t + b11) * t + c11) * t + e11, ((a12 * t + b12) * t + c12) * t + e12,
-                         ((a22 * t + b22) * t + c22) * t + e22)
-        dy11, dy12, dy22 = ((3.0 * a11 * t + 2.0 * b11) * t + c11, (3.0 * a12 * t + 2.0 * b12) * t + c12,
-                            (3.0 * a22 * t + 2.0 * b22) * t + c22)
+        (y11, y12, y22), (dy11, dy12, dy22), _ = _log_gap_spline(self._knots, self._coefficients, h)
         unsqueeze = (h + self.a_star) / h
         squeeze_rate = -self.a_star / (h * h)  # d(unsqueeze)/dh
         x12, d12 = y12 * unsqueeze, dy12 / h * unsqueeze + y12 * squeeze_rate
@@ -478,16 +486,8 @@ class PairAddedMass:
         if h <= self.h_min:
             c11, c12, c22 = self._lowest
             return (c11, c12, self._ratio * c12, c22), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0)
-        x = math.log(h)
-        i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
-        t = x - self._knots[i]
-        (a11, a12, a22), (b11, b12, b22), (c11, c12, c22), (e11, e12, e22) = self._coefficients[i]
-        v11, v12, v22 = (((a11 * t + b11) * t + c11) * t + e11, ((a12 * t + b12) * t + c12) * t + e12,
-                         ((a22 * t + b22) * t + c22) * t + e22)
-        # dC/d(ln h) and d2C/d(ln h)2
-        r11, r12, r22 = ((3.0 * a11 * t + 2.0 * b11) * t + c11, (3.0 * a12 * t + 2.0 * b12) * t + c12,
-                         (3.0 * a22 * t + 2.0 * b22) * t + c22)
-        q11, q12, q22 = 6.0 * a11 * t + 2.0 * b11, 6.0 * a12 * t + 2.0 * b12, 6.0 * a22 * t + 2.0 * b22
+        # C and its derivatives in ln h: d/dh = (d/d ln h) / h, d2/dh2 = (d2/d ln h2 - d/d ln h) / h^2
+        (v11, v12, v22), (r11, r12, r22), (q11, q12, q22) = _log_gap_spline(self._knots, self._coefficients, h)
         square, ratio = h * h, self._ratio
         s11, s12, s22 = r11 / h, r12 / h, r22 / h
         k11, k12, k22 = (q11 - r11) / square, (q12 - r12) / square, (q22 - r22) / square
