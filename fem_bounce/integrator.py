@@ -26,9 +26,9 @@ Everything is one implicit system G(t, y, y') = 0 with y = [h_1, V_1, s_1, V_2, 
 z_2..., ...] for an adaptive Rosenbrock-W integrator (TSROSW) whose steps sub-cycle inside a fluid step:
 the elastic contact lasts tens of microseconds, a fluid step a millisecond.  The gaps, not the heights,
 are integrated so that the relative tolerance governs them near contact (an error of rtol h_2 would
-exceed the film).  Its Jacobian is exact, assembled from each force term's own derivatives (ForceTerms),
-and each unknown is held to its own tolerance, a history mode's set by how far its error moves the
-velocity (`_build_ts`; docs/performance.md, the ODE model's steps).
+exceed the film).  Its Jacobian is exact, assembled from each force term's own derivatives (ForceTerms);
+with history modes each unknown is held to its own tolerance, a mode's set by how far its error moves the
+velocity (`_build_ts`, `_new_ts`; docs/performance.md, the ODE model's steps).
 
 TS events, for each neighbouring contact (each pair bottom up, then the wall): the gap crossing its
 contact gap (what the contact keeps, h_c or W_o, is fixed there from the approach speed) and delta_sl
