@@ -177,21 +177,40 @@ class ContactLaw:
 
     def force(self, gap: float, rate: float, engaged: float) -> float:
         """The contact force pushing the surfaces apart [N] at the gap `gap` [m] closing at -`rate` [m/s]."""
+        return self.force_slopes(gap, rate, engaged)[0]
+
+    def force_slopes(self, gap: float, rate: float, engaged: float) -> tuple[float, float, float]:
+        """(force [N], its derivatives d/d gap [N/m] and d/d rate [N s/m])."""
         if self.ehd:
-            return 0.0  # the film collision is a jump of the state (integrator.py), not a force
+            return 0.0, 0.0, 0.0  # the film collision is a jump of the state (integrator.py), not a force
         if not self.hertz:
-            return self.dry_restitution * engaged * elastic_shape(gap / (self.delta_ss * self.length))
+            scale = self.delta_ss * self.length
+            x = gap / scale
+            if x >= 1.0:
+                return 0.0, 0.0, 0.0
+            push = self.dry_restitution * engaged
+            return push * elastic_shape(x), -push * math.exp(-x) / ((1.0 - _E_INV) * scale), 0.0
         overlap = engaged - gap
         if overlap <= 0.0:
-            return 0.0
-        return max(self.stiffness * overlap**1.5 - self.damping * overlap**0.25 * rate, 0.0)
+            return 0.0, 0.0, 0.0
+        force = self.stiffness * overlap**1.5 - self.damping * overlap**0.25 * rate
+        if force <= 0.0:  # held >= 0: no adhesion
+            return 0.0, 0.0, 0.0
+        stiffening = 1.5 * self.stiffness * overlap**0.5 - 0.25 * self.damping * overlap**-0.75 * rate
+        return force, -stiffening, -self.damping * overlap**0.25
 
     def film(self, gap: float, engaged: float | None) -> tuple[float, float]:
         """(gap [m] at which the lubrication is evaluated, the share of it left): (gap, 1) outside a
         Hertz contact; inside, (h_c, h / h_c) down to 0 at h = 0 (module docstring)."""
+        return self.film_slopes(gap, engaged)[:2]
+
+    def film_slopes(self, gap: float, engaged: float | None) -> tuple[float, float, float, float]:
+        """`film` and the derivatives of its two numbers in the gap: (gap, share, d gap, d share [1/m])."""
         if engaged is None or not self.hertz or gap >= engaged:
-            return gap, 1.0
-        return engaged, min(max(gap / engaged, 0.0), 1.0)
+            return gap, 1.0, 1.0, 0.0
+        if gap <= 0.0:
+            return engaged, 0.0, 0.0, 0.0
+        return engaged, gap / engaged, 0.0, 1.0 / engaged
 
     def collide(self, speed: float, mass: float, force: float = 0.0) -> "ehd.FilmResult":
         """The film collision (contact.model = "ehd") of a sphere arriving at the handover gap h0 at `speed`
@@ -255,6 +274,11 @@ class ContactModel(ContactGaps):
     def blend(self, gap: float) -> float:
         return blend(gap / self.diameter, self.delta_sl)
 
+    def blend_slope(self, gap: float) -> tuple[float, float]:
+        """(H, dH/d gap [1/m]) of the paper's blend: dH/dx = -H (1 - H) for H = 1 / (1 + e^x)."""
+        weight = self.blend(gap)
+        return weight, -weight * (1.0 - weight) * 10.0 / (self.delta_sl * self.diameter)
+
     def correction(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, float]:
         """(force [N], added mass [kg]) that a flow held at delta_sl misses when the sphere is at `gap`
         (the lubrication's gap, ContactLaw.film, with the share `film` of it left): the correction is
@@ -264,10 +288,21 @@ class ContactModel(ContactGaps):
         - the wall's added mass grows: -[C_M(delta) - C_M(delta_sl)] m_l dV/dt;
         - the held geometry does not approach, so the force of the changing added mass,
           -(1/2) m_l V^2 dC_M/dh (the f_AM term of eq. 4.3 in V dW/dt), is absent from it."""
+        return self.correction_slopes(gap, velocity, film)[:2]
+
+    def correction_slopes(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, ...]:
+        """`correction` (force [N], added mass [kg]) and its derivatives: the force's d/d gap [N/m],
+        d/d film [N] and d/dV [N s/m], the added mass's d/d gap [kg/m]."""
         if not self.correcting or gap >= self.blend_gap:
-            return 0.0, 0.0
+            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
         theory = self.theory
-        lubrication = -theory.stokes_drag * velocity * film * (theory.wall_factor(gap) - self._lambda_hold)
-        added_mass = theory.added_mass(gap)[0] - self._added_mass_hold
-        held = film < 1.0  # inside a Hertz contact C_M is held at h_c: its velocity term vanishes
-        return lubrication + (0.0 if held else theory.added_mass_velocity_term(gap, velocity)), added_mass
+        wall, wall_gap, _ = theory.wall_factor_slopes(gap)
+        missed = wall - self._lambda_hold
+        lubrication = -theory.stokes_drag * velocity * film * missed
+        d_gap, d_film, d_velocity = (-theory.stokes_drag * velocity * film * wall_gap,
+                                     -theory.stokes_drag * velocity * missed, -theory.stokes_drag * film * missed)
+        c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
+        if film == 1.0:  # inside a Hertz contact C_M is held at h_c: its velocity term vanishes
+            term, term_gap, term_velocity = theory.added_mass_velocity_term_slopes(gap, velocity)
+            lubrication, d_gap, d_velocity = lubrication + term, d_gap + term_gap, d_velocity + term_velocity
+        return lubrication, c_m - self._added_mass_hold, d_gap, d_film, d_velocity, c_m_slope
