@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
-from . import models, output
+from . import losses, models, output
 from . import scene as scenes
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
@@ -462,6 +462,8 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     unwritten = ""
     if run_dir is not None:
         def write_outputs() -> str:
+            with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
+                losses.annotate(data, output.read_trajectory(out_dir))
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 _draw(out_dir)  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
