@@ -284,7 +284,8 @@ class ContactModel(ContactGaps):
         (the lubrication's gap, ContactLaw.film, with the share `film` of it left): the correction is
         force - added_mass * dV/dt, zero at and above delta_sl.
 
-        - lubrication: -6 pi mu a V [lambda(delta) - lambda(delta_sl)] (lambda by contact.wall_drag);
+        - lubrication: -6 pi mu a V [lambda(delta) - lambda(delta_sl)] (lambda by contact.wall_drag), less
+          the suction the liquid cannot hold as the sphere leaves the wall (TheoryForces.tension_relief);
         - the wall's added mass grows: -[C_M(delta) - C_M(delta_sl)] m_l dV/dt;
         - the held geometry does not approach, so the force of the changing added mass,
           -(1/2) m_l V^2 dC_M/dh (the f_AM term of eq. 4.3 in V dW/dt), is absent from it."""
@@ -298,9 +299,11 @@ class ContactModel(ContactGaps):
         theory = self.theory
         wall, wall_gap, _ = theory.wall_factor_slopes(gap)
         missed = wall - self._lambda_hold
-        lubrication = -theory.stokes_drag * velocity * film * missed
-        d_gap, d_film, d_velocity = (-theory.stokes_drag * velocity * film * wall_gap,
-                                     -theory.stokes_drag * velocity * missed, -theory.stokes_drag * film * missed)
+        relief, relief_gap, relief_velocity = theory.tension_relief(gap, velocity)  # the held flow has no cavity
+        lubrication = -theory.stokes_drag * velocity * film * missed + film * relief
+        d_gap, d_film, d_velocity = (-theory.stokes_drag * velocity * film * wall_gap + film * relief_gap,
+                                     -theory.stokes_drag * velocity * missed + relief,
+                                     -theory.stokes_drag * film * missed + film * relief_velocity)
         c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
         if film == 1.0:  # inside a Hertz contact C_M is held at h_c: its velocity term vanishes
             term, term_gap, term_velocity = theory.added_mass_velocity_term_slopes(gap, velocity)

@@ -135,6 +135,7 @@ class ForceTerms:
         self.blend = [1.0] * count
         self.theory, self.drag, self.am_velocity, self.pair, self.pair_am_velocity, self.history = (
             [0.0] * count for _ in range(6))
+        self.lubrication = [0.0] * count  # the part of the drag the wall adds (no derivatives: a record only)
         self.elastic, self.correction, self.correction_mass = [0.0] * count, [0.0] * count, [0.0] * count
         self.theory_mass = [[0.0] * count for _ in range(count)]
         self.history_factors = [1.0] * count  # K_H^(3/2)
@@ -171,6 +172,7 @@ class BodyIntegrator:
         ends = 2 * count + np.cumsum(self.n_history, dtype=int)  # in y, after the gaps and velocities
         self._mode_slices = [slice(int(end) - modes, int(end)) for end, modes in zip(ends, self.n_history)]
         self._drag_scaled_history = scene.contact.history_wall_factor == "drag-scaled"
+        self._pause_history = scene.contact.history_across_contact == "pause"
         self.fluid = FluidForce(np.zeros(count), np.zeros((count, count)))
         self.observers: list[Callable[[dict], None]] = []
         self.contacts: list[Contact] = []
@@ -363,6 +365,7 @@ class BodyIntegrator:
             velocity = 2 * k + 1  # V_k's column
             drag, d_gap, d_share, d_velocity = theory.drag_slopes(gap, v[k], share)
             f.drag[k] = drag
+            f.lubrication[k] = drag - theory.free_drag(v[k])
             d_height = d_gap * gap_slope + d_share * share_slope
             slopes.append((k, velocity, d_velocity))
             c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
@@ -499,8 +502,20 @@ class BodyIntegrator:
         out[2:2 * count:2] += rates[:-1]  # a pair gap's rate is the upper sphere's less the lower's
         out[1:2 * count:2] = mass @ accelerations - rhs
         modes = slice(2 * count, None)  # every sphere's, each z' - dV/dt + z / T
-        out[modes] = ydot[modes] - accelerations[self._mode_owners] + y[modes] / self._all_mode_times
+        out[modes] = (ydot[modes] - (self._remembering() * accelerations)[self._mode_owners]
+                      + y[modes] / self._all_mode_times)
         return out
+
+    def _remembering(self) -> np.ndarray:
+        """1 for a sphere whose history modes take in its acceleration now, 0 for one in a contact under
+        contact.history_across_contact = "pause" (its modes then only decay: the contact's reversal is not
+        remembered, docs/physics.md 3.6)."""
+        remember = np.ones(len(self.bodies))
+        if self._pause_history:
+            for contact in self.contacts:
+                if contact.record.engaged_now is not None:
+                    remember[[k for k in (contact.lower, contact.upper) if k is not None]] = 0.0
+        return remember
 
     def jacobian(self, t: float, y, ydot, shift: float) -> np.ndarray:
         """dG/dy + shift dG/dy' at (t, y, y'), exact: the gaps' and the history modes' rows are linear; the
@@ -538,12 +553,13 @@ class BodyIntegrator:
         jac[gaps[1:], velocities[:-1]] = self._rate_slope_array[:-1]
         jac[velocities, :2 * count] = motion
         jac[np.ix_(velocities, velocities)] += shift * mass
+        remember = self._remembering()
         for k, modes in enumerate(self._mode_slices):
             if modes.stop > modes.start:
                 if self.free[k]:  # -dR/dz: R holds blend f_H = -blend K c . z
                     jac[2 * k + 1, modes] = blend[k] * f.history_factors[k] * self.theories[k].history_coefficients(
                         f.velocities[k])
-                jac[modes, 2 * k + 1] = -shift
+                jac[modes, 2 * k + 1] = -shift * remember[k]
                 jac[modes, modes] = np.diag(shift + 1.0 / self._mode_times[k])
         return jac
 
@@ -672,7 +688,8 @@ class BodyIntegrator:
         if len(taus):
             duration = max(t_end - t, 1e-300)
             decay = np.exp(-duration / taus)
-            state[history] = state[history] * decay + (v_end - v) * taus / duration * (1.0 - decay)
+            remembered = 0.0 if self._pause_history else (v_end - v) * taus / duration * (1.0 - decay)
+            state[history] = state[history] * decay + remembered
         state[0], state[1] = h_end, v_end
         self.y.setArray(state)
         # A fresh TS: PETSc 3.18's event handler keeps the interval of the terminated event, and a solve
@@ -748,6 +765,7 @@ class BodyIntegrator:
         sim = self.fluid.explicit - self.fluid.added_mass @ accel if self.resolved else theory
         correction = np.array(f.correction) - np.array(f.correction_mass) * accel
         per_sphere = dict(gap=f.heights, velocity=f.velocities, acceleration=accel, f_drag=drag,
+                          f_lubrication=f.lubrication,
                           f_history=history, f_pair=pair, f_added_mass=added_mass, f_theory=theory,
                           f_sim=sim, blend=blend, f_liquid=blend * theory + (1.0 - blend) * sim + correction,
                           f_elastic=f.elastic, f_correction=correction)

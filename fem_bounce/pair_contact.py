@@ -30,6 +30,7 @@ import math
 
 import numpy as np
 
+from . import cavitation
 from .bodies import scene_bodies
 from .contact import ContactGaps, ContactLaw
 from .materials import reduced_modulus
@@ -66,6 +67,8 @@ class PairContactModel(ContactGaps):
         self.stokes_drags = 6.0 * math.pi * scene.liquid.viscosity * self.radii  # 6 pi mu a_i [N s/m]
         self._stokes_drags = tuple(self.stokes_drags.tolist())  # plain floats for the force terms
         self._liquid = scene.liquid
+        floor = scene.cavitation_pressure  # the most tension the film between the two holds [Pa]
+        self.tension = math.inf if floor is None else -floor
         # the hold and the correction belong to a resolved flow with a free sphere (as at the wall)
         self.correcting = resolved and scene.near_wall_law == "correction" and any(free)
         self._resistance = PairResistance(first.radius, second.radius)  # tabulated once, ~3 us a call
@@ -108,7 +111,8 @@ class PairContactModel(ContactGaps):
     def interaction_slopes(self, gap: float, v1: float, v2: float, film: float = 1.0) -> tuple:
         """`interaction` and its derivatives: ((f1, f2), d/d gap, d/d film, ((df1/dV1, df1/dV2), (df2/dV1,
         df2/dV2)))."""
-        return self._stokes_excess(self.resistance_slopes(gap), (1.0, 0.0, 0.0, 1.0), v1, v2, film)
+        return self._relieved(self._stokes_excess(self.resistance_slopes(gap), (1.0, 0.0, 0.0, 1.0), v1, v2, film),
+                              gap, v1, v2, film)
 
     def correction(self, gap: float, velocities: np.ndarray, film: float = 1.0) -> np.ndarray:
         """What a flow holding the pair gap at delta_sl 2a* misses at the gap h < delta_sl 2a* [N]:
@@ -119,7 +123,23 @@ class PairContactModel(ContactGaps):
         """`correction` and its derivatives, as `interaction_slopes`."""
         if not self.correcting or gap >= self.blend_gap:
             return (0.0, 0.0), (0.0, 0.0), (0.0, 0.0), ((0.0, 0.0), (0.0, 0.0))
-        return self._stokes_excess(self.resistance_slopes(gap), self._resistance_hold.ravel().tolist(), v1, v2, film)
+        excess = self._stokes_excess(self.resistance_slopes(gap), self._resistance_hold.ravel().tolist(), v1, v2, film)
+        return self._relieved(excess, gap, v1, v2, film)  # the held flow has no cavity
+
+    def _relieved(self, forces: tuple, gap: float, v1: float, v2: float, film: float) -> tuple:
+        """`forces` (as interaction_slopes) with the liquid's tension limit on the film between the two
+        surfaces as they separate (fem_bounce.cavitation, the reduced radius a* and the opening rate
+        V2 - V1): the relief R >= 0 pushes sphere 2 up and sphere 1 down, weighed by the share `film`."""
+        if self.tension == math.inf:
+            return forces
+        relief, d_gap, d_rate = cavitation.tension_relief(gap, v2 - v1, self.reduced_radius, self._liquid.viscosity,
+                                                          self.tension)
+        if not relief:
+            return forces
+        (f1, f2), (g1, g2), (s1, s2), ((a11, a12), (a21, a22)) = forces
+        return ((f1 - film * relief, f2 + film * relief), (g1 - film * d_gap, g2 + film * d_gap),
+                (s1 - relief, s2 + relief),
+                ((a11 + film * d_rate, a12 - film * d_rate), (a21 - film * d_rate, a22 + film * d_rate)))
 
     def _stokes_excess(self, resistance, base, v1: float, v2: float, film: float) -> tuple:
         """-film 6 pi mu a_i sum_j (X_ij - base_ij) U_j and its derivatives (`interaction_slopes`), X and dX/dh

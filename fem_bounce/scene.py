@@ -235,6 +235,9 @@ class Contact:
     "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
       ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)
       (fem_bounce.ehd, docs/ehd.md) takes the sphere to its rebound at the same gap, or to rest.
+    history_across_contact: "keep": the history force's memory takes in the whole path, the contact's
+      reversal included; "pause": it does not take in a sphere's acceleration while the sphere is in a
+      contact (its memory only decays there; docs/physics.md 3.6).
     cavitation_pressure: the lowest (gauge) pressure a lubrication film holds as the surfaces separate
       (fem_bounce.cavitation, docs/physics.md section 3.5): "liquid" computes it from the liquid,
       vapour - ambient - rho_l g (container height); a number in [-1e8, 0] Pa sets it (sensitivity);
@@ -255,6 +258,7 @@ class Contact:
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")
+    history_across_contact: str = _choice("keep", "pause")
     history_c1: float = _between(0.1, 100.0, 2.0, note="Mei & Adrian's (1992) constant is 2; the history kernel's "
                                  "exponential fit (theory.history_modes) is built and checked for 0.1-100")
     history_c2: float = _between(0.0, 10.0, 0.105)

@@ -30,6 +30,7 @@ import math
 import numpy as np
 from scipy.optimize import nnls
 
+from . import cavitation
 from .scene import Scene
 
 # -- quasi-steady drag -------------------------------------------------------------------
@@ -250,6 +251,10 @@ class TheoryForces:
         self._additive = c.inertial_law == "additive"
         self._w = {"first-image": first_image_w, "exact": exact_w}[c.added_mass]
         self.wall_present = scene.wall.present  # without the wall: lambda = 1 and W = 0 at every gap
+        # the most tension the film under the sphere holds as it leaves the wall [Pa] (fem_bounce.cavitation)
+        floor = scene.cavitation_pressure
+        self.tension = math.inf if floor is None or not self.wall_present else -floor
+        self._film = (sphere.radius, liquid.viscosity)
         theta, self._weights = history_modes(scene.numerics.ode.history_modes_per_decade, c.history_c1, c.history_c2)
         diffusion_time = sphere.diameter**2 / liquid.kinematic_viscosity
         self.history_times = theta * diffusion_time  # T_i [s]
@@ -278,15 +283,39 @@ class TheoryForces:
         return self.drag_slopes(gap, velocity, film)[0]
 
     def drag_slopes(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, float, float, float]:
-        """(f_D [N], its derivatives d/d gap [N/m], d/d film [N] and d/dV [N s/m])."""
+        """(f_D [N], its derivatives d/d gap [N/m], d/d film [N] and d/dV [N s/m]).  The wall's excess
+        includes the liquid's tension limit on a sphere leaving the wall (`tension_relief`), weighed as the
+        lubrication is (by the share `film`, and by phi in the multiplied law)."""
         wall, wall_gap, wall_film = self.wall_factor_slopes(gap, film)
         inertia, inertia_growth = self._inertia(self.reynolds(velocity))  # phi, V dphi/dV
         scale = -self.stokes_drag * velocity
         if self._additive:
             factor = wall + inertia - 1.0
-            return scale * factor, scale * wall_gap, scale * wall_film, -self.stokes_drag * (factor + inertia_growth)
-        return (scale * (wall * inertia), scale * inertia * wall_gap, scale * inertia * wall_film,
-                -self.stokes_drag * wall * (inertia + inertia_growth))
+            force, d_gap, d_film = scale * factor, scale * wall_gap, scale * wall_film
+            d_velocity, weight, weight_slope = -self.stokes_drag * (factor + inertia_growth), 1.0, 0.0
+        else:
+            force, d_gap, d_film = scale * (wall * inertia), scale * inertia * wall_gap, scale * inertia * wall_film
+            d_velocity = -self.stokes_drag * wall * (inertia + inertia_growth)
+            weight, weight_slope = inertia, inertia_growth / velocity if velocity else 0.0
+        relief, relief_gap, relief_velocity = self.tension_relief(gap, velocity)
+        if relief:
+            force += film * weight * relief
+            d_gap += film * weight * relief_gap
+            d_film += weight * relief
+            d_velocity += film * (weight * relief_velocity + weight_slope * relief)
+        return force, d_gap, d_film, d_velocity
+
+    def free_drag(self, velocity: float) -> float:
+        """The free sphere's quasi-steady drag -6 pi mu a V phi(Re) [N]; f_D less it is what the wall adds, the
+        lubrication (the loss audit's term, fem_bounce.losses)."""
+        return -self.stokes_drag * velocity * self._inertia(self.reynolds(velocity))[0]
+
+    def tension_relief(self, gap: float, velocity: float) -> tuple[float, float, float]:
+        """What the liquid's tension limit takes off the film's suction on a sphere leaving the wall at the gap
+        (fem_bounce.cavitation.tension_relief: the force [N] >= 0 and its d/d gap, d/dV)."""
+        if self.tension == math.inf:
+            return 0.0, 0.0, 0.0
+        return cavitation.tension_relief(gap, velocity, *self._film, self.tension)
 
     def added_mass(self, gap: float) -> tuple[float, float]:
         """(C_M m_l [kg], dC_M/dh m_l [kg/m]), C_M = (1 + 3 W) / 2.

@@ -40,7 +40,9 @@ def differences(integrator, t, y, ydot, shift, scale):
 CASES = {  # preset, scene changes, gaps (h_1, s_1, ...) [m], velocities [m/s], contacts engaged (index, speed)
     "free fall": ("li2011-case3", {}, [0.5 * D], [-0.3], (), None),
     "film approaching": ("li2011-case3", {}, [1e-5], [-0.3], (), None),
-    "film separating": ("li2011-case3", {}, [1e-5], [0.2], (), None),
+    "film separating": ("li2011-case3", {}, [1e-5], [0.2], (), None),  # the tension limit: the film cavitates
+    "film separating, no tension": ("li2011-case3", {"contact.cavitation_pressure": 0.0}, [1e-5], [0.2], (), None),
+    "resolved, correction, separating": ("li2011-case3", {}, [1e-5], [0.2], (), FLOW_1),
     "hertz, film fading": ("li2011-case3", {}, [1.5e-7], [-0.3], [(0, 0.35)], None),
     "hertz, overlapping": ("li2011-case3", {}, [-3e-6], [0.2], [(0, 0.35)], None),
     "paper's spring": ("li2011-case3", {"contact.model": "li2011"}, [1e-4], [-0.3], [(0, 0.35)], None),
@@ -56,6 +58,8 @@ CASES = {  # preset, scene changes, gaps (h_1, s_1, ...) [m], velocities [m/s], 
     "resolved, correction": ("li2011-case3", {}, [1e-3], [-0.3], (), FLOW_1),
     "resolved, paper's blend": ("li2011-case3", {"contact.near_wall": "blend"}, [1.7e-3], [-0.3], (), FLOW_1),
     "pair, film": ("yang-hunt2006-pair", {}, [0.1, 1e-4], [0.3, -0.1], (), None),
+    "pair, film separating": ("yang-hunt2006-pair", {}, [0.1, 1e-5], [-0.1, 0.2], (), None),
+    "pair resolved, film separating": ("yang-hunt2006-pair", {}, [0.1, 1e-5], [-0.1, 0.2], (), FLOW_2),
     "pair, hertz": ("yang-hunt2006-pair", {}, [0.1, 2e-7], [0.3, -0.1], [(0, 0.3)], None),
     "pair and wall, films, drag-scaled history": (
         "pair-settling-wall", {"contact.history_wall_factor": "drag-scaled"}, [2e-4, 3e-5], [-0.2, -0.25], (), None),
