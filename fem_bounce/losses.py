@@ -49,25 +49,24 @@ def force_terms(trajectory: dict, net_weight: float) -> dict[str, np.ndarray]:
             "contact": trajectory["f_elastic"], "weight": np.full_like(blend, -net_weight)}
 
 
+def _at_level(t: np.ndarray, gap: np.ndarray, level: float, k: int) -> float:
+    """When the gap passes `level` between rows k and k + 1, interpolated linearly."""
+    return float(t[k] + (level - gap[k]) * (t[k + 1] - t[k]) / (gap[k + 1] - gap[k]))
+
+
 def _crossing(t: np.ndarray, gap: np.ndarray, level: float, start: int, stop: int, inward: bool) -> float | None:
     """The first time in rows [start, stop) that the gap passes `level` inward (or outward), interpolated."""
     # outward, a run that stops where the gap reaches the level (a sweep's rebound) ends on it: it counts
     above = gap[start:stop] > level if inward else gap[start:stop] >= level * (1.0 - 1e-9)
     change = np.flatnonzero(above[:-1] & ~above[1:]) if inward else np.flatnonzero(~above[:-1] & above[1:])
-    if not change.size:
-        return None
-    k = start + int(change[0])
-    return float(t[k] + (level - gap[k]) * (t[k + 1] - t[k]) / (gap[k + 1] - gap[k]))
+    return _at_level(t, gap, level, start + int(change[0])) if change.size else None
 
 
 def _last_crossing_in(t: np.ndarray, gap: np.ndarray, level: float, start: int, stop: int) -> float | None:
     """The last time in rows [start, stop] that the gap passes `level` inward, interpolated."""
     above = gap[start:stop + 1] > level
     change = np.flatnonzero(above[:-1] & ~above[1:])
-    if not change.size:
-        return None
-    k = start + int(change[-1])
-    return float(t[k] + (level - gap[k]) * (t[k + 1] - t[k]) / (gap[k + 1] - gap[k]))
+    return _at_level(t, gap, level, start + int(change[-1])) if change.size else None
 
 
 def impulse(t: np.ndarray, force: np.ndarray, start: float, end: float) -> float:
