@@ -165,10 +165,12 @@ def _cmd_run(args) -> int:
     _route_warnings()
     LIBRARY_LOG.verbose = args.verbose
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
-    if comm.rank == 0:
+
+    def start_line() -> None:  # once nothing can refuse the run: a refusal prints its one line alone
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
+
     summary = run.run_logged(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                             command=command, progress=not args.quiet)
+                             command=command, progress=not args.quiet, on_start=start_line)
     if comm.rank == 0:
         _print_records(summary)
     return 0

@@ -1,11 +1,11 @@
 """What a run shows while it runs, and how it is asked to stop between two steps.
 
     bar = ProgressBar(end_time=0.2, diameters=[0.012], enabled=comm.rank == 0)
-    monitor = Monitor(bar, comm, interrupts, writer)   # the run calls monitor(t, steps, gaps, velocities)
+    monitor = Monitor(bar, comm, interrupts, writers, time_unit)   # the run calls monitor(t, steps, gaps, velocities)
 
 The bar is one status line on stderr (rank 0); the monitor draws it after every step and ends the run
-on every rank together when a signal has arrived (run.Interrupts) or rank 0 could not write the
-trajectory (output.TrajectoryWriter.failure).
+on every rank together when a signal has arrived (run.Interrupts), rank 0 could not write the
+trajectory or a side file (output.TrajectoryWriter.failure), or the steps fell below their floor (STEP_FLOOR).
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from .errors import RunFailed, RunInterrupted
+from .errors import RunDiverged, RunFailed, RunInterrupted
 
 
 class ProgressBar:
@@ -56,27 +56,58 @@ class ProgressBar:
             print(file=sys.stderr)
 
 
-class Monitor:
-    """What the run calls after each step: the bar, and the stop requests (module docstring)."""
+# The step floor: a run whose steps, over STEP_FLOOR_WINDOW of them, advance less than STEP_FLOOR time units each on
+# average (sqrt(D/g), or D over the launch speed) cannot reach its end (one time unit would take 1e9 steps, days of
+# the ode model's ~2,000 steps a second): it ends as diverged.  The adaptive integrators restart at 1e-7 time units
+# after an event (integrator._new_ts) and grow tenfold a step, so no healthy run comes near it.
+STEP_FLOOR = 1e-9
+STEP_FLOOR_WINDOW = 1000
 
-    def __init__(self, bar: ProgressBar, comm, interrupts, writer):
-        """`interrupts`: a run.Interrupts (its `signum` is set by SIGINT/SIGTERM) or None; `writer`: rank 0's
-        output.TrajectoryWriter (None elsewhere and when the run writes nothing)."""
-        self.bar, self.comm, self.interrupts, self.writer = bar, comm, interrupts, writer
+
+class Monitor:
+    """What the run calls after each step: the bar, the stop requests and the step floor (module docstring)."""
+
+    def __init__(self, bar: ProgressBar, comm, interrupts, writers=(), time_unit: float = 0.0):
+        """`interrupts`: a run.Interrupts (its `signum` is set by SIGINT/SIGTERM) or None; `writers`: rank 0's
+        output.TrajectoryWriters (none elsewhere and when the run writes nothing); `time_unit` [s]: the scene's,
+        for the step floor (0: none)."""
+        self.bar, self.comm, self.interrupts, self.writers = bar, comm, interrupts, list(writers)
+        self.floor = STEP_FLOOR * time_unit
         self.steps = 0
+        self._window: tuple[int, float] | None = None  # (steps, t) where the floor's window began
 
     def __call__(self, t: float, steps: int, gaps: np.ndarray, velocities: np.ndarray, force: bool = False) -> None:
         self.steps = steps
         self.bar(t, steps, gaps, velocities, force=force)
-        flags = np.array([self.interrupts.signum if self.interrupts is not None else 0,
-                          int(self.writer is not None and self.writer.failure is not None)])
+        failed = next((writer.failure for writer in self.writers if writer.failure is not None), None)
+        flags = np.array([self.interrupts.signum if self.interrupts is not None else 0, int(failed is not None)])
         if self.comm.size > 1:
             from mpi4py import MPI
 
             self.comm.Allreduce(MPI.IN_PLACE, flags, op=MPI.MAX)
         if flags[1]:
-            raise RunFailed(str(self.writer.failure) if self.writer is not None and self.writer.failure
-                            else "rank 0 could not write the trajectory")
+            raise RunFailed(str(failed) if failed is not None else "rank 0 could not write the trajectory")
         if flags[0]:
             signum = int(flags[0])
             raise RunInterrupted(f"interrupted by {signal.Signals(signum).name} at t = {t:.6g} s", signum)
+        self._check_floor(t, steps, gaps, velocities)
+
+    def _check_floor(self, t: float, steps: int, gaps: np.ndarray, velocities: np.ndarray) -> None:
+        """End the run (RunDiverged) when its last STEP_FLOOR_WINDOW steps advanced less than the floor each on
+        average (identical on every rank: the bodies' integrators are)."""
+        if self._window is None or steps < self._window[0]:
+            self._window = (steps, t)
+        taken, start = steps - self._window[0], self._window[1]
+        if taken < STEP_FLOOR_WINDOW:
+            return
+        self._window = (steps, t)
+        if t - start >= taken * self.floor:
+            return
+        d = self.bar.diameters
+        where = ", ".join(f"{gap / d[0]:.4g}" for gap in gaps)
+        speeds = ", ".join(f"{v:+.3g}" for v in velocities)
+        raise RunDiverged(
+            f"the step fell below its floor: the last {taken} steps advanced {t - start:.3g} s to t = {t:.6g} s, "
+            f"{(t - start) / taken:.3g} s a step against a floor of {STEP_FLOOR:g} time units ({self.floor:.3g} s): "
+            f"the bodies' integration has stalled (gaps {where} D, V {speeds} m/s), a contact or a coupling too stiff "
+            "for its step; nothing was computed wrong up to here")

@@ -287,7 +287,7 @@ class FictitiousDomainModel(FlowModel):
                                   "the scene was changed")
         self.history = History(self.flow.bdf, velocities, interiors)
 
-    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
         if not fields:
             return
         path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
