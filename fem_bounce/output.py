@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import cachedir
 from . import scene as scenes
 from ._version import __version__
 from .errors import CheckpointError, OutputError
@@ -477,12 +478,22 @@ def _scene_changes(saved_text: str, scene, run_dir: Path) -> list[str]:
 
 def out_path(text: str | Path | None) -> Path | None:
     """An output directory as the user gave it (--out, out=): an empty string is refused, not read as the
-    current directory."""
+    current directory, and so is a place inside fem_bounce's cache (its runs are the studies' own: a run written
+    there by hand would be read back as the cached answer of another scene)."""
     if text is None:
         return None
+    if not isinstance(text, (str, os.PathLike)):
+        raise OutputError(f"--out {text!r} must be a path (a str or a pathlib.Path)")
     if not str(text).strip():
         raise OutputError("--out is empty: give a directory, e.g. --out runs/mine")
-    return Path(text)
+    path = Path(text)
+    cache = cachedir.root()
+    with contextlib.suppress(OSError, RuntimeError):
+        resolved, cache = path.resolve(), cache.resolve()
+        if resolved == cache or cache in resolved.parents:
+            raise OutputError(f"{text} is inside fem_bounce's cache {cache}: its runs belong to the studies "
+                              f"(${cachedir.VARIABLE} moves it); choose another --out")
+    return path
 
 
 def unused_directory(base: Path) -> Path:

@@ -100,6 +100,14 @@ class Interrupts:
                   file=sys.stderr, flush=True)
 
 
+def stop_requested() -> None:
+    """Raise RunInterrupted when SIGINT or SIGTERM has asked this process to stop (Interrupts): for work outside a
+    run's steps that a person waits on, such as a study's planning, checked as often as a run checks between steps."""
+    interrupts = Interrupts.active
+    if interrupts is not None and interrupts.signum:
+        raise RunInterrupted(f"interrupted by {signal_name(interrupts.signum)}", interrupts.signum)
+
+
 def on_root(comm, action):
     """Run action on rank 0 and raise its exception on every rank, so all ranks fail alike; its
     result is returned on rank 0 (None elsewhere)."""

@@ -16,6 +16,8 @@ import csv
 import dataclasses
 import difflib
 import math
+import numbers
+import os
 import re
 import tomllib
 import typing
@@ -685,8 +687,13 @@ def _table_type(hint: Any):
 
 
 def _coerce(value: Any, expected: Any, key: str) -> Any:
-    """TOML writes 1 for 1.0 and users write 8000 for 8000.0: accept both, reject the rest."""
+    """TOML writes 1 for 1.0 and users write 8000 for 8000.0: accept both, reject the rest.  NumPy's numbers
+    (np.float32(8000.0), np.int64(2): numbers.Real and numbers.Integral) are numbers too."""
     allowed = typing.get_args(expected) or (expected,)
+    if isinstance(value, numbers.Integral) and not isinstance(value, (bool, int)):
+        value = int(value)
+    elif isinstance(value, numbers.Real) and not isinstance(value, (bool, int, float)):
+        value = float(value)
     if (isinstance(value, bool) and bool not in allowed) or not isinstance(value, allowed):
         if float in allowed and isinstance(value, int) and not isinstance(value, bool):
             return float(value)
@@ -776,6 +783,8 @@ def _set_dotted(data: dict, changes: dict[str, Any]) -> dict:
 
 def parse_override(text: str) -> tuple[str, Any]:
     """'sphere.density=8000' -> ('sphere.density', 8000); values parse as TOML, else as strings."""
+    if not isinstance(text, str):
+        raise SceneError(f"--set {text!r}: expected a text key=value, e.g. 'sphere.density=8000'")
     key, sep, raw = text.partition("=")
     if not sep or not key.strip():
         raise SceneError(f"--set {text!r}: expected key=value, e.g. sphere.density=8000")
@@ -824,6 +833,11 @@ def read_scene_file(path: Path) -> str:
 
 def load(source: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
     """A scene from a preset name or a TOML file, with dotted-key overrides applied."""
+    if not isinstance(source, (str, os.PathLike)):
+        raise SceneError(f"scene = {source!r} must be a preset name or a TOML file's path (see `fem-bounce scenes`)")
+    if overrides is not None and not (isinstance(overrides, dict) and all(isinstance(k, str) for k in overrides)):
+        raise SceneError(f"overrides = {overrides!r} must be a mapping of dotted keys to values, e.g. "
+                         "{'sphere.density': 8000.0}")
     path = Path(source)
     if path.suffix == ".toml" or path.exists() or path.is_symlink():
         text, default_name = read_scene_file(path), path.stem
