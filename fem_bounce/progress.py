@@ -1,14 +1,17 @@
 """What a run shows while it runs, and how it is asked to stop between two steps.
 
-    bar = ProgressBar(end_time=0.2, diameters=[0.012], enabled=comm.rank == 0)
-    monitor = Monitor(bar, comm, interrupts, writers, time_unit)   # the run calls monitor(t, steps, gaps, velocities)
+    with Interrupts():   # SIGINT and SIGTERM set a flag (a second raises StopNow)
+        bar = ProgressBar(end_time=0.2, diameters=[0.012], enabled=comm.rank == 0)
+        monitor = Monitor(bar, comm, Interrupts.active, writers, time_unit)  # called: monitor(t, steps, gaps, V)
 
-The bar is one status line on stderr (rank 0); the monitor draws it after every step and ends the run
-on every rank together when a signal has arrived (run.Interrupts), rank 0 could not write the
+Work outside a run's steps that a person waits on (meshing, a study's planning) calls stop_requested() as
+often.  The bar is one status line on stderr (rank 0); the monitor draws it after every step and ends the run
+on every rank together when a signal has arrived (Interrupts), rank 0 could not write the
 trajectory or a side file (output.TrajectoryWriter.failure), or the steps fell below their floor (STEP_FLOOR).
 """
 from __future__ import annotations
 
+import contextlib
 import signal
 import sys
 import time
@@ -16,6 +19,83 @@ import time
 import numpy as np
 
 from .errors import RunDiverged, RunFailed, RunInterrupted
+
+
+class StopNow(KeyboardInterrupt):
+    """A second SIGINT or SIGTERM: stop at once, not after the step."""
+
+    def __init__(self, signum: int):
+        super().__init__()
+        self.signum = signum
+
+
+def signal_name(signum: int) -> str:
+    return signal.Signals(signum).name
+
+
+class Interrupts:
+    """SIGINT (Ctrl-C) and SIGTERM (batch schedulers; MPICH's mpiexec passes Ctrl-C on as SIGINT, OpenMPI's
+    as SIGTERM) as a request to stop.  The first sets a flag that the run checks after every step, on every
+    rank together, so it ends between two steps with its summary written; a second raises StopNow at once.
+
+        with Interrupts():
+            simulate(...)        # any run inside, also through studies and the cache
+    """
+
+    active: "Interrupts | None" = None
+
+    def __init__(self, announce: bool = True):
+        self.signum = 0
+        self.announce = announce
+        self._previous: dict = {}
+
+    def __enter__(self) -> "Interrupts":
+        with contextlib.suppress(ValueError):  # not the main thread: signals stay as they were
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self._previous[signum] = signal.signal(signum, self._handle)
+        Interrupts.active = self
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+        Interrupts.active = None
+
+    def _handle(self, signum, frame) -> None:
+        if self.signum:
+            raise StopNow(signum)
+        self.signum = signum
+        if self.announce and sys.stderr.isatty():  # a person at a terminal; logs get the one final line
+            print(f"\nfem-bounce: {signal_name(signum)} received: stopping after this step (again to stop at once)",
+                  file=sys.stderr, flush=True)
+
+
+def stop_requested() -> None:
+    """Raise RunInterrupted when SIGINT or SIGTERM has asked this process to stop (Interrupts): for work outside a
+    run's steps that a person waits on, such as a study's planning, checked as often as a run checks between steps."""
+    interrupts = Interrupts.active
+    if interrupts is not None and interrupts.signum:
+        raise RunInterrupted(f"interrupted by {signal_name(interrupts.signum)}", interrupts.signum)
+
+
+def on_root_watching(comm, action):
+    """action() on rank 0, the other ranks waiting for it without blocking in a collective, so that a signal
+    that stops rank 0 (a wait that calls stop_requested: RunInterrupted) or its failure stops every rank alike;
+    rank 0's result on every rank."""
+    failure, result = None, None
+    if comm.rank == 0:
+        try:
+            result = action()
+        except BaseException as err:  # noqa: BLE001 -- raised on every rank below
+            failure = err
+    if comm.size > 1:
+        arrived = comm.Ibarrier()
+        while not arrived.Test():
+            time.sleep(0.05)
+        failure, result = comm.bcast((failure, result), root=0)
+    if failure is not None:
+        raise failure
+    return result
 
 
 class ProgressBar:

@@ -29,7 +29,6 @@ import contextlib
 import math
 import pickle
 import signal
-import sys
 import time
 import warnings
 from pathlib import Path
@@ -43,69 +42,12 @@ from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
 from .integrator import BodyIntegrator, PenetrationError
 from .library_log import LIBRARY_LOG, library_output
-from .progress import Monitor, ProgressBar
+from .progress import Interrupts, Monitor, ProgressBar, signal_name
 from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
 ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error before a gain stops the run
 RESTART_STEP = 1e-7  # time units: the integrator's step after an event (integrator._new_ts), and after a 0 step
-
-
-class StopNow(KeyboardInterrupt):
-    """A second SIGINT or SIGTERM: stop at once, not after the step."""
-
-    def __init__(self, signum: int):
-        super().__init__()
-        self.signum = signum
-
-
-def signal_name(signum: int) -> str:
-    return signal.Signals(signum).name
-
-
-class Interrupts:
-    """SIGINT (Ctrl-C) and SIGTERM (batch schedulers; MPICH's mpiexec passes Ctrl-C on as SIGINT, OpenMPI's
-    as SIGTERM) as a request to stop.  The first sets a flag that the run checks after every step, on every
-    rank together, so it ends between two steps with its summary written; a second raises StopNow at once.
-
-        with Interrupts():
-            simulate(...)        # any run inside, also through studies and the cache
-    """
-
-    active: "Interrupts | None" = None
-
-    def __init__(self, announce: bool = True):
-        self.signum = 0
-        self.announce = announce
-        self._previous: dict = {}
-
-    def __enter__(self) -> "Interrupts":
-        with contextlib.suppress(ValueError):  # not the main thread: signals stay as they were
-            for signum in (signal.SIGINT, signal.SIGTERM):
-                self._previous[signum] = signal.signal(signum, self._handle)
-        Interrupts.active = self
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for signum, handler in self._previous.items():
-            signal.signal(signum, handler)
-        Interrupts.active = None
-
-    def _handle(self, signum, frame) -> None:
-        if self.signum:
-            raise StopNow(signum)
-        self.signum = signum
-        if self.announce and sys.stderr.isatty():  # a person at a terminal; logs get the one final line
-            print(f"\nfem-bounce: {signal_name(signum)} received: stopping after this step (again to stop at once)",
-                  file=sys.stderr, flush=True)
-
-
-def stop_requested() -> None:
-    """Raise RunInterrupted when SIGINT or SIGTERM has asked this process to stop (Interrupts): for work outside a
-    run's steps that a person waits on, such as a study's planning, checked as often as a run checks between steps."""
-    interrupts = Interrupts.active
-    if interrupts is not None and interrupts.signum:
-        raise RunInterrupted(f"interrupted by {signal_name(interrupts.signum)}", interrupts.signum)
 
 
 def on_root(comm, action):

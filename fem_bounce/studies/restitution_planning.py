@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import scene as scenes
 from ..integrator import BodyIntegrator
-from ..run import stop_requested
+from ..progress import stop_requested
 
 # Table 3, runs 1-29, in the order a Stokes number is assigned to a set that reaches it
 MATERIAL_SETS = (

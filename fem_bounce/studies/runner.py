@@ -31,7 +31,7 @@ from .. import scene as scenes
 from ..cache import cached_run, default_root, finished, run_directory
 from ..errors import RunFailed, RunInterrupted, RunnerError
 from ..mpi_pool import run_one, start_worker, under_mpi_futures
-from ..run import Interrupts, signal_name
+from ..progress import Interrupts, signal_name
 
 EXECUTORS = ("local", "mpi")
 POLL_SECONDS = 0.2  # how often the study looks for a signal while its workers run

@@ -60,7 +60,7 @@ import numpy as np
 
 from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
-from ...fem.mesh import SPHERE_TAGS, create_mesh
+from ...fem.mesh import SPHERE_TAGS, check_size, create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction, flow_gaps
@@ -163,6 +163,7 @@ class AleModel(FlowModel):
         super().__init__(scene, comm)
         self.writer: MovingFieldWriter | None = None
         self.domain: AleDomain = domain_for(scene)
+        check_size(self.domain.spec(self.domain.initial_centers), "numerics.ale")
         self.steady = is_steady(scene)
         self.dt = self.cfl_step = time_step(scene)  # the coming step; the shortest (adaptive_step) [s]
         self.mesh = self.motion = self.flow = None
