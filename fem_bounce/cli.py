@@ -434,7 +434,9 @@ def main(argv: list[str] | None = None) -> int:
 
     if under_mpi_futures():
         petsc_on_self()  # rank 0 of an mpi4py.futures pool: the workers never join PETSc's COMM_WORLD
-    from .progress import Interrupts, signal_name
+    # PETSc starts here, after the line above, and before Interrupts installs its handlers (PETSc's own abort on
+    # SIGTERM with MPI_Abort)
+    from .run import Interrupts, signal_name
 
     library_log.RANK = MPI.COMM_WORLD.rank
     args = _parser().parse_args(argv)

@@ -487,12 +487,13 @@ def out_path(text: str | Path | None) -> Path | None:
     if not str(text).strip():
         raise OutputError("--out is empty: give a directory, e.g. --out runs/mine")
     path = Path(text)
-    cache = cachedir.root()
-    with contextlib.suppress(OSError, RuntimeError):
-        resolved, cache = path.resolve(), cache.resolve()
-        if resolved == cache or cache in resolved.parents:
-            raise OutputError(f"{text} is inside fem_bounce's cache {cache}: its runs belong to the studies "
-                              f"(${cachedir.VARIABLE} moves it); choose another --out")
+    try:
+        resolved, cache = path.resolve(), cachedir.root().resolve()
+    except (OSError, RuntimeError):  # a loop of links, ...: RunDirectory says so
+        return path
+    if resolved == cache or cache in resolved.parents:
+        raise OutputError(f"{text} is inside fem_bounce's cache {cache}: its runs belong to the studies "
+                          f"(${cachedir.VARIABLE} moves it); choose another --out")
     return path
 
 

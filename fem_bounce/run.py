@@ -68,7 +68,7 @@ def on_root(comm, action):
 # -- what every step shares ----------------------------------------------------------------------
 
 
-class _RunIntegrator(BodyIntegrator):
+class RunIntegrator(BodyIntegrator):
     """The shared integrator, whose checkpoint state also carries the run's record (the trajectory's rows,
     put on the disk first; the wall time; the scene): every model that checkpoints the integrator, as it
     must to restart, so checkpoints the run whole."""
@@ -235,6 +235,7 @@ class Controller:
                 on_root(self.comm, run_dir.begin)  # a restart: the checkpoint restored, its files cut back
             if started is not None:
                 started()
+            self._progress()  # a signal that came while the model was built stops the run here, on every rank
             first_step = flow_model.step
             observers = [self._progress]
             if run_dir is not None:
@@ -400,7 +401,7 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
         if out_dir is None:
             raise output.OutputError("a restart needs the run directory it continues")
     flow_model = model_cls(scene, comm)
-    integrator = _RunIntegrator(scene, resolved=model_cls.resolved)
+    integrator = RunIntegrator(scene, resolved=model_cls.resolved)
     guards = _Safeguards(scene, integrator, info, flow_model.resolved_top())
     if root:
         if guards.light:

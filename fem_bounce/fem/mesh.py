@@ -402,8 +402,12 @@ def _generate(spec: HalfPlane, target: Path) -> None:
 
 def _child() -> None:
     """The child process of _generate: the spec (pickled) on stdin, the target file as its argument."""
+    import ctypes
+
     import gmsh
 
+    if sys.platform.startswith("linux"):  # killed with its parent, however that dies (SIGKILL included)
+        ctypes.CDLL(None).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     spec, target = pickle.load(sys.stdin.buffer), sys.argv[1]
     gmsh.initialize(interruptible=False)
     try:
