@@ -27,7 +27,7 @@ from . import cachedir, models
 from . import scene as scenes
 from .errors import OutputError, RunDiverged
 from .models.registry import CORE_SOURCES
-from .output import MARKER, read_summary
+from .output import MARKER, read_summary, sync_file
 from .progress import on_root_watching, stop_requested
 from .run import on_root, simulate
 
@@ -178,8 +178,7 @@ def _settle(partial: Path, run_dir: Path) -> None:
         partial.replace(run_dir)
         entry = run_dir / f".{ENTRY}.partial"
         entry.write_text(json.dumps({"key": run_dir.name, "files": files}, indent=1) + "\n")
-        with open(entry) as stream:
-            os.fsync(stream.fileno())
+        sync_file(entry)
         entry.replace(run_dir / ENTRY)
     except OSError as err:
         raise OutputError(f"cannot write the cache entry {run_dir}: {err.strerror or err}") from None

@@ -86,7 +86,7 @@ def _reason(err: Exception) -> str:
 # -- whole files ------------------------------------------------------------------------------
 
 
-def _sync_file(path: Path) -> None:
+def sync_file(path: Path) -> None:
     """fsync a file (or a directory: the renames inside it)."""
     fd = os.open(path, os.O_RDONLY)
     try:
@@ -98,7 +98,7 @@ def _sync_file(path: Path) -> None:
 def _sync_directory(path: Path) -> None:
     """Make a rename inside `path` durable (where the file system supports it)."""
     with contextlib.suppress(OSError):
-        _sync_file(path)
+        sync_file(path)
 
 
 def _write_all(fd: int, data: bytes) -> None:
@@ -190,6 +190,7 @@ class RunDirectory:
         self.checkpoint: Checkpoint | None = None  # the newest whole one on the disk: resumed, then each committed
         self._continued: dict[str, int] = {}  # a restart: the rows of trajectory.csv and each side file it continues
         self._unsettled: Checkpoint | None = None  # a restart's checkpoint, settled by begin()
+        self._made = False  # prepare() made the directory
 
     # -- prepare and resume --
     def prepare(self, force: bool = False, scene=None) -> None:
@@ -215,6 +216,7 @@ class RunDirectory:
                         shutil.rmtree(entry)
                     elif entry.name != MARKER:
                         entry.unlink()
+            self._made = not path.exists()
             path.mkdir(parents=True, exist_ok=True)
         except OSError as err:
             raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
@@ -274,7 +276,7 @@ class RunDirectory:
             file = self.path / name
             try:
                 os.truncate(file, _trajectory_offset(file, rows))
-                _sync_file(file)
+                sync_file(file)
             except OSError as err:
                 raise OutputError(f"cannot write {file}: {_reason(err)}") from None
 
@@ -398,6 +400,13 @@ class RunDirectory:
     def commit_summary(self, data: dict) -> None:
         """DIR/summary.json, into the room reserve() kept; a killed run never leaves half a summary."""
         _atomic_write_text(self.path / "summary.json", json.dumps(data, indent=2) + "\n")
+
+    def abandon(self) -> None:
+        """A run refused after prepare() or resume() (no room for its summary or its trajectory): remove the
+        directory prepare() made, and release() (a directory that was there stays, as resume() left it)."""
+        self.release()
+        if self._made:
+            shutil.rmtree(self.path, ignore_errors=True)
 
     def release(self) -> None:
         """Give back the room reserve() kept (if the summary did not use it) and this process's lock."""

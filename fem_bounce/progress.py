@@ -78,6 +78,14 @@ def stop_requested() -> None:
         raise RunInterrupted(f"interrupted by {signal_name(interrupts.signum)}", interrupts.signum)
 
 
+def wait_for_root(comm) -> None:
+    """Every rank waits until rank 0 arrives here too, polling instead of blocking in a collective (a rank that
+    waits uses no core, and a signal reaches it)."""
+    arrived = comm.Ibarrier()
+    while not arrived.Test():
+        time.sleep(0.05)
+
+
 def on_root_watching(comm, action):
     """action() on rank 0, the other ranks waiting for it without blocking in a collective, so that a signal
     that stops rank 0 (a wait that calls stop_requested: RunInterrupted) or its failure stops every rank alike;
@@ -89,9 +97,7 @@ def on_root_watching(comm, action):
         except BaseException as err:  # noqa: BLE001 -- raised on every rank below
             failure = err
     if comm.size > 1:
-        arrived = comm.Ibarrier()
-        while not arrived.Test():
-            time.sleep(0.05)
+        wait_for_root(comm)
         failure, result = comm.bcast((failure, result), root=0)
     if failure is not None:
         raise failure

@@ -42,7 +42,7 @@ from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
 from .integrator import BodyIntegrator, PenetrationError
 from .library_log import LIBRARY_LOG, library_output
-from .progress import Interrupts, Monitor, ProgressBar, signal_name
+from .progress import Interrupts, Monitor, ProgressBar, signal_name, wait_for_root
 from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
@@ -420,14 +420,23 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
                 run_dir.resume(scene, model_name, info.checkpoint_files), integrator)), 0)
         else:
             on_root(comm, lambda: run_dir.prepare(force, scene))
-        on_root(comm, run_dir.reserve)
         interval_key = info.trajectory_interval_key
         interval = info.setting(scene, interval_key) if interval_key else 0.0
         columns = output.trajectory_columns(len(scene.spheres))
-        writer = on_root(comm, lambda: run_dir.trajectory(interval, columns))
-        if root:
-            sides = {name: run_dir.trajectory(0.0, side_columns, name)
-                     for name, side_columns in flow_model.side_files().items()}
+
+        def open_files():
+            run_dir.reserve()
+            files = {"trajectory.csv": run_dir.trajectory(interval, columns)}
+            return {**files, **{name: run_dir.trajectory(0.0, side_columns, name)
+                                for name, side_columns in flow_model.side_files().items()}}
+
+        try:
+            files = on_root(comm, open_files) or {}  # refused for want of room: nothing left behind
+        except output.OutputError:
+            on_root(comm, run_dir.abandon)
+            raise
+        writer = files.pop("trajectory.csv", None)
+        sides = files
     if root and on_start is not None and not restart:
         on_start()
     earlier_wall = resumed.wall_time_s if resumed is not None else []  # [s], one per earlier segment
@@ -546,9 +555,7 @@ def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **option
             pickle.dumps(error)
         except Exception:  # noqa: BLE001 -- an exception that cannot travel goes as its message
             error = RunFailed(f"{type(error).__name__}: {error}")
-    waiting = comm.Ibarrier()
-    while not waiting.Test():
-        time.sleep(0.05)
+    wait_for_root(comm)
     result, error = comm.bcast((result, error), root=0)
     if own is not None:
         raise own

@@ -168,6 +168,14 @@ def test_a_full_disk_at_a_checkpoint_gives_one_line(fd_run, tmp_path):  # noqa: 
     assert json.loads((out / "summary.json").read_text())["status"].startswith("failed: cannot write the checkpoint")
 
 
+def test_no_room_for_the_summary_leaves_nothing(tmp_path):
+    """Refused for want of room after the marker and scene.toml were written: the directory stayed."""
+    done = limited(["run", "li2011-case3", *ODE, "--out", "r"], tmp_path, 30_000)
+    assert done.returncode == 2
+    assert_one_line(done.stderr.splitlines(), "error: cannot reserve 64 kB for r/summary.json: File too large")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_full_disk_while_meshing_caches_nothing(tmp_path, monkeypatch):
     """A truncated .msh was cached on a full disk and every later run needing it failed ("Could not read
     elements") until the user deleted the cache."""

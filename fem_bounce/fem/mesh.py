@@ -43,6 +43,7 @@ import numpy as np
 
 from .. import cachedir
 from ..errors import OutputError
+from ..output import sync_file
 from ..progress import on_root_watching, stop_requested
 from ..scene import SceneError
 
@@ -350,26 +351,18 @@ def _cache(spec: HalfPlane, path: Path) -> None:
     partial = path.with_name(f".{path.stem}.{os.getpid()}.partial{path.suffix}")  # gmsh reads the format from it
     try:
         _generate(spec, partial)
-        _sync(partial)
+        sync_file(partial)
         _hash_file(path).unlink(missing_ok=True)
         partial.replace(path)
         hashed = partial.with_name(partial.name + ".sha256")
         hashed.write_text(_digest(path) + "\n")
-        _sync(hashed)
+        sync_file(hashed)
         hashed.replace(_hash_file(path))
     except OSError as err:
         raise OutputError(f"cannot write the mesh cache {path}: {err.strerror or err} (set {cachedir.VARIABLE} to a "
                           "folder with room)") from None
     finally:
         partial.unlink(missing_ok=True)
-
-
-def _sync(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def _generate(spec: HalfPlane, target: Path) -> None:
