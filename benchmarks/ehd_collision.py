@@ -5,7 +5,7 @@ thickness and the surfaces' deformation at five instants, and its gaps, force an
     PYTHONPATH=. python benchmarks/ehd_collision.py --plot-only  # redraw from the record
 
 The collision is the one a run solves: `fem-bounce run li2011-case3 --model ode --set contact.model=ehd`
-(and with `--set contact.ehd_cavitation=-101325`) is run in memory to its first film collision, and the
+(and with `--set contact.cavitation_pressure=-101325`) is run in memory to its first film collision, and the
 arguments the run hands to contact.ContactLaw.collide (V_in at h0, the inertia m_p + C_M(h0) m_l, minus
 the net weight; integrator.BodyIntegrator._film_jump) are recorded by wrapping that method: nothing is
 typed in.  The film is then solved again by fem_bounce.ehd.collide with the same arguments, first to find
@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 RECORD = ROOT / "benchmarks" / "history" / "ehd_collision.json"
 FIGURES = {"off": ROOT / "docs" / "figures" / "ehd_case3_film.png",
            "-101325 Pa": ROOT / "docs" / "figures" / "ehd_case3_film_cavitation.png"}
-CAVITATION = {"off": None, "-101325 Pa": -101325.0}
+CAVITATION = {"off": "off", "-101325 Pa": -101325.0}
 INSTANTS = ("approach", "maximum load", "overlap ends", "largest tension", "separation")
 SIGNIFICANT = 6  # digits kept in the record
 
@@ -48,8 +48,7 @@ def _rounded(values) -> list:
 def first_collision(cavitation: str) -> tuple[dict, fb.Scene]:
     """The arguments case 3's run hands to ContactLaw.collide at its first film collision, and the scene."""
     changes = {"contact.model": "ehd", "run.bounces": 1}
-    if CAVITATION[cavitation] is not None:
-        changes["contact.ehd_cavitation"] = CAVITATION[cavitation]
+    changes["contact.cavitation_pressure"] = CAVITATION[cavitation]
     scene = fb.load("li2011-case3").replace(**changes)
     seen = []
     solve = contact.ContactLaw.collide

@@ -17,7 +17,15 @@ Studies:  restitution (e against St), compare (several models on one scene), Tab
 Errors:   Error, the base of SceneError, ModelError, OutputError, CheckpointError, RunnerError,
           RunFailed, RunDiverged, RunInterrupted
 """
+import os
+
 from ._version import __version__ as __version__  # re-exported
+
+# One OpenBLAS thread per process unless the caller says otherwise: the solvers' many small back-solves and
+# Krylov steps ran 2-3 times slower with OpenBLAS's threads on a busy 2-core machine, and under mpiexec every
+# rank's threads would share the same cores (docs/performance.md, "The stack").  OpenBLAS reads it when it
+# loads, with PETSc: so it is set before anything here imports petsc4py.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 try:  # PyPI's FEniCSx wheel (dolfinx-solver-real) loads MPI ahead of PETSc and dolfinx only when imported first
     import dolfinx_solver  # noqa: F401

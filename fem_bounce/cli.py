@@ -283,14 +283,16 @@ def _cmd_restitution(args) -> int:
     found = rows.summary
     if (MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD).rank == 0:
         print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.json, {out}/restitution.png")
-        if found["rms_to_fit"] is not None:
-            stuck, first = found["critical_St"]
+        for station, found_there in (("at 0.2 D", found), ("at the collision (2 ms means)", found.get("two_ms"))):
+            if not found_there or found_there["rms_to_fit"] is None:
+                continue
+            stuck, first = found_there["critical_St"]
             critical = (f"; no rebound up to St {stuck:.3g}" if stuck else "") + (
                 f", first rebound at St {first:.3g}" if first else "")
-            print(f"against the Legendre et al. (2006) fit over St {found['compared_St'][0]:g}-"
-                  f"{found['compared_St'][1]:g}: rms {found['rms_to_fit']:.3f}, largest {found['max_abs_to_fit']:.3f} "
-                  f"({found['compared_runs']} runs){critical}; e = {found['e_at_largest_St']:.3f} at St "
-                  f"{found['largest_St']:.4g}")
+            print(f"e {station} against the Legendre et al. (2006) fit over St {found['compared_St'][0]:g}-"
+                  f"{found['compared_St'][1]:g}: rms {found_there['rms_to_fit']:.3f}, largest "
+                  f"{found_there['max_abs_to_fit']:.3f} ({found_there['compared_runs']} runs){critical}; e = "
+                  f"{found_there['e_at_largest_St']:.3f} at St {found_there['largest_St']:.4g}")
     if found["failed"]:
         say(f"error: {len(found['failed'])} of {len(rows)} runs failed (marked in restitution.csv and the figure, "
             f"not counted as e = 0): " + "; ".join(found["failed"][:3]) + (" ..." if len(found["failed"]) > 3 else ""))

@@ -131,7 +131,8 @@ def tsuji_damping(dry_restitution: float) -> float:
 class ContactLaw:
     """The solid contact of two surfaces on the axis (module docstring), for a reduced radius `radius`
     [m] (a for the wall), reduced mass `mass` [kg], E* `e_star` [Pa], the liquid's `viscosity` [Pa s],
-    the surfaces' combined `roughness` [m] and the gap scale `length` (D, or 2a* for a pair) [m].
+    the surfaces' combined `roughness` [m], the gap scale `length` (D, or 2a* for a pair) [m] and the
+    lowest gauge pressure a film holds, `cavitation_pressure` [Pa] (None: any; Scene.cavitation_pressure).
 
     One contact: `boundary(speed)` is the gap where it begins at the approach speed, `engage(speed)`
     the number it fixes there (W_o for li2011, h_c for lubricated-hertz), `force(gap, rate, engaged)` its
@@ -139,7 +140,7 @@ class ContactLaw:
     much of it is left, `boundary(speed, engaged)` where it ends."""
 
     def __init__(self, contact, radius: float, mass: float, e_star: float, viscosity: float, roughness: float,
-                 length: float):
+                 length: float, cavitation_pressure: float | None):
         self.radius, self.mass, self.e_star, self.length = radius, mass, e_star, length
         self.viscosity, self.roughness = viscosity, roughness
         self.gap_factor = contact.contact_gap_factor
@@ -148,7 +149,7 @@ class ContactLaw:
         self.hertz = contact.model == "lubricated-hertz"
         self.ehd = contact.model == "ehd"  # the film collision at the handover gap (module docstring)
         self.handover = contact.ehd_handover
-        self.cavitation = None if contact.ehd_cavitation == "off" else float(contact.ehd_cavitation)
+        self.cavitation = cavitation_pressure
         self.stiffness = hertz_stiffness(radius, e_star)
         self.damping = tsuji_damping(self.dry_restitution) * math.sqrt(mass * self.stiffness) if self.hertz else 0.0
         # the smallest admissible gap: the spring's own position for li2011, Hertz's small strain here
@@ -176,27 +177,46 @@ class ContactLaw:
 
     def force(self, gap: float, rate: float, engaged: float) -> float:
         """The contact force pushing the surfaces apart [N] at the gap `gap` [m] closing at -`rate` [m/s]."""
+        return self.force_slopes(gap, rate, engaged)[0]
+
+    def force_slopes(self, gap: float, rate: float, engaged: float) -> tuple[float, float, float]:
+        """(force [N], its derivatives d/d gap [N/m] and d/d rate [N s/m])."""
         if self.ehd:
-            return 0.0  # the film collision is a jump of the state (integrator.py), not a force
+            return 0.0, 0.0, 0.0  # the film collision is a jump of the state (integrator.py), not a force
         if not self.hertz:
-            return self.dry_restitution * engaged * elastic_shape(gap / (self.delta_ss * self.length))
+            scale = self.delta_ss * self.length
+            x = gap / scale
+            if x >= 1.0:
+                return 0.0, 0.0, 0.0
+            push = self.dry_restitution * engaged
+            return push * elastic_shape(x), -push * math.exp(-x) / ((1.0 - _E_INV) * scale), 0.0
         overlap = engaged - gap
         if overlap <= 0.0:
-            return 0.0
-        return max(self.stiffness * overlap**1.5 - self.damping * overlap**0.25 * rate, 0.0)
+            return 0.0, 0.0, 0.0
+        force = self.stiffness * overlap**1.5 - self.damping * overlap**0.25 * rate
+        if force <= 0.0:  # held >= 0: no adhesion
+            return 0.0, 0.0, 0.0
+        stiffening = 1.5 * self.stiffness * overlap**0.5 - 0.25 * self.damping * overlap**-0.75 * rate
+        return force, -stiffening, -self.damping * overlap**0.25
 
     def film(self, gap: float, engaged: float | None) -> tuple[float, float]:
         """(gap [m] at which the lubrication is evaluated, the share of it left): (gap, 1) outside a
         Hertz contact; inside, (h_c, h / h_c) down to 0 at h = 0 (module docstring)."""
+        return self.film_slopes(gap, engaged)[:2]
+
+    def film_slopes(self, gap: float, engaged: float | None) -> tuple[float, float, float, float]:
+        """`film` and the derivatives of its two numbers in the gap: (gap, share, d gap, d share [1/m])."""
         if engaged is None or not self.hertz or gap >= engaged:
-            return gap, 1.0
-        return engaged, min(max(gap / engaged, 0.0), 1.0)
+            return gap, 1.0, 1.0, 0.0
+        if gap <= 0.0:
+            return engaged, 0.0, 0.0, 0.0
+        return engaged, gap / engaged, 0.0, 1.0 / engaged
 
     def collide(self, speed: float, mass: float, force: float = 0.0) -> "ehd.FilmResult":
         """The film collision (contact.model = "ehd") of a sphere arriving at the handover gap h0 at `speed`
         [m/s] (> 0, towards the wall) with the inertia `mass` [kg] (the sphere's mass and its added mass at
         h0), the constant `force` [N] besides the film's (positive away from the wall: minus the net
-        weight), the liquid's viscosity, E* and contact.ehd_cavitation (fem_bounce.ehd.collide;
+        weight), the liquid's viscosity, E* and the cavitation pressure (fem_bounce.ehd.collide;
         dimensionless result, lengths in h0, times in h0 / speed)."""
         return ehd.collide(self.radius, mass, self.e_star, self.viscosity, speed, self.handover,
                            cavitation_pressure=self.cavitation, external_force=force)
@@ -244,7 +264,7 @@ class ContactModel(ContactGaps):
         self.e_star = reduced_modulus(sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus,
                                       wall.poisson_ratio)
         self.law = ContactLaw(scene.contact, sphere.radius, sphere.mass, self.e_star, scene.liquid.viscosity,
-                              sphere.roughness + wall.roughness, self.diameter)
+                              sphere.roughness + wall.roughness, self.diameter, scene.cavitation_pressure)
         self.theory = TheoryForces(scene)
         # the hold and the correction belong to a free sphere's dynamics (see the module docstring)
         self.correcting = scene.near_wall_law == "correction" and is_free(scene)
@@ -254,19 +274,38 @@ class ContactModel(ContactGaps):
     def blend(self, gap: float) -> float:
         return blend(gap / self.diameter, self.delta_sl)
 
+    def blend_slope(self, gap: float) -> tuple[float, float]:
+        """(H, dH/d gap [1/m]) of the paper's blend: dH/dx = -H (1 - H) for H = 1 / (1 + e^x)."""
+        weight = self.blend(gap)
+        return weight, -weight * (1.0 - weight) * 10.0 / (self.delta_sl * self.diameter)
+
     def correction(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, float]:
         """(force [N], added mass [kg]) that a flow held at delta_sl misses when the sphere is at `gap`
         (the lubrication's gap, ContactLaw.film, with the share `film` of it left): the correction is
         force - added_mass * dV/dt, zero at and above delta_sl.
 
-        - lubrication: -6 pi mu a V [lambda(delta) - lambda(delta_sl)] (lambda by contact.wall_drag);
+        - lubrication: -6 pi mu a V [lambda(delta) - lambda(delta_sl)] (lambda by contact.wall_drag), less
+          the suction the liquid cannot hold as the sphere leaves the wall (TheoryForces.tension_relief);
         - the wall's added mass grows: -[C_M(delta) - C_M(delta_sl)] m_l dV/dt;
         - the held geometry does not approach, so the force of the changing added mass,
           -(1/2) m_l V^2 dC_M/dh (the f_AM term of eq. 4.3 in V dW/dt), is absent from it."""
+        return self.correction_slopes(gap, velocity, film)[:2]
+
+    def correction_slopes(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, ...]:
+        """`correction` (force [N], added mass [kg]) and its derivatives: the force's d/d gap [N/m],
+        d/d film [N] and d/dV [N s/m], the added mass's d/d gap [kg/m]."""
         if not self.correcting or gap >= self.blend_gap:
-            return 0.0, 0.0
+            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
         theory = self.theory
-        lubrication = -theory.stokes_drag * velocity * film * (theory.wall_factor(gap) - self._lambda_hold)
-        added_mass = theory.added_mass(gap)[0] - self._added_mass_hold
-        held = film < 1.0  # inside a Hertz contact C_M is held at h_c: its velocity term vanishes
-        return lubrication + (0.0 if held else theory.added_mass_velocity_term(gap, velocity)), added_mass
+        wall, wall_gap, _ = theory.wall_factor_slopes(gap)
+        missed = wall - self._lambda_hold
+        relief, relief_gap, relief_velocity = theory.tension_relief(gap, velocity)  # the held flow has no cavity
+        lubrication = -theory.stokes_drag * velocity * film * missed + film * relief
+        d_gap, d_film, d_velocity = (-theory.stokes_drag * velocity * film * wall_gap + film * relief_gap,
+                                     -theory.stokes_drag * velocity * missed + relief,
+                                     -theory.stokes_drag * film * missed + film * relief_velocity)
+        c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
+        if film == 1.0:  # inside a Hertz contact C_M is held at h_c: its velocity term vanishes
+            term, term_gap, term_velocity = theory.added_mass_velocity_term_slopes(gap, velocity)
+            lubrication, d_gap, d_velocity = lubrication + term, d_gap + term_gap, d_velocity + term_velocity
+        return lubrication, c_m - self._added_mass_hold, d_gap, d_film, d_velocity, c_m_slope

@@ -358,6 +358,33 @@ class FilmCollision:
             jac[rows, rows] = 1.0
         return res, jac, held
 
+    def rigid_film(self, separation: float, velocity: float, iterations: int = 100) -> np.ndarray:
+        """The pressure (nodes 0..N-1) of the quasi-steady film between rigid surfaces (the kernel left out)
+        at the separation X, the gap changing at the rate V (units h0, h0 / V0; V > 0: opening): the film's
+        volume balance div = area V, with the cavitation limit as in a collision (semi-smooth Newton on the
+        complementarity of `_cavitate`; the set of held nodes settles in a few steps).  The closed form
+        it checks: fem_bounce.cavitation (tests/test_cavitation.py)."""
+        n = self.n
+        gap = separation + self.shape
+        pressure = np.zeros(n)
+        for _ in range(iterations):
+            div, (lower, diag, upper), _ = self._flux_divergence(pressure, gap)
+            film = self.areas * velocity - div
+            jac = -(np.diag(diag) + np.diag(upper, 1) + np.diag(lower, -1))
+            res = film
+            if self.cavitation is not None:
+                z = np.concatenate([pressure, [separation, velocity]])
+                full = np.zeros((n + 2, n + 2))
+                full[:n, :n] = jac
+                res, full, _ = self._cavitate(np.concatenate([film, [0.0, 0.0]]), full, z, film)
+                res, jac = res[:n], full[:n, :n]
+            step = np.linalg.solve(jac, -res)
+            pressure = pressure + step
+            if np.max(np.abs(step)) <= 1e-12 * max(np.max(np.abs(pressure)), 1.0):
+                return pressure
+        raise FilmError(f"the rigid film at X = {separation:g}, V = {velocity:g} did not settle in {iterations} "
+                        "Newton steps")
+
     def initial_pressure(self) -> np.ndarray:
         """The quasi-steady film of the undeformed surfaces at X = 1 approaching at V0: div = -area."""
         gap0 = 1.0 + self.shape

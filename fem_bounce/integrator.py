@@ -26,7 +26,9 @@ Everything is one implicit system G(t, y, y') = 0 with y = [h_1, V_1, s_1, V_2, 
 z_2..., ...] for an adaptive Rosenbrock-W integrator (TSROSW) whose steps sub-cycle inside a fluid step:
 the elastic contact lasts tens of microseconds, a fluid step a millisecond.  The gaps, not the heights,
 are integrated so that the relative tolerance governs them near contact (an error of rtol h_2 would
-exceed the film).
+exceed the film).  Its Jacobian is exact, assembled from each force term's own derivatives (ForceTerms);
+with history modes each unknown is held to its own tolerance, a mode's set by how far its error moves the
+velocity (`_build_ts`, `_new_ts`; docs/performance.md, the ODE model's steps).
 
 TS events, for each neighbouring contact (each pair bottom up, then the wall): the gap crossing its
 contact gap (what the contact keeps, h_c or W_o, is fixed there from the approach speed) and delta_sl
@@ -108,6 +110,44 @@ class Contact:
         return rates[self.upper] - (rates[self.lower] if self.lower is not None else 0.0)
 
 
+class ForceTerms:
+    """Every force on the N bodies at one state [N] and their added masses [kg], each with its derivatives
+    in the state's gaps and velocities (the columns c of y[:2N]: h_1, V_1, s_1, V_2, ...): the exact Jacobian
+    of the equations of motion is built from them (BodyIntegrator.jacobian).  Each term adds its value and
+    its derivatives together, so that a new term brings its own (tests/test_jacobian.py compares the
+    Jacobian with differences of the residual and catches a missing one).
+
+    `theory` is f_thr (drag, added mass velocity terms, the pairs' interaction, history), which the balance
+    weighs by `blend`; `theory_mass` its added masses (C_M,i m_l,i on the diagonal, each neighbouring pair's
+    beyond the isolated spheres'); `correction`, `correction_mass` and `elastic` are added whole.  Values are
+    lists over the spheres, derivatives lists of entries (sphere k, column c, d/dy_c) or, for the added
+    masses, (k, j, c, dM_kj/dy_c): plain Python, which a few numbers per sphere cost less than numpy.  What
+    sphere k feels of the wall through its height h_k = h_1 + sum of the gaps below it is kept as d/dh_k
+    (`theory_height_slopes`, `theory_mass_height_slopes`), spread over those gaps by the Jacobian."""
+
+    def __init__(self, count: int):
+        self.count = count
+        self.clear()
+
+    def clear(self) -> None:
+        count = self.count
+        self.heights, self.velocities = [0.0] * count, [0.0] * count
+        self.blend = [1.0] * count
+        self.theory, self.drag, self.am_velocity, self.pair, self.pair_am_velocity, self.history = (
+            [0.0] * count for _ in range(6))
+        self.lubrication = [0.0] * count  # the part of the drag the wall adds (no derivatives: a record only)
+        self.elastic, self.correction, self.correction_mass = [0.0] * count, [0.0] * count, [0.0] * count
+        self.theory_mass = [[0.0] * count for _ in range(count)]
+        self.history_factors = [1.0] * count  # K_H^(3/2)
+        self.theory_height_slopes = [0.0] * count  # d f_thr,k / d h_k
+        self.theory_mass_height_slopes = [0.0] * count  # d (C_M,k m_l,k) / d h_k
+        self.theory_slopes: list[tuple[int, int, float]] = []
+        self.other_slopes: list[tuple[int, int, float]] = []  # of the elastic and correction forces
+        self.blend_slopes: list[tuple[int, int, float]] = []
+        self.theory_mass_slopes: list[tuple[int, int, int, float]] = []
+        self.correction_mass_slopes: list[tuple[int, int, float]] = []
+
+
 class BodyIntegrator:
     """Advances the scene's bodies; the same object serves the ODE, fd, ib and ale models."""
 
@@ -132,6 +172,7 @@ class BodyIntegrator:
         ends = 2 * count + np.cumsum(self.n_history, dtype=int)  # in y, after the gaps and velocities
         self._mode_slices = [slice(int(end) - modes, int(end)) for end, modes in zip(ends, self.n_history)]
         self._drag_scaled_history = scene.contact.history_wall_factor == "drag-scaled"
+        self._pause_history = scene.contact.history_across_contact == "pause"
         self.fluid = FluidForce(np.zeros(count), np.zeros((count, count)))
         self.observers: list[Callable[[dict], None]] = []
         self.contacts: list[Contact] = []
@@ -145,6 +186,21 @@ class BodyIntegrator:
             self.contacts.append(Contact(None, 0, self.contact, BounceRecord(
                 scene, self.contact, stop_after_impacts, separating=scene.gravity == 0.0), "wall"))
         self.wall = self.contacts[-1] if self.contact is not None else None
+        self.pair_contacts = [c for c in self.contacts if c.lower is not None]  # bottom up: pair k below sphere k + 1
+        # what the force terms and the residual reuse at every call (ForceTerms, forces, residual)
+        self._terms = ForceTerms(count)
+        self._diameters = [b.diameter for b in self.bodies]
+        self._rate_slope_array = np.where(self.held, 0.0, 1.0)  # d(dh_k/dt)/dV_k
+        self._rate_slopes = self._rate_slope_array.tolist()
+        self._gap_columns, self._velocity_columns = np.arange(0, 2 * count, 2), np.arange(1, 2 * count, 2)
+        self._adjacent_pairs = [[j for j in (k - 1, k) if 0 <= j < count - 1] for k in range(count)]
+        self._wall_films: list[tuple] = [()] * count  # each sphere's (gap, share, d gap, d share) of the last `forces`
+        self._pair_films: list[tuple] = [()] * max(count - 1, 0)  # each pair's
+        self._mode_times = [th.history_times[:modes] for th, modes in zip(self.theories, self.n_history)]
+        self._all_mode_times = np.concatenate([np.zeros(0), *self._mode_times])
+        self._mode_owners = np.repeat(np.arange(count), self.n_history)  # the sphere of each mode in y
+        self._diagonal = np.diag_indices(count)
+        self._imposed = np.flatnonzero(~self.free).tolist()
         self.done = False  # the bounce limit (or stop_after_impacts) was reached, or the bodies rest
         self.stop_reason: str | None = None  # why it is done, when not the bounce limit
         # without gravity nothing brings back a sphere the film has stopped: below this speed it has stalled
@@ -161,17 +217,13 @@ class BodyIntegrator:
     @property
     def pairs(self) -> list[PairContactModel]:
         """Each neighbouring pair's contact model, bottom up."""
-        return [c.model for c in self.contacts if c.lower is not None]
+        return [c.model for c in self.pair_contacts]
 
     @property
     def hold_gaps(self) -> tuple[float, ...]:
         """(sphere 1's hold above the wall, each pair gap's hold) [m]: delta_sl D1 and delta_sl 2a* under
         contact.near_wall = "correction" with a free sphere, else 0 (flow_model.flow_gaps)."""
         return (self.contact.hold_gap if self.contact else 0.0, *(pair.hold_gap for pair in self.pairs))
-
-    def _history_states(self, y) -> list[np.ndarray]:
-        """Each sphere's history modes in the state y."""
-        return [np.asarray(y[modes]) for modes in self._mode_slices]
 
     # -- the implicit system ------------------------------------------------------------
     def _build_ts(self) -> None:
@@ -182,14 +234,39 @@ class BodyIntegrator:
             start += [gap, body.start_velocity]
         self.y = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
         self.y.setArray(np.r_[start, np.zeros(n - len(start))])
-        self._jac = PETSc.Mat().createDense([n, n], comm=PETSc.COMM_SELF)
-        self._jac.setUp()
+        self._residual_out = np.zeros(n)
+        self._forces_state, self._forces_engaged = b"", None  # the state `forces` saw last
+        # The Jacobian's nonzeros: the gaps' and velocities' block, each sphere's velocity with its own
+        # history modes, and the modes' diagonal.  Sparse, so that LU (nested dissection) eliminates the
+        # modes at no fill: a dense LU of five spheres' 180 unknowns cost 15 times more per step.
+        pattern = np.zeros((n, n), dtype=bool)
+        pattern[:2 * len(self.bodies), :2 * len(self.bodies)] = True
+        for k, modes in enumerate(self._mode_slices):
+            pattern[2 * k + 1, modes] = pattern[modes, 2 * k + 1] = True
+            pattern[modes, modes] = np.eye(modes.stop - modes.start, dtype=bool)
+        rows, columns = np.nonzero(pattern)
+        indptr = np.r_[0, np.cumsum(pattern.sum(axis=1))].astype(PETSc.IntType)
+        self._pattern = (rows, columns, indptr, columns.astype(PETSc.IntType))
+        self._jac = PETSc.Mat().createAIJ([n, n], csr=(indptr, self._pattern[3], np.zeros(len(rows))),
+                                          comm=PETSc.COMM_SELF)
         # Without f_ss lubrication stops a sphere ~1e-11 m from the wall: each contact gap's absolute
         # tolerance is 1e-6 of the others so that the relative one governs down there.
         atol = self._atol = self.y.duplicate()
         atol.set(opts.atol)
         for contact in self.contacts:
             atol.setValue(contact.gap_index, 1e-6 * opts.atol)
+        # A history mode matters only through its share of the history force: an error dz in mode i moves
+        # its sphere's velocity by at most s_i dz (TheoryForces.history_sensitivity, 2e-5 to 0.04 for case
+        # 3).  Each mode is held to the error that moves the velocity by the velocity's own tolerance at the
+        # scene's speed, atol + rtol U, shared among the sphere's modes; held to atol, as the gaps and
+        # velocities are, the 34 modes took half of case 3's steps and bought no accuracy (docs/performance.md).
+        for body, theory, modes in zip(self.bodies, self.theories, self._mode_slices):
+            if modes.stop == modes.start:
+                continue
+            sensitivity = theory.history_sensitivity(body.mass + 0.5 * body.displaced_mass, self.scene.time_unit)
+            tolerance = (opts.atol + opts.rtol * self.scene.velocity_unit) / (len(sensitivity) * sensitivity)
+            atol.setValues(range(modes.start, modes.stop), tolerance)
+        atol.assemble()
         self._events = self._event_list()
         self._event_handler = None
         if self._events:
@@ -219,6 +296,13 @@ class BodyIntegrator:
             # error control; inside the stiff contact that lost 0.5 % of the energy.  Restart tiny instead.
             f"{prefix}ts_event_post_event_step": 1e-7 * time_unit,
         }
+        if sum(self.n_history):
+            # Each unknown within its own tolerance: the default root-mean-square over the 2N + 34N unknowns
+            # averaged the gaps' and velocities' errors away among the history modes.  Without modes (a
+            # resolved flow carries the history) the mean over the 2N numbers is kept: there the infinity
+            # norm moved refactor_check's fd, ib and ale numbers by 1e-5 (e of ale-three by 3e-4) with 4-19 %
+            # more sub-steps, a stricter sub-cycling than the flow's own step needs.
+            scene_defaults[f"{prefix}ts_adapt_wnormtype"] = "infinity"
         ts.getSNES().getKSP().setType("preonly")
         ts.getSNES().getKSP().getPC().setType("lu")
         ts.setPostStep(self._post_step)
@@ -240,128 +324,252 @@ class BodyIntegrator:
             heights.append(heights[-1] + self.bodies[k - 1].diameter + y[2 * k])
         return np.array(heights)
 
-    def _blend(self, h1: float) -> np.ndarray:
-        """Each sphere's weight of f_thr in f_sl: 1 without a resolved flow; sphere 1 under the paper's
-        blend H(delta); 0 otherwise (the correction)."""
-        weights = np.full(len(self.bodies), 0.0 if self.resolved else 1.0)
-        if self.resolved and self.uses_theory and self.contact is not None:
-            weights[0] = self.contact.blend(h1)
-        return weights
+    def forces(self, t: float, y) -> ForceTerms:
+        """Every force term at the state y [SI] with its derivatives (ForceTerms; the object is reused: read it
+        before the next call).  A sphere's drag, added mass and history see the wall at its height (sphere 1
+        through its contact's film, ContactLaw.film: inside a Hertz contact the lubrication is evaluated at
+        h_c and faded out); each neighbouring pair's interaction, added mass and contact its pair gap.
 
-    def _terms(self, t: float, y) -> dict:
-        """Every force term that does not need the accelerations [N], the added masses C_M,i m_l,i [kg] and
-        the pairs' added-mass matrix less the isolated spheres' [kg]."""
-        count = len(self.bodies)
-        heights = self._heights(y)
-        v = np.asarray(y[1:2 * count:2], dtype=float)
-        rates = self._rates(y)
-        wall_gaps, films = list(heights), [1.0] * count  # to the wall, as each sphere's drag sees it
+        The last state's terms are kept: the Rosenbrock step evaluates its Jacobian and its first stage at
+        the state it starts from, which the previous step's trajectory row has seen (4 evaluations a step
+        instead of 6).  The forces depend on y and on what each contact fixed when it began, not on t."""
+        f, count = self._terms, len(self.bodies)
+        contact_states = tuple(contact.record.engaged_now for contact in self.contacts)
+        state = y.tobytes()
+        if contact_states == self._forces_engaged and state == self._forces_state:
+            return f
+        self._forces_engaged = None  # until the terms below are whole
+        f.clear()
+        v = f.velocities = y[1:2 * count:2].tolist()
+        rate_slopes = self._rate_slopes  # dr_k/dV_k: 0 for a held sphere, whose gap stays
+        rates = [v[k] * rate_slopes[k] for k in range(count)]
+        heights = f.heights
+        heights[0] = float(y[0])
+        for k in range(1, count):
+            heights[k] = heights[k - 1] + self._diameters[k - 1] + float(y[2 * k])
         wall = self.wall
-        if wall is not None:
-            wall_gaps[0], films[0] = wall.law.film(y[0], wall.record.engaged_now)
-        th = self.theories
-        zero = np.zeros(count)
-        terms = dict(
-            gaps=heights, velocities=v, blend=self._blend(y[0]),
-            c_m=np.array([th[k].added_mass(wall_gaps[k])[0] for k in range(count)]),
-            drag=np.array([th[k].drag(wall_gaps[k], v[k], films[k]) for k in range(count)]),
-            am_velocity=np.array([th[k].added_mass_velocity_term(wall_gaps[k], v[k]) if films[k] == 1.0 else 0.0
-                                  for k in range(count)]),  # C_M held inside a Hertz contact
-            pair=zero.copy(), elastic=zero.copy(), correction=zero.copy(), correction_mass=zero.copy(),
-            pair_mass=np.zeros((count, count)), pair_am_velocity=zero.copy(), history=zero.copy(),
-            history_coefficients=[np.zeros(0)] * count,
-        )
-        pair_films = {}  # lower index -> (the lubrication's gap, the share of it left)
-        for contact in self.contacts:
-            if contact.lower is None:
-                continue
-            k, pair, s = contact.lower, contact.model, y[contact.gap_index]
-            both = slice(k, k + 2)
-            gap, film = pair.law.film(s, contact.record.engaged_now)  # held and fading inside a Hertz contact
-            pair_films[k] = (gap, film)
-            terms["pair"][both] += pair.interaction(gap, v[both], film)
-            if self.resolved:
-                terms["correction"][both] += pair.correction(gap, v[both], film)
-            else:  # the pair's added mass, held with the film inside a Hertz contact as C_M is
-                terms["pair_mass"][both, both] += pair.added_mass(gap)[0]
-                if film == 1.0:
-                    terms["pair_am_velocity"][both] += pair.added_mass_velocity_term(gap, v[both], contact.rate(rates))
-        for k, z in enumerate(self._history_states(y)):
-            if len(z):
-                c = th[k].history_coefficients(wall_gaps[k], v[k], films[k])
-                adjacent = [j for j in (k - 1, k) if j in pair_films]  # the pairs below and above it
-                if self._drag_scaled_history and adjacent:  # K_H^(3/2): the wall's lambda plus each pair's X_kk - 1
-                    factor = own = th[k].wall_factor(wall_gaps[k], films[k])
-                    for j in adjacent:
-                        (gap, film), side = pair_films[j], k - j  # side 1: k is the pair's upper sphere
-                        factor = factor + film * (self.pairs[j].resistance(gap)[side, side] - 1.0)
-                    c = c * factor / own
-                terms["history_coefficients"][k] = c
-                terms["history"][k] = -float(c @ z)
+        if self.resolved:  # f_sim from the flow, f_thr only in the paper's blend on sphere 1
+            f.blend = [0.0] * count
+            if self.uses_theory and self.contact is not None:
+                f.blend[0], slope = self.contact.blend_slope(heights[0])
+                f.blend_slopes.append((0, 0, slope))
+        slopes = f.theory_slopes
+        for k, theory in enumerate(self.theories):
+            # the wall as this sphere sees it: (gap, share of the lubrication left, their d/d height)
+            if k == 0 and wall is not None:
+                film = wall.law.film_slopes(heights[0], wall.record.engaged_now)
+            else:
+                film = (heights[k], 1.0, 1.0, 0.0)
+            self._wall_films[k] = film
+            gap, share, gap_slope, share_slope = film
+            velocity = 2 * k + 1  # V_k's column
+            drag, d_gap, d_share, d_velocity = theory.drag_slopes(gap, v[k], share)
+            f.drag[k] = drag
+            f.lubrication[k] = drag - theory.free_drag(v[k])
+            d_height = d_gap * gap_slope + d_share * share_slope
+            slopes.append((k, velocity, d_velocity))
+            c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
+            f.theory_mass[k][k] += c_m
+            f.theory_mass_height_slopes[k] = c_m_slope * gap_slope
+            term = 0.0
+            if share == 1.0:  # C_M is held with the film inside a Hertz contact: no velocity term there
+                term, d_gap, d_velocity = theory.added_mass_velocity_term_slopes(gap, v[k])
+                d_height += d_gap * gap_slope
+                slopes.append((k, velocity, d_velocity))
+            f.theory_height_slopes[k] += d_height
+            f.am_velocity[k] = term
+            f.theory[k] += drag + term
+        for contact in self.pair_contacts:
+            self._pair_forces(f, contact, float(y[contact.gap_index]), v, rates)
+        for k, modes in enumerate(self._mode_slices):
+            if modes.stop > modes.start:
+                self._history_force(f, k, y[modes], v[k])
         for contact in self.contacts:
             engaged = contact.record.engaged_now
             if engaged is not None:
-                push = contact.law.force(y[contact.gap_index], contact.rate(rates), engaged)
-                if contact.lower is not None:
-                    terms["elastic"][contact.lower] -= push
-                terms["elastic"][contact.upper] += push
+                self._contact_force(f, contact, float(y[contact.gap_index]), rates, engaged)
         if self.resolved and self.contact is not None:
-            force, mass = self.contact.correction(wall_gaps[0], v[0], films[0])
-            terms["correction"][0] += force
-            terms["correction_mass"][0] += mass
-        return terms
+            gap, share, gap_slope, share_slope = self._wall_films[0]
+            force, mass, d_gap, d_share, d_velocity, d_mass = self.contact.correction_slopes(gap, v[0], share)
+            f.correction[0] += force
+            f.other_slopes += [(0, 0, d_gap * gap_slope + d_share * share_slope), (0, 1, d_velocity)]
+            f.correction_mass[0] += mass
+            f.correction_mass_slopes.append((0, 0, d_mass * gap_slope))
+        self._forces_state, self._forces_engaged = state, contact_states
+        return f
 
-    def _balance(self, t: float, y, terms: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def _pair_forces(self, f: ForceTerms, contact: Contact, gap: float, v: list, rates: list) -> None:
+        """A neighbouring pair's Stokes interaction (a resolved flow's correction instead), added mass and its
+        velocity terms on its two spheres, into f; its film kept for a drag-scaled history."""
+        lower, upper, column = contact.lower, contact.upper, contact.gap_index
+        pair, both = contact.model, (lower, upper)
+        film = self._pair_films[lower] = pair.law.film_slopes(gap, contact.record.engaged_now)
+        gap, share, gap_slope, share_slope = film
+        velocities = (2 * lower + 1, 2 * upper + 1)  # columns of V_lower, V_upper
+        values, d_gap, d_share, d_velocity = pair.interaction_slopes(gap, v[lower], v[upper], share)
+        for i, k in enumerate(both):
+            f.pair[k] += values[i]
+            f.theory[k] += values[i]
+            f.theory_slopes += [(k, column, d_gap[i] * gap_slope + d_share[i] * share_slope),
+                                (k, velocities[0], d_velocity[i][0]), (k, velocities[1], d_velocity[i][1])]
+        if self.resolved:
+            values, d_gap, d_share, d_velocity = pair.correction_slopes(gap, v[lower], v[upper], share)
+            for i, k in enumerate(both):
+                f.correction[k] += values[i]
+                f.other_slopes += [(k, column, d_gap[i] * gap_slope + d_share[i] * share_slope),
+                                   (k, velocities[0], d_velocity[i][0]), (k, velocities[1], d_velocity[i][1])]
+            return
+        # the pair's added mass, held with the film inside a Hertz contact as C_M is
+        added_mass = pair.added_mass_slopes(gap)
+        excess, slope, _ = added_mass
+        for i, k in enumerate(both):
+            for j, other in enumerate(both):
+                f.theory_mass[k][other] += excess[2 * i + j]
+                f.theory_mass_slopes.append((k, other, column, slope[2 * i + j] * gap_slope))
+        if share != 1.0:
+            return
+        rate = rates[upper] - rates[lower]
+        values, d_gap, d_velocity, d_rate = pair.added_mass_velocity_term_slopes(gap, v[lower], v[upper], rate,
+                                                                                  added_mass)
+        rate_slopes = (-self._rate_slopes[lower], self._rate_slopes[upper])  # d rate / d(V_lower, V_upper)
+        for i, k in enumerate(both):
+            f.pair_am_velocity[k] += values[i]
+            f.theory[k] += values[i]
+            f.theory_slopes += [(k, column, d_gap[i]),
+                                (k, velocities[0], d_velocity[i][0] + d_rate[i] * rate_slopes[0]),
+                                (k, velocities[1], d_velocity[i][1] + d_rate[i] * rate_slopes[1])]
+
+    def _history_force(self, f: ForceTerms, k: int, modes: np.ndarray, velocity: float) -> None:
+        """Sphere k's history force f_H = -K_H^(3/2) sum_i c_i z_i into f.  K_H^(3/2) is 1, or drag-scaled
+        (contact.history_wall_factor): the wall's lambda at the sphere's gap plus each neighbouring pair's
+        X_kk - 1, each faded inside its contact as the drag's excess is."""
+        memory, memory_slope = self.theories[k].history_memory(velocity, modes)  # sum_i c_i z_i [N]
+        factor = 1.0
+        if self._drag_scaled_history:
+            gap, share, gap_slope, share_slope = self._wall_films[k]
+            factor, d_gap, d_share = self.theories[k].wall_factor_slopes(gap, share)
+            f.theory_height_slopes[k] -= memory * (d_gap * gap_slope + d_share * share_slope)
+            for lower in self._adjacent_pairs[k]:  # the pairs below and above it
+                gap, share, gap_slope, share_slope = self._pair_films[lower]
+                side = 3 if lower < k else 0  # (X22 or X11) in (11, 12, 21, 22)
+                resistance, resistance_slopes = self.pair_contacts[lower].model.resistance_slopes(gap)
+                factor += share * (resistance[side] - 1.0)
+                f.theory_slopes.append((k, 2 * lower + 2, -memory * (share * resistance_slopes[side] * gap_slope
+                                                                      + (resistance[side] - 1.0) * share_slope)))
+        f.history[k] = -factor * memory
+        f.theory[k] -= factor * memory
+        f.theory_slopes.append((k, 2 * k + 1, -factor * memory_slope))
+        f.history_factors[k] = factor
+
+    def _contact_force(self, f: ForceTerms, contact: Contact, gap: float, rates: list, engaged: float) -> None:
+        """A contact's elastic force (ContactLaw.force), pushing its two surfaces apart, into f."""
+        lower, upper = contact.lower, contact.upper
+        push, d_gap, d_rate = contact.law.force_slopes(gap, contact.rate(rates), engaged)
+        for k, sign in ((upper, 1.0), (lower, -1.0)):  # equal and opposite
+            if k is None:
+                continue
+            f.elastic[k] += sign * push
+            f.other_slopes += [(k, contact.gap_index, sign * d_gap),
+                               (k, 2 * upper + 1, sign * d_rate * self._rate_slopes[upper])]
+            if lower is not None:
+                f.other_slopes.append((k, 2 * lower + 1, -sign * d_rate * self._rate_slopes[lower]))
+
+    def _balance(self, t: float, f: ForceTerms) -> tuple[np.ndarray, np.ndarray]:
         """(M, R): the equations of motion read M dV/dt = R (a held or prescribed sphere's row: its
         acceleration).  The theory force weighs `blend` (1 for the ODE model), the resolved flow's 1 - blend."""
-        f = terms or self._terms(t, y)
-        blend = f["blend"]
-        explicit, added_mass = self.fluid.explicit, self.fluid.added_mass  # zero without a resolved flow
-        mass = (np.diag(self.masses + blend * f["c_m"] + f["correction_mass"]) + blend[:, None] * f["pair_mass"]
-                + (1.0 - blend)[:, None] * added_mass)
-        theory = f["drag"] + f["am_velocity"] + f["pair"] + f["pair_am_velocity"] + f["history"]
-        rhs = blend * theory + (1.0 - blend) * explicit + f["correction"] + f["elastic"] - self.weights
-        for k in np.flatnonzero(~self.free):
-            mass[k] = np.eye(len(self.bodies))[k]
+        mass, rhs = np.array(f.theory_mass), np.array(f.theory)
+        if self.resolved:
+            blend = np.array(f.blend)
+            mass = blend[:, None] * mass + (1.0 - blend)[:, None] * self.fluid.added_mass
+            rhs = blend * rhs + (1.0 - blend) * self.fluid.explicit
+        mass[self._diagonal] += self.masses + f.correction_mass
+        rhs += np.array(f.correction) + f.elastic - self.weights
+        for k in self._imposed:
+            mass[k] = 0.0
+            mass[k, k] = 1.0
             rhs[k] = self.bodies[k].prescribed(t)[1]
         return mass, rhs
 
-    def _residual(self, t: float, y, ydot, terms: dict | None = None) -> np.ndarray:
+    def residual(self, t: float, y, ydot) -> np.ndarray:
+        """G(t, y, y') of the implicit system (module docstring): the gaps' rates, the equations of motion
+        M dV/dt - R and the history modes z' - dV/dt + z / T.  Returns the integrator's own array, rewritten by
+        the next call."""
         count = len(self.bodies)
-        mass, rhs = self._balance(t, y, terms)
-        rates = self._rates(y)
-        out = np.empty(self.n)
-        out[0:2 * count:2] = np.asarray(ydot[0:2 * count:2]) - np.diff(rates, prepend=0.0)  # the gaps' rates
-        out[1:2 * count:2] = mass @ np.asarray(ydot[1:2 * count:2]) - rhs
-        for k, (modes, z) in enumerate(zip(self._mode_slices, self._history_states(y))):
-            out[modes] = np.asarray(ydot[modes]) - ydot[2 * k + 1] + z / self.theories[k].history_times[: len(z)]
+        mass, rhs = self._balance(t, self.forces(t, y))
+        out, rates = self._residual_out, self._rate_slope_array * y[1:2 * count:2]
+        accelerations = ydot[1:2 * count:2]
+        out[0:2 * count:2] = ydot[0:2 * count:2] - rates
+        out[2:2 * count:2] += rates[:-1]  # a pair gap's rate is the upper sphere's less the lower's
+        out[1:2 * count:2] = mass @ accelerations - rhs
+        modes = slice(2 * count, None)  # every sphere's, each z' - dV/dt + z / T
+        out[modes] = (ydot[modes] - (self._remembering() * accelerations)[self._mode_owners]
+                      + y[modes] / self._all_mode_times)
         return out
 
-    def _ifunction(self, ts, t, y, ydot, f) -> None:
-        f.setArray(self._residual(t, y.array_r, ydot.array_r))
+    def _remembering(self) -> np.ndarray:
+        """1 for a sphere whose history modes take in its acceleration now, 0 for one in a contact under
+        contact.history_across_contact = "pause" (its modes then only decay: the contact's reversal is not
+        remembered, docs/physics.md 3.6)."""
+        remember = np.ones(len(self.bodies))
+        if self._pause_history:
+            for contact in self.contacts:
+                if contact.record.engaged_now is not None:
+                    remember[[k for k in (contact.lower, contact.upper) if k is not None]] = 0.0
+        return remember
 
-    def _ijacobian(self, ts, t, y, ydot, a, A, P) -> bool:
-        y, ydot = np.array(y.array_r), np.array(ydot.array_r)
+    def jacobian(self, t: float, y, ydot, shift: float) -> np.ndarray:
+        """dG/dy + shift dG/dy' at (t, y, y'), exact: the gaps' and the history modes' rows are linear; the
+        equations of motion's are the force terms' own derivatives (ForceTerms) and the added masses'
+        d(M dV/dt)/dy.  Dense (n, n); the solver keeps only its nonzero pattern."""
         count, n = len(self.bodies), self.n
-        terms = self._terms(t, y)  # at the base state: for its residual and the exact blocks below
-        base = self._residual(t, y, ydot, terms)
+        f = self.forces(t, y)
+        mass, _ = self._balance(t, f)
+        accelerations = np.asarray(ydot[1:2 * count:2]).tolist()
+        blend = f.blend
+        # d(M dV/dt - R)/dy of the velocity rows, R = blend f_thr + (1 - blend) f_sim + the rest
+        motion = np.zeros((count, 2 * count))
+        for k, column, slope in f.theory_slopes:
+            motion[k, column] -= blend[k] * slope
+        for k, column, slope in f.other_slopes:
+            motion[k, column] -= slope
+        for k, j, column, slope in f.theory_mass_slopes:
+            motion[k, column] += blend[k] * slope * accelerations[j]
+        for k, column, slope in f.correction_mass_slopes:
+            motion[k, column] += slope * accelerations[k]
+        if f.blend_slopes:  # the blend's own derivative weighs f_thr against the flow's force
+            explicit, added_mass = self.fluid.explicit, self.fluid.added_mass
+            for k, column, slope in f.blend_slopes:
+                theory_mass = np.array(f.theory_mass[k])
+                motion[k, column] += slope * ((theory_mass - added_mass[k]) @ accelerations
+                                              - (f.theory[k] - explicit[k]))
+        for k in range(count):  # through the sphere's height, every gap below it
+            motion[k, 0:2 * k + 1:2] += blend[k] * (f.theory_mass_height_slopes[k] * accelerations[k]
+                                                    - f.theory_height_slopes[k])
+        motion[self._imposed] = 0.0
         jac = np.zeros((n, n))
-        lengths = [self.bodies[0].diameter] + [pair.diameter for pair in self.pairs]
-        for k in range(2 * count):  # by differences in the gaps and velocities (the gap rows too: they are linear)
-            step = 1e-7 * max(abs(y[k]), (lengths[k // 2] if k % 2 == 0 else 1.0) * 1e-3)
-            shifted = y.copy()
-            shifted[k] += step
-            jac[:, k] = (self._residual(t, shifted, ydot) - base) / step
-        mass, _ = self._balance(t, y, terms)
-        gaps, velocities = np.arange(0, 2 * count, 2), np.arange(1, 2 * count, 2)
-        jac[gaps, gaps] += a
-        jac[np.ix_(velocities, velocities)] += a * mass
-        for k, modes in enumerate(self._mode_slices):  # the history rows and columns, exactly
-            if self.free[k]:
-                jac[2 * k + 1, modes] = terms["blend"][k] * terms["history_coefficients"][k]
-            jac[modes, 2 * k + 1] = -a
-            jac[modes, modes] = np.diag(a + 1.0 / self.theories[k].history_times[:self.n_history[k]])
-        P.setValues(range(n), range(n), jac.ravel())
+        gaps, velocities = self._gap_columns, self._velocity_columns
+        jac[gaps, gaps] = shift
+        jac[gaps, velocities] = -self._rate_slope_array
+        jac[gaps[1:], velocities[:-1]] = self._rate_slope_array[:-1]
+        jac[velocities, :2 * count] = motion
+        jac[np.ix_(velocities, velocities)] += shift * mass
+        remember = self._remembering()
+        for k, modes in enumerate(self._mode_slices):
+            if modes.stop > modes.start:
+                if self.free[k]:  # -dR/dz: R holds blend f_H = -blend K c . z
+                    jac[2 * k + 1, modes] = blend[k] * f.history_factors[k] * self.theories[k].history_coefficients(
+                        f.velocities[k])
+                jac[modes, 2 * k + 1] = -shift * remember[k]
+                jac[modes, modes] = np.diag(shift + 1.0 / self._mode_times[k])
+        return jac
+
+    def _ifunction(self, ts, t, y, ydot, f) -> None:
+        f.setArray(self.residual(t, y.array_r, ydot.array_r))
+
+    def _ijacobian(self, ts, t, y, ydot, shift, A, P) -> bool:
+        jac = self.jacobian(t, y.array_r, ydot.array_r, shift)
+        rows, columns, indptr, indices = self._pattern
+        P.setValuesCSR(indptr, indices, jac[rows, columns])
         P.assemble()
         if A != P:
             A.assemble()
@@ -369,34 +577,37 @@ class BodyIntegrator:
 
     # -- events and records ---------------------------------------------------------------
     def _event_list(self) -> list:
-        """(contact, kind, indicator(y) dimensionless, direction, terminate) of each event located."""
+        """(contact, kind, indicator(y, rates) dimensionless, direction, terminate) of each event located;
+        rates are the spheres' dh_i/dt (`_rates`), computed once for all the indicators."""
         events = []
         vu = self.scene.velocity_unit
         for contact in self.contacts:
             moving = [k for k in (contact.lower, contact.upper) if k is not None and self.free[k]]
             if not moving and contact.lower is None:  # an imposed path that reaches the wall is an error in it
-                events.append((contact, "path", lambda y: y[0] / self.bodies[0].diameter, -1, True))
+                events.append((contact, "path", lambda y, rates: y[0] / self.bodies[0].diameter, -1, True))
             if not moving:
                 continue
-            rate = (lambda c: lambda y: c.rate(self._rates(y)))(contact)
             length, law, index = contact.model.diameter, contact.law, contact.gap_index  # D or 2a*
 
-            def at_contact(y, c=contact, rate=rate, length=length, index=index):
+            def at_contact(y, rates, c=contact, length=length, index=index):
                 if c.law.ehd and c.record.phase == "rebound":
                     return 1.0  # resumed at h0 after a film collision: the next one starts after the apex
-                return (y[index] - c.law.boundary(max(-rate(y), 0.0), c.record.engaged_now)) / length
+                return (y[index] - c.law.boundary(max(-c.rate(rates), 0.0), c.record.engaged_now)) / length
             events += [
                 (contact, "contact", at_contact, 0, law.ehd),  # ehd: h0 ends the solve, advance() jumps
-                (contact, "turn", lambda y, rate=rate: rate(y) / vu - self._turning_offset, 0, False),
-                (contact, "blend", lambda y, c=contact, i=index, d=length: (y[i] - c.model.blend_gap) / d, 0, False),
-                (contact, "penetration", lambda y, i=index, d=length, law=law: (y[i] - law.floor) / d, -1, True),
+                (contact, "turn", lambda y, rates, c=contact: c.rate(rates) / vu - self._turning_offset, 0, False),
+                (contact, "blend", lambda y, rates, c=contact, i=index, d=length: (y[i] - c.model.blend_gap) / d, 0,
+                 False),
+                (contact, "penetration", lambda y, rates, i=index, d=length, law=law: (y[i] - law.floor) / d, -1,
+                 True),
             ]
         return events
 
     def _indicators(self, ts, t, y, values) -> None:
         y = y.array_r
+        rates = self._rates(y).tolist()
         for k, (_, _, indicator, _, _) in enumerate(self._events):
-            values[k] = indicator(y)
+            values[k] = indicator(y, rates)
 
     def _post_event(self, ts, events, t, y, forward) -> None:
         y = y.array_r
@@ -477,7 +688,8 @@ class BodyIntegrator:
         if len(taus):
             duration = max(t_end - t, 1e-300)
             decay = np.exp(-duration / taus)
-            state[history] = state[history] * decay + (v_end - v) * taus / duration * (1.0 - decay)
+            remembered = 0.0 if self._pause_history else (v_end - v) * taus / duration * (1.0 - decay)
+            state[history] = state[history] * decay + remembered
         state[0], state[1] = h_end, v_end
         self.y.setArray(state)
         # A fresh TS: PETSc 3.18's event handler keeps the interval of the terminated event, and a solve
@@ -543,18 +755,20 @@ class BodyIntegrator:
         trajectory's columns (output.trajectory_columns): one sphere's plain, more with suffixes _1, _2,
         ... and the gaps between neighbours.  f_added_mass holds the pairs' added mass too; f_history is
         in f_theory.  Under fixed or prescribed motion the forces are those along the imposed path."""
-        f = self._terms(t, y)
-        mass, rhs = self._balance(t, y, f)
+        f = self.forces(t, y)
+        mass, rhs = self._balance(t, f)
         accel = np.linalg.solve(mass, rhs)
-        added_mass = -f["c_m"] * accel - f["pair_mass"] @ accel + f["am_velocity"] + f["pair_am_velocity"]
-        theory = f["drag"] + f["pair"] + added_mass + f["history"]
-        count, blend = len(self.bodies), f["blend"]
+        drag, pair, history, blend = (np.array(values) for values in (f.drag, f.pair, f.history, f.blend))
+        added_mass = -np.array(f.theory_mass) @ accel + f.am_velocity + f.pair_am_velocity
+        theory = drag + pair + added_mass + history
+        count = len(self.bodies)
         sim = self.fluid.explicit - self.fluid.added_mass @ accel if self.resolved else theory
-        correction = f["correction"] - f["correction_mass"] * accel
-        per_sphere = dict(gap=f["gaps"], velocity=f["velocities"], acceleration=accel, f_drag=f["drag"],
-                          f_history=f["history"], f_pair=f["pair"], f_added_mass=added_mass, f_theory=theory,
+        correction = np.array(f.correction) - np.array(f.correction_mass) * accel
+        per_sphere = dict(gap=f.heights, velocity=f.velocities, acceleration=accel, f_drag=drag,
+                          f_lubrication=f.lubrication,
+                          f_history=history, f_pair=pair, f_added_mass=added_mass, f_theory=theory,
                           f_sim=sim, blend=blend, f_liquid=blend * theory + (1.0 - blend) * sim + correction,
-                          f_elastic=f["elastic"], f_correction=correction)
+                          f_elastic=f.elastic, f_correction=correction)
         row = {"t": t}
         suffixes = [""] if count == 1 else [f"_{k + 1}" for k in range(count)]
         for name, values in per_sphere.items():

@@ -52,13 +52,13 @@ from . import scene as scenes
 from ._version import __version__
 from .errors import CheckpointError, OutputError
 
-TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_history", "f_added_mass", "f_theory",
-                      "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
+TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_lubrication", "f_history", "f_added_mass",
+                      "f_theory", "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
 # A pair (scene.second_sphere): one row per instant, both spheres side by side (suffix _1: sphere 1, the
 # lower one; _2: the second sphere); gap_i is sphere i's lowest point above z = 0, pair_gap the distance
 # between the two surfaces, f_pair_i the pair's Stokes interaction in the theory force (docs/usage.md).
-EACH_SPHERE_COLUMNS = ("gap", "velocity", "acceleration", "f_drag", "f_pair", "f_added_mass", "f_theory", "f_sim",
-                       "f_liquid", "f_elastic", "f_correction")
+EACH_SPHERE_COLUMNS = ("gap", "velocity", "acceleration", "f_drag", "f_lubrication", "f_pair", "f_added_mass",
+                       "f_theory", "f_sim", "f_liquid", "f_elastic", "f_correction")
 PAIR_TRAJECTORY_COLUMNS = ("t", "pair_gap", *(f"{name}_{k}" for k in (1, 2) for name in EACH_SPHERE_COLUMNS))
 
 

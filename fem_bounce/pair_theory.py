@@ -223,6 +223,35 @@ def far_field(a1: float, a2: float, h: float) -> np.ndarray:
     return np.array([[x11, x12], [x21, x22]])
 
 
+def _far_field_slopes(a1: float, a2: float, h: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(X11, X12, X21, X22) of `far_field` and their derivatives d/dh [1/m], plain floats."""
+    d = a1 + a2 + h
+
+    def row(own, other):
+        dipole = 0.5 * other * (own**2 + other**2) - 27.0 / 8.0 * own * other**2
+        return ((1.0 + 9.0 * own * other / (4.0 * d * d), -1.5 * other / d + dipole / d**3),
+                (-9.0 * own * other / (2.0 * d**3), 1.5 * other / (d * d) - 3.0 * dipole / d**4))
+
+    (x11, x12), (d11, d12) = row(a1, a2)
+    (x22, x21), (d22, d21) = row(a2, a1)
+    return (x11, x12, x21, x22), (d11, d12, d21, d22)
+
+
+def _log_gap_spline(knots: list[float], coefficients: list, h: float) -> tuple[tuple[float, float, float], ...]:
+    """Three cubic splines in x = ln h (knots, and per interval the coefficients of (x - knot)^3 ... ^0 of
+    each, as CubicSpline.c), evaluated at the gap h [m] with their first and second derivatives in x:
+    ((f11, f12, f22), (df/dx ...), (d2f/dx2 ...)), plain floats.  Ends: the first and last cubic go on."""
+    x = math.log(h)
+    i = min(max(bisect.bisect_right(knots, x) - 1, 0), len(coefficients) - 1)
+    t = x - knots[i]
+    (a11, a12, a22), (b11, b12, b22), (c11, c12, c22), (e11, e12, e22) = coefficients[i]
+    return ((((a11 * t + b11) * t + c11) * t + e11, ((a12 * t + b12) * t + c12) * t + e12,
+             ((a22 * t + b22) * t + c22) * t + e22),
+            ((3.0 * a11 * t + 2.0 * b11) * t + c11, (3.0 * a12 * t + 2.0 * b12) * t + c12,
+             (3.0 * a22 * t + 2.0 * b22) * t + c22),
+            (6.0 * a11 * t + 2.0 * b11, 6.0 * a12 * t + 2.0 * b12, 6.0 * a22 * t + 2.0 * b22))
+
+
 class PairResistance:
     """X(h) of `resistance` for one pair of radii, tabulated once and interpolated: the series costs
     milliseconds near contact, an ODE right-hand side needs microseconds.
@@ -254,30 +283,50 @@ class PairResistance:
         table = np.array([exact_series(a1, a2, h) for h in gaps])
         # the constant left after the singular terms at the table's lower end
         self._remainder = table[0] - _singular_part(a1, a2, gaps[0])
+        self._remainders = tuple(self._remainder.ravel().tolist())
         squeeze = gaps / (gaps + self.a_star)
         smooth = np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1) * squeeze[:, None]
         spline = CubicSpline(log_gap, smooth, axis=0)
         # plain floats for a scalar evaluation without numpy overhead
         self.gaps = gaps  # [m], the table's knots
         self._knots = log_gap.tolist()
-        self._coefficients = [tuple(tuple(spline.c[p, i, :]) for p in range(4)) for i in range(len(gaps) - 1)]
+        self._coefficients = [tuple(tuple(spline.c[p, i, :].tolist()) for p in range(4))
+                              for i in range(len(gaps) - 1)]
 
     def coefficients(self, h: float) -> tuple[float, float, float, float]:
         """(X11, X12, X21, X22) at gap h [m]: plain floats, for right-hand sides."""
+        return self.coefficients_slopes(h)[0]
+
+    def coefficients_slopes(self, h: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """((X11, X12, X21, X22), their derivatives d/dh [1/m]) at gap h [m]: of the lubrication form below
+        the table, of the spline inside it (Y = X h / (h + a*), so X' = Y' / h (h + a*) / h - Y a* / h^2),
+        of `far_field` above it."""
         if h < self.h_min:
             if h <= 0.0:
                 raise ValueError(f"the gap must be positive, got h = {h}")
-            return tuple((_singular_part(self.a1, self.a2, h) + self._remainder).ravel().tolist())
+            return self._lubrication_slopes(h)
         if h > self.h_max:
-            return tuple(far_field(self.a1, self.a2, h).ravel().tolist())
-        x = math.log(h)
-        i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
-        t = x - self._knots[i]
-        c3, c2, c1, c0 = self._coefficients[i]
-        y11, y12, y22 = (((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3))
+            return _far_field_slopes(self.a1, self.a2, h)
+        (y11, y12, y22), (dy11, dy12, dy22), _ = _log_gap_spline(self._knots, self._coefficients, h)
         unsqueeze = (h + self.a_star) / h
-        x12 = y12 * unsqueeze
-        return y11 * unsqueeze, x12, self.a1 * x12 / self.a2, y22 * unsqueeze
+        squeeze_rate = -self.a_star / (h * h)  # d(unsqueeze)/dh
+        x12, d12 = y12 * unsqueeze, dy12 / h * unsqueeze + y12 * squeeze_rate
+        reciprocal = self.a1 / self.a2
+        return ((y11 * unsqueeze, x12, self.a1 * x12 / self.a2, y22 * unsqueeze),
+                (dy11 / h * unsqueeze + y11 * squeeze_rate, d12, reciprocal * d12,
+                 dy22 / h * unsqueeze + y22 * squeeze_rate))
+
+    def _lubrication_slopes(self, h: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """Below the table: the singular terms +-(a*/a_i) L(h) (`lubrication`) plus the table's O(1)
+        remainder, and their derivatives, L' = -a*/h^2 - g/h."""
+        a1, a2, a_star = self.a1, self.a2, self.a_star
+        k = a2 / a1
+        log_weight = (1.0 + 7.0 * k + k * k) / (5.0 * (1.0 + k) ** 2)
+        singular, slope = lubrication(a1, a2, h), -a_star / (h * h) - log_weight / h
+        r11, r12, r21, r22 = self._remainders
+        own1, own2 = a_star / a1, a_star / a2
+        return ((own1 * singular + r11, -own1 * singular + r12, -own2 * singular + r21, own2 * singular + r22),
+                (own1 * slope, -own1 * slope, -own2 * slope, own2 * slope))
 
     def __call__(self, h: float) -> np.ndarray:
         """The 2x2 X at gap h [m], as `resistance`."""
@@ -380,6 +429,17 @@ def added_mass_far_field(a1: float, a2: float, h: float) -> tuple[np.ndarray, np
     return c, dc
 
 
+def _far_field_curvature(a1: float, a2: float, h: float) -> tuple[float, float, float, float]:
+    """d2C/dh2 [1/m2] of `added_mass_far_field`, as (C11, C12, C21, C22)."""
+    d = a1 + a2 + h
+    p = (a1 * a2) ** 3
+
+    def own(other):
+        s = d * d - other * other
+        return -9.0 * p / s**4 + 72.0 * d * d * p / s**5
+    return own(a2), -18.0 * a2**3 / d**5, -18.0 * a1**3 / d**5, own(a1)
+
+
 class PairAddedMass:
     """C(h) and dC/dh of `added_mass_series` for one pair of radii, tabulated once: the series needs
     about 14 / omega terms (thousands near contact), a right-hand side needs microseconds.
@@ -409,25 +469,29 @@ class PairAddedMass:
         spline = CubicSpline(log_gap, np.stack([table[:, 0, 0], table[:, 0, 1], table[:, 1, 1]], axis=-1), axis=0)
         self.gaps = np.exp(log_gap)  # [m], the table's knots
         self._knots = log_gap.tolist()
-        self._coefficients = [tuple(tuple(spline.c[p, i, :]) for p in range(4)) for i in range(len(log_gap) - 1)]
+        self._coefficients = [tuple(tuple(spline.c[p, i, :].tolist()) for p in range(4))
+                              for i in range(len(log_gap) - 1)]
         self._lowest = tuple(float(v) for v in spline(log_gap[0]))
 
     def coefficients(self, h: float) -> tuple[tuple[float, float, float, float], tuple[float, float, float, float]]:
         """((C11, C12, C21, C22), their derivatives d/dh [1/m]) at gap h [m]: plain floats."""
+        return self.coefficients_curvature(h)[:2]
+
+    def coefficients_curvature(self, h: float) -> tuple[tuple[float, float, float, float], ...]:
+        """`coefficients` and the second derivatives d2C/dh2 [1/m2] (of the splines, P'' - P' over h^2 in ln h;
+        of `added_mass_far_field` above the table; 0 below it, where C is held)."""
         if h > self.h_max:
             c, dc = added_mass_far_field(self.a1, self.a2, h)
-            return tuple(c.ravel().tolist()), tuple(dc.ravel().tolist())
+            return tuple(c.ravel().tolist()), tuple(dc.ravel().tolist()), _far_field_curvature(self.a1, self.a2, h)
         if h <= self.h_min:
             c11, c12, c22 = self._lowest
-            return (c11, c12, self._ratio * c12, c22), (0.0, 0.0, 0.0, 0.0)
-        x = math.log(h)
-        i = min(max(bisect.bisect_right(self._knots, x) - 1, 0), len(self._coefficients) - 1)
-        t = x - self._knots[i]
-        c3, c2, c1, c0 = self._coefficients[i]
-        value = [((c3[j] * t + c2[j]) * t + c1[j]) * t + c0[j] for j in range(3)]
-        slope = [((3.0 * c3[j] * t + 2.0 * c2[j]) * t + c1[j]) / h for j in range(3)]
-        return ((value[0], value[1], self._ratio * value[1], value[2]),
-                (slope[0], slope[1], self._ratio * slope[1], slope[2]))
+            return (c11, c12, self._ratio * c12, c22), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0)
+        # C and its derivatives in ln h: d/dh = (d/d ln h) / h, d2/dh2 = (d2/d ln h2 - d/d ln h) / h^2
+        (v11, v12, v22), (r11, r12, r22), (q11, q12, q22) = _log_gap_spline(self._knots, self._coefficients, h)
+        square, ratio = h * h, self._ratio
+        s11, s12, s22 = r11 / h, r12 / h, r22 / h
+        k11, k12, k22 = (q11 - r11) / square, (q12 - r12) / square, (q22 - r22) / square
+        return (v11, v12, ratio * v12, v22), (s11, s12, ratio * s12, s22), (k11, k12, ratio * k12, k22)
 
     def __call__(self, h: float) -> tuple[np.ndarray, np.ndarray]:
         """(C, dC/dh) at gap h [m] as 2x2 arrays."""

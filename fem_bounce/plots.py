@@ -17,6 +17,7 @@ import matplotlib.pyplot as plt
 
 from . import reference
 from .contact import REBOUND_MIN_APEX
+from .losses import PHASES
 from .output import read_summary, read_trajectory
 from .scene import reduced_radius
 
@@ -46,8 +47,48 @@ def draw(traj: dict, summary: dict, directory: Path) -> list[Path]:
     directory = Path(directory)
     if "second_sphere" in summary["scene"]:
         return [pair_figure(traj, summary, directory / "trajectory.png")]
-    return [trajectory_figure(traj, summary, directory / "trajectory.png"),
+    made = [trajectory_figure(traj, summary, directory / "trajectory.png"),
             velocity_gap_figure(traj, summary, directory / "velocity_gap.png")]
+    if any("losses" in impact for impact in summary.get("impacts", [])):
+        made.append(losses_figure(summary, directory / "losses.png"))
+    return made
+
+
+def losses_figure(summary: dict, path: Path, impacts: int = 3) -> Path:
+    """Where each of the first `impacts` collisions' momentum went (summary.json's `losses`, fem_bounce.losses):
+    every force's impulse in each phase as a share of the momentum the sphere brought in, positive away
+    from the wall (on the way in a positive impulse slows the sphere, on the way out a negative one).  The
+    axis stops at +-1.2: a bar beyond it (the contact's, which reverses the sphere) is labelled with its value."""
+    audited = [(k, impact) for k, impact in enumerate(summary["impacts"]) if "losses" in impact][:impacts]
+    fig, axes = plt.subplots(1, len(audited), figsize=(4.6 * len(audited), 4.4), sharey=True, squeeze=False)
+    colours = {"approach": "C0", "contact": "C3", "rebound": "C2"}
+    limit = 1.2
+    for ax, (k, impact) in zip(axes[0], audited):
+        audit = impact["losses"]
+        names = list(audit["share"])
+        for j, phase in enumerate(PHASES):
+            values = [audit["share"][name][j] for name in names]
+            places = [i + (j - 1) * 0.27 for i in range(len(names))]
+            ax.bar(places, values, width=0.27, color=colours[phase], label=phase if ax is axes[0][0] else None)
+            for x, value in zip(places, values):
+                if abs(value) > limit:
+                    ax.text(x, 0.93 * limit * (1 if value > 0 else -1), f"{value:.2f}", ha="center", fontsize=7,
+                            va="top" if value > 0 else "bottom", color="w", rotation=90)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_ylim(-limit, limit)
+        ax.set_xticks(range(len(names)))
+        ax.set_xticklabels([name.replace("_", " ") for name in names], rotation=45, ha="right")
+        out = (f"out at {audit['speed_out']:.3g} m/s" if audit["left_blend_gap"]
+               else "apex below delta_sl" if audit["left_contact"] else "stayed in contact")
+        ax.set_title(f"impact {k + 1}: St {impact['St']:.3g}; in at {audit['peak_speed']:.3g} m/s, {out}", fontsize=9)
+    axes[0][0].set_ylabel("impulse / momentum brought in\n(away from the wall > 0)")
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle(f"{summary['scene'].get('name', '')} ({summary.get('model', '')}): where the momentum went",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
 
 
 def _paper(contact: dict) -> bool:

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
-from . import models, output
+from . import losses, models, output
 from . import scene as scenes
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
@@ -337,9 +337,8 @@ def check_checkpoint(checkpoint: output.Checkpoint, integrator: BodyIntegrator) 
                                       f"{checkpoint.folder.name}/state.json: {entry} {what} (damaged or edited); "
                                       "start a new run")
 
-    def number(value, low: float = 0.0, open_low: bool = False) -> bool:
-        return (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-                and (value > low if open_low else value >= low))
+    def number(value, low: float = 0.0) -> bool:
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= low
 
     def numbers(values, count: int) -> bool:
         return isinstance(values, list) and len(values) == count and all(number(v, -math.inf) for v in values)
@@ -359,8 +358,8 @@ def check_checkpoint(checkpoint: output.Checkpoint, integrator: BodyIntegrator) 
         raise bad("integrator", "is not a table")
     if not number(saved.get("time")):
         raise bad("integrator.time", f"= {saved.get('time')!r} is not a time >= 0 s")
-    if not number(saved.get("step_size"), open_low=True):
-        raise bad("integrator.step_size", f"= {saved.get('step_size')!r} is not a step > 0 s")
+    if not number(saved.get("step_size")):  # 0 can be saved: RunIntegrator.advance restarts it
+        raise bad("integrator.step_size", f"= {saved.get('step_size')!r} is not a step >= 0 s")
     if not numbers(saved.get("y"), integrator.n):
         raise bad("integrator.y", f"is not {integrator.n} finite numbers (the bodies' gaps, velocities and history)")
     machine = saved.get("machine")
@@ -503,6 +502,8 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     unwritten = ""
     if run_dir is not None:
         def write_outputs() -> str:
+            with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
+                losses.annotate(data, output.read_trajectory(out_dir))
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure

@@ -68,7 +68,15 @@ EHD_HANDOVER_NOTE = ("the film collision's handover gap h0: thin against the sph
                      "at the estimated impact speed (the surfaces still rigid at h0: DSH's epsilon below 0.003)")
 # the most tension a liquid film has been reported to hold is of the order of -30 MPa (water in
 # Briggs' (1950) spinning tube); the bound only keeps the number physical
-EHD_CAVITATION_MIN = -1e8
+CAVITATION_PRESSURE_MIN = -1e8
+ONE_ATMOSPHERE = 101325.0  # Pa, the standard atmosphere
+# water's vapour pressure at 20 C (Wagner & Pruss 2002, J. Phys. Chem. Ref. Data 31, 387: IAPWS-95), the
+# largest an aqueous liquid has at room temperature; the presets give their liquid's own (docs/physics.md 3.5)
+WATER_VAPOUR_PRESSURE_20C = 2339.0
+PRESSURE_NOTE = "absolute; from a vacuum to 1e9 Pa (10,000 atm)"
+# keys that were renamed: what a scene file written before says now
+RENAMED = {"contact.ehd_cavitation": "contact.cavitation_pressure (\"off\", \"liquid\", \"auto\" or a pressure; the "
+                                     "default \"auto\" now limits every film's tension, the ehd film's included)"}
 _PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f\x7f.][^/\\\x00-\x1f\x7f]{0,99}")
 
 
@@ -172,8 +180,15 @@ def pair_diameter(first: Sphere, second: Sphere) -> float:
 
 @dataclass(frozen=True)
 class Liquid:
+    """The liquid's density and viscosity, and the two pressures that bound the tension a film of it can
+    hold (contact.cavitation_pressure): the ambient pressure above the liquid and its vapour pressure."""
+
     density: float = _between(1e-30, 1e5, unit="kg/m3", note=LIQUID_DENSITY_NOTE)
     viscosity: float = _positive(unit="Pa s", hi=1e8, note=VISCOSITY_NOTE)
+    ambient_pressure: float = _between(0.0, 1e9, ONE_ATMOSPHERE, unit="Pa",
+                                       note="the pressure above the liquid, " + PRESSURE_NOTE)
+    vapour_pressure: float = _between(0.0, 1e9, WATER_VAPOUR_PRESSURE_20C, unit="Pa",
+                                      note="the liquid's vapour pressure, " + PRESSURE_NOTE)
 
     @property
     def kinematic_viscosity(self) -> float:
@@ -235,8 +250,15 @@ class Contact:
     delta_ss: the paper's elastic layer, li2011 only.
     "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
       ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)
-      (fem_bounce.ehd, docs/ehd.md) takes the sphere to its rebound at the same gap, or to rest;
-      ehd_cavitation: the lowest (gauge) pressure the film holds on rebound [Pa, <= 0], or "off"."""
+      (fem_bounce.ehd, docs/ehd.md) takes the sphere to its rebound at the same gap, or to rest.
+    history_across_contact: "keep": the history force's memory takes in the whole path, the contact's
+      reversal included; "pause": it does not take in a sphere's acceleration while the sphere is in a
+      contact (its memory only decays there; docs/physics.md 3.6).
+    cavitation_pressure: the lowest (gauge) pressure a lubrication film holds as the surfaces separate
+      (fem_bounce.cavitation, docs/physics.md section 3.5): "liquid" computes it from the liquid,
+      vapour - ambient - rho_l g (container height); a number in [-1e8, 0] Pa sets it (sensitivity);
+      "off": the film holds any tension (the rigid film's full suction); "auto": "liquid", or "off" for
+      the paper's model (li2011), which stays as written."""
 
     model: str = _choice("lubricated-hertz", "li2011", "ehd")
     near_wall: str = _choice("auto", "correction", "blend")
@@ -252,11 +274,12 @@ class Contact:
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")
+    history_across_contact: str = _choice("keep", "pause")
     history_c1: float = _between(0.1, 100.0, 2.0, note="Mei & Adrian's (1992) constant is 2; the history kernel's "
                                  "exponential fit (theory.history_modes) is built and checked for 0.1-100")
     history_c2: float = _between(0.0, 10.0, 0.105)
     ehd_handover: float = _positive(EHD_HANDOVER, unit="m", note=EHD_HANDOVER_NOTE)
-    ehd_cavitation: str | float = "off"
+    cavitation_pressure: str | float = "auto"
 
     @property
     def paper(self) -> bool:
@@ -370,6 +393,22 @@ class Scene:
         """More than one sphere on the axis (second_sphere given): the pair's outputs (collisions, the
         columns with suffixes)."""
         return self.second_sphere is not None
+
+    @property
+    def cavitation_pressure(self) -> float | None:
+        """The lowest gauge pressure a lubrication film holds [Pa, <= 0] (contact.cavitation_pressure resolved),
+        None when it holds any.  From the liquid: its vapour pressure less the absolute pressure at the wall,
+        the ambient pressure plus the head rho_l g H of a container of height H (unbounded: the ambient
+        pressure alone)."""
+        setting = self.contact.cavitation_pressure
+        if setting == "auto":
+            setting = "off" if self.contact.paper else "liquid"
+        if setting == "off":
+            return None
+        if setting != "liquid":
+            return float(setting)
+        head = self.liquid.density * self.gravity * (self.container.height or 0.0)
+        return min(self.liquid.vapour_pressure - self.liquid.ambient_pressure - head, 0.0)
 
     @property
     def near_wall_law(self) -> str:
@@ -554,18 +593,22 @@ class Scene:
                              f"{high:.3g}) m for this scene ({EHD_HANDOVER_NOTE})")
 
     def _check_cavitation(self) -> None:
-        """contact.ehd_cavitation: "off" or a tension in [EHD_CAVITATION_MIN, 0] Pa, whichever contact.model (a
-        scene is written and read back whole, so a value unused by this model is checked too)."""
-        cav = self.contact.ehd_cavitation
+        """contact.cavitation_pressure is one of its words or a tension; the liquid does not boil."""
+        cav = self.contact.cavitation_pressure
+        words = ("auto", "liquid", "off")
+        allowed = f"allowed {', '.join(repr(w) for w in words)} or a number in [{CAVITATION_PRESSURE_MIN:g}, 0] Pa"
         if isinstance(cav, str):
-            if cav != "off":
-                raise SceneError(f"contact.ehd_cavitation = {cav!r} is not \"off\" nor a pressure: allowed \"off\" or "
-                                 f"a number in [{EHD_CAVITATION_MIN:g}, 0] Pa "
+            if cav not in words:
+                raise SceneError(f"contact.cavitation_pressure = {cav!r} is not a choice nor a pressure: {allowed} "
                                  "(gauge: the film's most negative pressure)")
-        elif not (math.isfinite(cav) and EHD_CAVITATION_MIN <= cav <= 0.0):
-            raise SceneError(f"contact.ehd_cavitation = {cav!r} Pa is out of range: allowed \"off\" or a number in "
-                             f"[{EHD_CAVITATION_MIN:g}, 0] Pa (gauge: e.g. -101325 for a film that cavitates at zero "
-                             "absolute pressure)")
+        elif isinstance(cav, bool) or not (math.isfinite(cav) and CAVITATION_PRESSURE_MIN <= cav <= 0.0):
+            raise SceneError(f"contact.cavitation_pressure = {cav!r} Pa is out of range: {allowed} (gauge: e.g. "
+                             "-101325 for a film that cavitates at zero absolute pressure)")
+        liquid = self.liquid
+        if liquid.vapour_pressure > liquid.ambient_pressure:
+            raise SceneError(f"liquid.vapour_pressure = {liquid.vapour_pressure:g} Pa exceeds liquid.ambient_pressure "
+                             f"= {liquid.ambient_pressure:g} Pa: the liquid would boil; allowed up to the ambient "
+                             "pressure")
 
     def _check_start_outside_contact(self) -> None:
         """Each contact starts open: the gap above the paper's elastic layer delta_ss (li2011) or above the
@@ -658,6 +701,8 @@ def _build(cls, data: dict, prefix: str):
     hints = typing.get_type_hints(cls)
     kwargs = {}
     for key, value in data.items():
+        if f"{prefix}{key}" in RENAMED:
+            raise SceneError(f"{prefix}{key} is now {RENAMED[prefix + key]}")
         if key not in fields:
             near = difflib.get_close_matches(key, list(fields), n=1)
             hint = f"; did you mean {prefix}{near[0]}?" if near else f"; known: {', '.join(fields)}"

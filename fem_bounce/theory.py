@@ -30,6 +30,7 @@ import math
 import numpy as np
 from scipy.optimize import nnls
 
+from . import cavitation
 from .scene import Scene
 
 # -- quasi-steady drag -------------------------------------------------------------------
@@ -58,64 +59,116 @@ def brenner_series(delta: float) -> float:
 
 MIN_DELTA = 1e-12  # trial states of an implicit step may touch the wall; real penetration is an event
 
+# Each wall-drag factor below comes as `*_slope(delta) -> (lambda, d lambda / d delta)`: the integrator's
+# Jacobian is exact (integrator.py), so every force term gives its derivative beside its value.
+
+
+def lubrication_lambda_slope(delta: float) -> tuple[float, float]:
+    """Cox & Brenner (1967): 1/(2 delta) + ln(1/(2 delta))/5 + 0.971 and its derivative (0 below MIN_DELTA,
+    where it is held)."""
+    if delta <= MIN_DELTA:
+        delta = MIN_DELTA
+        return 0.5 / delta + 0.2 * math.log(0.5 / delta) + 0.971, 0.0
+    return 0.5 / delta + 0.2 * math.log(0.5 / delta) + 0.971, -0.5 / delta**2 - 0.2 / delta
+
 
 def lubrication_lambda(delta: float) -> float:
     """Cox & Brenner (1967): 1/(2 delta) + ln(1/(2 delta))/5 + 0.971; within 1e-4 of the series for h/a < 1e-3."""
-    delta = max(delta, MIN_DELTA)
-    return 0.5 / delta + 0.2 * math.log(0.5 / delta) + 0.971
+    return lubrication_lambda_slope(delta)[0]
 
 
 _TABLE_MIN, _TABLE_MAX = 1e-4, 1e3
 
 
 @functools.cache
-def _brenner_table() -> tuple[np.ndarray, np.ndarray]:
-    """log(delta) -> log(lambda), tabulated once (about 0.2 s): the series is too slow per step."""
+def _brenner_table() -> tuple[list[float], list[float], list[float]]:
+    """log(delta) -> log(lambda), tabulated once (about 0.2 s): the series is too slow per step.  Plain
+    floats (knots, values, each segment's slope) for a scalar lookup without numpy overhead."""
     log_delta = np.linspace(math.log(_TABLE_MIN), math.log(_TABLE_MAX), 1200)
-    return log_delta, np.log([brenner_series(math.exp(x)) for x in log_delta])
+    log_lambda = np.log([brenner_series(math.exp(x)) for x in log_delta])
+    return log_delta.tolist(), log_lambda.tolist(), (np.diff(log_lambda) / np.diff(log_delta)).tolist()
+
+
+def brenner_lambda_slope(delta: float) -> tuple[float, float]:
+    """Brenner's lambda from the table (relative error below 1e-5; linear in log-log between its knots, as
+    numpy.interp of log lambda), asymptotes outside it, and d lambda / d delta of that interpolant."""
+    if delta < _TABLE_MIN:
+        return lubrication_lambda_slope(delta)
+    if delta > _TABLE_MAX:
+        ratio = 1.0 / (1.0 + 2.0 * delta)  # a / d, first reflections
+        return 1.0 + 1.125 * ratio + 1.265625 * ratio**2, -2.0 * ratio**2 * (1.125 + 2.53125 * ratio)
+    knots, values, slopes = _brenner_table()
+    x = math.log(delta)
+    k = min(bisect.bisect_right(knots, x) - 1, len(slopes) - 1)
+    value = math.exp(values[k] if x == knots[k] else slopes[k] * (x - knots[k]) + values[k])
+    return value, value * slopes[k] / delta
 
 
 def brenner_lambda(delta: float) -> float:
     """Brenner's lambda from the table (relative error below 1e-5), asymptotes outside it."""
-    if delta < _TABLE_MIN:
-        return lubrication_lambda(delta)
-    if delta > _TABLE_MAX:
-        ratio = 1.0 / (1.0 + 2.0 * delta)  # a / d, first reflections
-        return 1.0 + 1.125 * ratio + 1.265625 * ratio**2
-    log_delta, log_lambda = _brenner_table()
-    return math.exp(float(np.interp(math.log(delta), log_delta, log_lambda)))
+    return brenner_lambda_slope(delta)[0]
+
+
+def simple_lambda_slope(delta: float) -> tuple[float, float]:
+    """1 + 1/(2 delta) and its derivative (held below MIN_DELTA)."""
+    if delta <= MIN_DELTA:
+        return 1.0 + 0.5 / MIN_DELTA, 0.0
+    return 1.0 + 0.5 / delta, -0.5 / delta**2
 
 
 def simple_lambda(delta: float) -> float:
-    return 1.0 + 0.5 / max(delta, MIN_DELTA)
+    return simple_lambda_slope(delta)[0]
 
 
 def schiller_naumann(reynolds: float) -> float:
     return 1.0 + 0.15 * reynolds**0.687
 
 
+def schiller_naumann_slope(reynolds: float) -> tuple[float, float]:
+    """(phi, Re dphi/dRe): V dphi/dV = Re dphi/dRe for Re proportional to |V|, which stays finite at V = 0."""
+    growth = 0.15 * reynolds**0.687
+    return 1.0 + growth, 0.687 * growth
+
+
+def no_inertia_slope(reynolds: float) -> tuple[float, float]:
+    return 1.0, 0.0
+
+
 # -- added mass --------------------------------------------------------------------------
 
 
-def first_image_w(delta: float) -> tuple[float, float]:
-    """W = 1/(8 (1 + 2 delta)^3) and dW/d(delta)."""
+def first_image_w(delta: float, curvature: bool = False) -> tuple[float, ...]:
+    """W = 1/(8 (1 + 2 delta)^3) and dW/d(delta); with curvature=True also d2W/d(delta)2."""
     s = 1.0 + 2.0 * delta
+    if curvature:
+        return 0.125 / s**3, -0.75 / s**4, 6.0 / s**5
     return 0.125 / s**3, -0.75 / s**4
 
 
-def exact_w(delta: float) -> tuple[float, float]:
+def exact_w(delta: float, curvature: bool = False) -> tuple[float, ...]:
     """Exact potential-flow wall excess and its derivative: the image sum
     W = sum_{n>=2} (sinh(alpha) / sinh(n alpha))^3, cosh(alpha) = 1 + 2 delta,
     so C_M = 1/2 + (3/2) W, which gives 1/2 + (3/2)(zeta(3) - 1) = 0.803 at contact
-    (Milne-Thomson 1968, section 16.51; matches the tabulated C_M to 4 digits, tests/test_theory.py)."""
+    (Milne-Thomson 1968, section 16.51; matches the tabulated C_M to 4 digits, tests/test_theory.py).
+    With curvature=True also d2W/d(delta)2, differentiated term by term as the first derivative is."""
     if delta < 1e-9:  # touching (or a trial state past the wall)
-        return 0.20205690315959429, 0.0  # zeta(3) - 1
+        return (0.20205690315959429, 0.0, 0.0) if curvature else (0.20205690315959429, 0.0)  # zeta(3) - 1
     alpha = math.acosh(1.0 + 2.0 * delta)
     n = np.arange(2, int(40.0 / alpha) + 3, dtype=float)
-    ratio = math.sinh(alpha) / np.sinh(n * alpha)
-    d_ratio = (math.cosh(alpha) - n * math.sinh(alpha) / np.tanh(n * alpha)) / np.sinh(n * alpha)
+    sinh_n, coth_n = np.sinh(n * alpha), 1.0 / np.tanh(n * alpha)
+    ratio = math.sinh(alpha) / sinh_n
+    # d(ratio)/d(alpha) = u / sinh(n alpha), u = cosh(alpha) - n sinh(alpha) coth(n alpha)
+    u = math.cosh(alpha) - n * math.sinh(alpha) * coth_n
+    d_ratio = u / sinh_n
     d_alpha = 2.0 / math.sinh(alpha)  # d(alpha)/d(delta)
-    return float(np.sum(ratio**3)), float(np.sum(3.0 * ratio**2 * d_ratio) * d_alpha)
+    w, dw_dalpha = float(np.sum(ratio**3)), float(np.sum(3.0 * ratio**2 * d_ratio))
+    if not curvature:
+        return w, dw_dalpha * d_alpha
+    du = math.sinh(alpha) - n * math.cosh(alpha) * coth_n + n**2 * math.sinh(alpha) / sinh_n**2
+    dd_ratio = (du - n * u * coth_n) / sinh_n
+    d2w_dalpha2 = float(np.sum(6.0 * ratio * d_ratio**2 + 3.0 * ratio**2 * dd_ratio))
+    dd_alpha = -d_alpha**2 * math.cosh(alpha) / math.sinh(alpha)  # d2(alpha)/d(delta)2
+    return w, dw_dalpha * d_alpha, d2w_dalpha2 * d_alpha**2 + dw_dalpha * dd_alpha
 
 
 # -- history kernel ----------------------------------------------------------------------
@@ -161,18 +214,29 @@ _RE_LIST = _RE_GRID.tolist()
 
 def history_weights(weights: np.ndarray, reynolds: float) -> np.ndarray:
     """Weights at this Re, interpolated linearly between the fitted rows."""
+    row, share, _ = history_row(reynolds)
+    return weights[row] if share is None else (1.0 - share) * weights[row] + share * weights[row + 1]
+
+
+def history_row(reynolds: float) -> tuple[int, float | None, float]:
+    """Where Re falls among the fitted rows: (row k, its share t toward row k + 1, d t / dRe); t is None
+    beyond the last row, whose weights hold there."""
     k = bisect.bisect_right(_RE_LIST, reynolds) - 1
-    if k >= len(_RE_GRID) - 1:
-        return weights[-1]
-    t = (reynolds - _RE_GRID[k]) / (_RE_GRID[k + 1] - _RE_GRID[k])
-    return (1.0 - t) * weights[k] + t * weights[k + 1]
+    if k >= len(_RE_LIST) - 1:
+        return len(_RE_LIST) - 1, None, 0.0
+    span = _RE_LIST[k + 1] - _RE_LIST[k]
+    return k, (reynolds - _RE_LIST[k]) / span, 1.0 / span
 
 
 # -- the force model used by every solver --------------------------------------------------
 
 
 class TheoryForces:
-    """f_thr for one scene: drag, added mass and history as functions of (gap, velocity, history states)."""
+    """f_thr for one scene: drag, added mass and history as functions of (gap, velocity, history states).
+
+    Each force comes with its derivatives in its arguments (`*_slopes`: the gap, the share `film` of the
+    wall's excess left inside a Hertz contact, the velocity), from which the integrator builds its exact
+    Jacobian by the chain rule; tests/test_jacobian.py checks them against differences."""
 
     def __init__(self, scene: Scene):
         c = scene.contact
@@ -181,13 +245,16 @@ class TheoryForces:
         self.stokes_drag = 6.0 * math.pi * liquid.viscosity * sphere.radius  # 6 pi mu a [N s/m]
         self.displaced_mass = scene.displaced_mass
         self._re_per_speed = scene.reynolds(1.0)
-        self._lambda = {"brenner": brenner_lambda, "simple": simple_lambda}[c.wall_drag]
-        self._inertia = {"schiller-naumann": schiller_naumann, "additive": schiller_naumann,
-                         "none": lambda re: 1.0}[c.inertial_law]
+        self._lambda = {"brenner": brenner_lambda_slope, "simple": simple_lambda_slope}[c.wall_drag]
+        self._inertia = {"schiller-naumann": schiller_naumann_slope, "additive": schiller_naumann_slope,
+                         "none": no_inertia_slope}[c.inertial_law]
         self._additive = c.inertial_law == "additive"
         self._w = {"first-image": first_image_w, "exact": exact_w}[c.added_mass]
         self.wall_present = scene.wall.present  # without the wall: lambda = 1 and W = 0 at every gap
-        self._drag_scaled_history = c.history_wall_factor == "drag-scaled"
+        # the most tension the film under the sphere holds as it leaves the wall [Pa] (fem_bounce.cavitation)
+        floor = scene.cavitation_pressure
+        self.tension = math.inf if floor is None or not self.wall_present else -floor
+        self._film = (sphere.radius, liquid.viscosity)
         theta, self._weights = history_modes(scene.numerics.ode.history_modes_per_decade, c.history_c1, c.history_c2)
         diffusion_time = sphere.diameter**2 / liquid.kinematic_viscosity
         self.history_times = theta * diffusion_time  # T_i [s]
@@ -199,33 +266,98 @@ class TheoryForces:
     def wall_factor(self, gap: float, film: float = 1.0) -> float:
         """lambda(delta): the quasi-steady Stokes drag near the wall over 6 pi mu a V (wall_drag), with only
         the share `film` of its wall excess lambda - 1 left inside a Hertz contact (contact.ContactLaw.film)."""
+        return self.wall_factor_slopes(gap, film)[0]
+
+    def wall_factor_slopes(self, gap: float, film: float = 1.0) -> tuple[float, float, float]:
+        """(wall_factor, its derivatives d/d gap [1/m] and d/d film)."""
         if not self.wall_present:
-            return 1.0
-        return 1.0 + film * (self._lambda(gap / self.diameter) - 1.0)
+            return 1.0, 0.0, 0.0
+        excess, slope = self._lambda(gap / self.diameter)
+        excess -= 1.0
+        return 1.0 + film * excess, film * slope / self.diameter, excess
 
     def drag(self, gap: float, velocity: float, film: float = 1.0) -> float:
         """f_D = -6 pi mu a V (lambda(delta) + phi(Re) - 1) when additive, lambda(delta) phi(Re) when
         multiplicative ("schiller-naumann") [N]; only the share `film` of the wall's excess lambda - 1 is
         left inside a Hertz contact (contact.ContactLaw.film)."""
-        wall = self.wall_factor(gap, film)
-        inertia = self._inertia(self.reynolds(velocity))
-        factor = wall + inertia - 1.0 if self._additive else wall * inertia
-        return -self.stokes_drag * velocity * factor
+        return self.drag_slopes(gap, velocity, film)[0]
+
+    def drag_slopes(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, float, float, float]:
+        """(f_D [N], its derivatives d/d gap [N/m], d/d film [N] and d/dV [N s/m]).  The wall's excess
+        includes the liquid's tension limit on a sphere leaving the wall (`tension_relief`), weighed as the
+        lubrication is (by the share `film`, and by phi in the multiplied law)."""
+        wall, wall_gap, wall_film = self.wall_factor_slopes(gap, film)
+        inertia, inertia_growth = self._inertia(self.reynolds(velocity))  # phi, V dphi/dV
+        scale = -self.stokes_drag * velocity
+        if self._additive:
+            factor = wall + inertia - 1.0
+            force, d_gap, d_film = scale * factor, scale * wall_gap, scale * wall_film
+            d_velocity, weight, weight_slope = -self.stokes_drag * (factor + inertia_growth), 1.0, 0.0
+        else:
+            force, d_gap, d_film = scale * (wall * inertia), scale * inertia * wall_gap, scale * inertia * wall_film
+            d_velocity = -self.stokes_drag * wall * (inertia + inertia_growth)
+            weight, weight_slope = inertia, inertia_growth / velocity if velocity else 0.0
+        relief, relief_gap, relief_velocity = self.tension_relief(gap, velocity)
+        if relief:
+            force += film * weight * relief
+            d_gap += film * weight * relief_gap
+            d_film += weight * relief
+            d_velocity += film * (weight * relief_velocity + weight_slope * relief)
+        return force, d_gap, d_film, d_velocity
+
+    def free_drag(self, velocity: float) -> float:
+        """The free sphere's quasi-steady drag -6 pi mu a V phi(Re) [N]; f_D less it is what the wall adds, the
+        lubrication (the loss audit's term, fem_bounce.losses)."""
+        return -self.stokes_drag * velocity * self._inertia(self.reynolds(velocity))[0]
+
+    def tension_relief(self, gap: float, velocity: float) -> tuple[float, float, float]:
+        """What the liquid's tension limit takes off the film's suction on a sphere leaving the wall at the gap
+        (fem_bounce.cavitation.tension_relief: the force [N] >= 0 and its d/d gap, d/dV)."""
+        if self.tension == math.inf:
+            return 0.0, 0.0, 0.0
+        return cavitation.tension_relief(gap, velocity, *self._film, self.tension)
 
     def added_mass(self, gap: float) -> tuple[float, float]:
         """(C_M m_l [kg], dC_M/dh m_l [kg/m]), C_M = (1 + 3 W) / 2.
 
         f_AM = -C_M m_l dV/dt - (1/2) m_l V^2 dC_M/dh: the second term is the paper's
         -(3/4) m_l V dW/dt with dW/dt = W'(delta) V / D."""
-        w, dw = self._w(gap / self.diameter) if self.wall_present else (0.0, 0.0)
-        return 0.5 * (1.0 + 3.0 * w) * self.displaced_mass, 1.5 * dw / self.diameter * self.displaced_mass
+        return self.added_mass_slopes(gap)[:2]
+
+    def added_mass_slopes(self, gap: float) -> tuple[float, float, float]:
+        """(C_M m_l [kg], dC_M/dh m_l [kg/m], d2C_M/dh2 m_l [kg/m2])."""
+        w, dw, d2w = self._w(gap / self.diameter, curvature=True) if self.wall_present else (0.0, 0.0, 0.0)
+        m_l, length = self.displaced_mass, self.diameter
+        return 0.5 * (1.0 + 3.0 * w) * m_l, 1.5 * dw / length * m_l, 1.5 * d2w / length**2 * m_l
 
     def added_mass_velocity_term(self, gap: float, velocity: float) -> float:
         """-(3/4) m_l V dW/dt [N]."""
-        return -0.5 * velocity**2 * self.added_mass(gap)[1]
+        return self.added_mass_velocity_term_slopes(gap, velocity)[0]
 
-    def history_coefficients(self, gap: float, velocity: float, film: float = 1.0) -> np.ndarray:
-        """c_i = 6 pi mu a K_H^(3/2) w_i(Re) [N s/m]: f_H = -sum_i c_i z_i, z_i from the history ODEs; the
-        drag-scaled K_H^(3/2) = lambda fades inside a Hertz contact as the drag's wall excess does (`film`)."""
-        wall = self.wall_factor(gap, film) if self._drag_scaled_history else 1.0
-        return (self.stokes_drag * wall) * history_weights(self._weights, self.reynolds(velocity))
+    def added_mass_velocity_term_slopes(self, gap: float, velocity: float) -> tuple[float, float, float]:
+        """(-(1/2) m_l V^2 dC_M/dh [N], its derivatives d/d gap [N/m] and d/dV [N s/m])."""
+        _, slope, curvature = self.added_mass_slopes(gap)
+        return -0.5 * velocity**2 * slope, -0.5 * velocity**2 * curvature, -velocity * slope
+
+    def history_sensitivity(self, inertia: float, duration: float) -> np.ndarray:
+        """How far an error in each history mode z_i moves the velocity, per unit of z_i [-]: its force
+        c_i dz_i (c_i at the Re where the fit weighs mode i most) acting for min(T_i, duration) [s] on the
+        `inertia` [kg], the sphere's mass and added mass.  Positive (a mode no Re weighs counts as 1e-30)."""
+        largest = self.stokes_drag * self._weights.max(axis=0)[:self.n_history]
+        return np.maximum(largest * np.minimum(self.history_times[:self.n_history], duration) / inertia, 1e-30)
+
+    def history_coefficients(self, velocity: float) -> np.ndarray:
+        """c_i = 6 pi mu a w_i(Re) [N s/m]: f_H = -K_H^(3/2) sum_i c_i z_i, z_i from the history ODEs; the wall
+        factor K_H^(3/2) (contact.history_wall_factor) is the integrator's."""
+        return self.stokes_drag * history_weights(self._weights, self.reynolds(velocity))
+
+    def history_memory(self, velocity: float, modes: np.ndarray) -> tuple[float, float]:
+        """(sum_i c_i z_i [N] for the history modes z, its derivative d/dV [N s/m] through w_i(Re)): two dot
+        products with the fitted rows on either side of Re, no weights built."""
+        row, share, rate = history_row(self.reynolds(velocity))
+        if share is None:
+            return self.stokes_drag * float(self._weights[row] @ modes), 0.0
+        below, above = (self._weights[row:row + 2] @ modes).tolist()
+        sign = 1.0 if velocity > 0.0 else -1.0 if velocity < 0.0 else 0.0
+        return (self.stokes_drag * ((1.0 - share) * below + share * above),
+                self.stokes_drag * (above - below) * rate * self._re_per_speed * sign)

@@ -131,13 +131,14 @@ def test_a_tiny_contact_gap_factor_ends_with_a_summary(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("value,message", [
-    ("nan", "contact.ehd_cavitation = nan Pa is out of range"),
-    ("abc", "contact.ehd_cavitation = 'abc' is not \"off\" nor a pressure"),
+    ("nan", "contact.cavitation_pressure = nan Pa is out of range"),
+    ("abc", "contact.cavitation_pressure = 'abc' is not a choice nor a pressure"),
 ])
 def test_cavitation_is_checked_whatever_the_contact_model(value, message, tmp_path, monkeypatch, capsys):
-    """Accepted with lubricated-hertz, then a ValueError writing scene.toml or building the contact."""
+    """contact.ehd_cavitation (now cavitation_pressure) = nan or abc was accepted with lubricated-hertz, then a
+    ValueError writing scene.toml or building the contact."""
     refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", "r",
-            "--set", f"contact.ehd_cavitation={value}", message=message)
+            "--set", f"contact.cavitation_pressure={value}", message=message)
 
 
 @pytest.mark.parametrize("model", ["ale", "fd"])

@@ -33,6 +33,7 @@ LAYERS = {
     "fem_bounce.theory": PHYSICS,
     "fem_bounce.pair_theory": PHYSICS,
     "fem_bounce.ehd": PHYSICS,
+    "fem_bounce.cavitation": PHYSICS,
     "fem_bounce.contact": PHYSICS,
     "fem_bounce.pair_contact": PHYSICS,
     # the bodies' equations of motion and their bounce records
@@ -47,6 +48,7 @@ LAYERS = {
     "fem_bounce.library_log": OUTPUTS,
     "fem_bounce.progress": OUTPUTS,
     "fem_bounce.plots": OUTPUTS,
+    "fem_bounce.losses": OUTPUTS,
     "fem_bounce.fields": OUTPUTS,
     # the finite-element toolkit the resolved models share
     "fem_bounce.fem": FEM,

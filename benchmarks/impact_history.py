@@ -1,0 +1,69 @@
+"""The history force across an impact, judged by the resolved flow (issue 35, item 3).
+
+    PYTHONPATH=. python benchmarks/impact_history.py          # ~10 min serial on the first call (ale runs
+                                                              # cached in results/impact_history/; ode: s)
+
+Li et al.'s case 3 with the liquid's viscosity set so that the first impact comes at St ~15, 25, 40 and 80
+(0.165, 0.112, 0.076 and 0.0405 Pa s; the sphere falls from rest under gravity), to the first apex.  Each
+scene runs with the ode model under each history treatment (contact.history_across_contact) and with the
+ale model at 12 and 16 cells per diameter (the converged reference: the two differ by about 1 %).  For each
+run: e (the 2 ms means), the first apex, and from the loss audit (fem_bounce.losses) the liquid's impulse in
+the approach, contact and rebound phases, by term, as a share of the momentum brought in.  Prints a table
+and writes benchmarks/history/impact_history.json.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from mpi4py import MPI
+
+import fem_bounce as fb
+from fem_bounce.cache import cached_run
+from fem_bounce.output import read_summary
+from provenance import ROOT, stamp
+
+VISCOSITIES = {15: 0.165, 25: 0.112, 40: 0.076, 80: 0.0405}  # Pa s: the first impact's St, ode
+ALE_CELLS = (12, 16)
+TREATMENTS = ("keep", "pause")
+RECORD = ROOT / "benchmarks" / "history" / "impact_history.json"
+
+
+def scene(viscosity: float, **changes) -> fb.Scene:
+    return fb.load("li2011-case3", {"liquid.viscosity": viscosity, "run.bounces": 1, **changes})
+
+
+def measured(run_dir: Path) -> dict:
+    summary = read_summary(run_dir)
+    impact, rebound = summary["impacts"][0], summary["rebounds"][0]
+    audit = impact.get("losses") or {}
+    return {"St": impact["St"], "impact_speed": impact["impact_speed"], "restitution": rebound["restitution"],
+            "apex_gap": rebound["apex_gap"], "share": audit.get("share"), "phases": audit.get("phases")}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--root", type=Path, default=ROOT / "results" / "impact_history")
+    args = parser.parse_args()
+    rows = {}
+    for target, viscosity in VISCOSITIES.items():
+        runs = {f"ode {t}": (scene(viscosity, **{"contact.history_across_contact": t}), "ode") for t in TREATMENTS}
+        runs |= {f"ale {c}": (scene(viscosity, **{"numerics.ale.cells_per_diameter": c}), "ale") for c in ALE_CELLS}
+        rows[target] = {name: measured(cached_run(sc, model, MPI.COMM_SELF, root=args.root))
+                        for name, (sc, model) in runs.items()}
+        reference = rows[target][f"ale {ALE_CELLS[-1]}"]
+        print(f"St ~{target} (mu = {viscosity} Pa s): ale {ALE_CELLS[-1]} cells/D e {reference['restitution']:.3f} "
+              f"apex {1e3 * reference['apex_gap']:.3f} mm")
+        for name, row in rows[target].items():
+            e, apex = row["restitution"], row["apex_gap"]
+            print(f"  {name:10s} St {row['St']:6.1f}  e {e:.3f} ({e / reference['restitution'] - 1:+.1%})  apex "
+                  f"{1e3 * apex:.3f} mm ({apex / reference['apex_gap'] - 1:+.1%})")
+            for term, shares in (row["share"] or {}).items():
+                print(f"      {term:14s} " + " ".join(f"{x:+.3f}" for x in shares))
+    RECORD.write_text(json.dumps({**stamp(), "viscosities": VISCOSITIES, "runs": rows}, indent=1) + "\n")
+    print(f"-> {RECORD}")
+
+
+if __name__ == "__main__":
+    main()

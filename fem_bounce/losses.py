@@ -1,0 +1,160 @@
+"""Where a collision's momentum goes: the impulse of every force on the sphere, phase by phase.
+
+For each impact of a sphere on the wall the trajectory (trajectory.csv's rows, one per integrator step) is
+cut into three phases by the gap:
+
+    approach   from the gap passing contact.delta_sl D inward to the gap reaching the contact gap h_c,
+    contact    from h_c inward to h_c outward (the Hertz contact, the paper's spring, or the film collision),
+    rebound    from h_c outward to delta_sl D outward (or to the apex, if the sphere does not get that far),
+
+and each force's impulse over a phase, int f dt [N s] (positive away from the wall, like every force of the
+package), is the trapezoidal sum over the rows, the phase's ends interpolated.  The forces are the terms
+of the sphere's equation of motion, m_p dV/dt = f_liquid + f_elastic - (m_p - m_l) g (docs/physics.md):
+
+    drag          the free sphere's quasi-steady drag (with its finite-Re factor)
+    lubrication   the wall's excess over it (Brenner's lambda - 1; with the liquid's tension limit on rebound)
+    history       the Mei & Adrian history force
+    added_mass    the liquid's inertia (C_M m_l dV/dt and the closing gap's velocity term)
+    resolved_flow a resolved model's force from its flow (fd, ib, ale; held at delta_sl near the wall)
+    correction    what a resolved model adds below the hold (the lubrication and added mass the mesh misses)
+    contact       the elastic contact force
+    weight        the weight less the buoyancy
+
+(the theory terms weighed by the paper's blend where it is used).  Their sum over the three phases is the
+sphere's momentum change, m_p (V_out + V_in) for a sphere that arrives at V_in and leaves at V_out:
+`imbalance` reports how far the trapezoidal sums are from it, over m_p V_peak (a measure of the audit's own
+accuracy; it grows when numerics.ode.output_interval thins the rows).  Shares are impulses over the
+momentum the sphere brought in, m_p V_peak, V_peak its fastest approach in the approach phase (its speed
+at delta_sl D, or a little more where the approach still accelerates there).  An approach that starts
+from an apex below delta_sl D starts there.
+"""
+from __future__ import annotations
+
+
+import math
+
+import numpy as np
+
+PHASES = ("approach", "contact", "rebound")
+TERMS = ("drag", "lubrication", "history", "added_mass", "resolved_flow", "correction", "contact", "weight")
+
+
+def force_terms(trajectory: dict, net_weight: float) -> dict[str, np.ndarray]:
+    """The audit's terms [N] at every row of one sphere's trajectory columns (module docstring)."""
+    blend = trajectory["blend"]
+    lubrication = trajectory.get("f_lubrication", np.zeros_like(blend))
+    return {"drag": blend * (trajectory["f_drag"] - lubrication), "lubrication": blend * lubrication,
+            "history": blend * trajectory["f_history"], "added_mass": blend * trajectory["f_added_mass"],
+            "resolved_flow": (1.0 - blend) * trajectory["f_sim"], "correction": trajectory["f_correction"],
+            "contact": trajectory["f_elastic"], "weight": np.full_like(blend, -net_weight)}
+
+
+def _at_level(t: np.ndarray, gap: np.ndarray, level: float, k: int) -> float:
+    """When the gap passes `level` between rows k and k + 1, interpolated linearly."""
+    return float(t[k] + (level - gap[k]) * (t[k + 1] - t[k]) / (gap[k + 1] - gap[k]))
+
+
+def _crossing(t: np.ndarray, gap: np.ndarray, level: float, start: int, stop: int, inward: bool) -> float | None:
+    """The first time in rows [start, stop) that the gap passes `level` inward (or outward), interpolated."""
+    # outward, a run that stops where the gap reaches the level (a sweep's rebound) ends on it: it counts
+    above = gap[start:stop] > level if inward else gap[start:stop] >= level * (1.0 - 1e-9)
+    change = np.flatnonzero(above[:-1] & ~above[1:]) if inward else np.flatnonzero(~above[:-1] & above[1:])
+    return _at_level(t, gap, level, start + int(change[0])) if change.size else None
+
+
+def _last_crossing_in(t: np.ndarray, gap: np.ndarray, level: float, start: int, stop: int) -> float | None:
+    """The last time in rows [start, stop] that the gap passes `level` inward, interpolated."""
+    above = gap[start:stop + 1] > level
+    change = np.flatnonzero(above[:-1] & ~above[1:])
+    return _at_level(t, gap, level, start + int(change[-1])) if change.size else None
+
+
+def impulse(t: np.ndarray, force: np.ndarray, start: float, end: float) -> float:
+    """int_start^end force dt [N s]: the trapezoidal rule on the rows, the force interpolated linearly at the
+    two ends."""
+    if end <= start:
+        return 0.0
+    inside = (t > start) & (t < end)
+    times = np.concatenate(([start], t[inside], [end]))
+    values = np.interp(times, t, force)
+    return float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(times)))
+
+
+def _apex(t: np.ndarray, velocity: np.ndarray, turn: int, stop: int) -> float:
+    """The first time after row `turn` that a rising sphere stops rising (the last row if it never does)."""
+    rising = np.flatnonzero(velocity[turn:stop] > 0.0)
+    if rising.size:
+        falling = np.flatnonzero(velocity[turn + rising[0]:stop] <= 0.0)
+        if falling.size:
+            return float(t[turn + rising[0] + falling[0]])
+    return float(t[stop - 1])
+
+
+def collision_losses(trajectory: dict, impacts: list[dict], mass: float, net_weight: float,
+                     blend_gap: float) -> list[dict | None]:
+    """The audit of every impact (`impacts`: summary.json's records, each with its time and contact_gap),
+    from one sphere's trajectory columns (arrays), its mass m_p [kg], net weight (m_p - m_l) g [N] and the
+    phases' outer gap delta_sl D [m]; None for an impact the trajectory does not follow in from delta_sl D.
+    A film collision (contact.model = "ehd") is a jump of the integrator across the contact: its impulse is
+    the momentum change across it, under the name "film"."""
+    t, gap, velocity = trajectory["t"], trajectory["gap"], trajectory["velocity"]
+    terms = force_terms(trajectory, net_weight)
+    audits: list[dict | None] = []
+    previous = 0  # the row where the previous impact's rebound ended
+    for k, impact in enumerate(impacts):
+        turn = int(np.searchsorted(t, impact["time"]))
+        stop = int(np.searchsorted(t, impacts[k + 1]["time"])) if k + 1 < len(impacts) else len(t)
+        h_c = impact["contact_gap"]
+        start = _last_crossing_in(t, gap, blend_gap, previous, turn)
+        if start is None and previous > 0:  # it rose no higher than delta_sl D: from the apex
+            start = float(t[previous])
+        contact_in = _last_crossing_in(t, gap, h_c, previous, turn)
+        if start is None or contact_in is None:
+            audits.append(None)
+            continue
+        contact_out = _crossing(t, gap, h_c, turn, stop, inward=False)
+        out = _crossing(t, gap, blend_gap, turn, stop, inward=False) if contact_out is not None else None
+        last = float(t[stop - 1])
+        end = out if out is not None else _apex(t, velocity, turn, stop) if contact_out is not None else last
+        bounds = [start, contact_in, contact_out if contact_out is not None else last, end]
+        previous = int(np.searchsorted(t, end))
+        speed_in, speed_out = -float(np.interp(start, t, velocity)), float(np.interp(end, t, velocity))
+        approach = (t >= start) & (t <= contact_in)
+        peak = max(speed_in, float(-velocity[approach].min()) if approach.any() else 0.0)
+        momentum_in = mass * peak
+        impulses = {name: [impulse(t, force, a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+                    for name, force in terms.items() if np.any(force)}
+        if impact.get("film_time") is not None:  # the film collision: one jump across the contact phase
+            for values in impulses.values():
+                values[1] = 0.0
+            jump = mass * (np.interp(bounds[2], t, velocity) - np.interp(bounds[1], t, velocity))
+            impulses["film"] = [0.0, float(jump), 0.0]
+        total = sum(sum(values) for values in impulses.values())
+        audits.append({
+            "speed_in": speed_in, "speed_out": speed_out, "peak_speed": peak, "momentum_in": momentum_in,
+            "phases": dict(zip(PHASES, zip(bounds[:-1], bounds[1:]))),
+            "left_contact": contact_out is not None, "left_blend_gap": out is not None,
+            "impulse": impulses,
+            "share": {name: [value / momentum_in for value in values] for name, values in impulses.items()},
+            "imbalance": (total - mass * (speed_out + speed_in)) / momentum_in,  # of the trapezoidal sums
+        })
+    return audits
+
+
+def annotate(summary: dict, trajectory: dict) -> None:
+    """Add each wall impact's audit to summary.json's record of it (`losses`), from the run's trajectory
+    columns; a free single sphere's runs only (a pair's collisions are not audited)."""
+    scene = summary["scene"]
+    impacts = summary.get("impacts") or []
+    if "second_sphere" in scene or not impacts or "f_elastic" not in trajectory:
+        return
+    if scene.get("motion", {}).get("mode", "free") != "free":
+        return
+    diameter = scene["sphere"]["diameter"]
+    volume = math.pi * diameter**3 / 6.0
+    mass = scene["sphere"]["density"] * volume
+    net_weight = (mass - scene["liquid"]["density"] * volume) * scene["gravity"]
+    blend_gap = scene["contact"]["delta_sl"] * diameter
+    for impact, audit in zip(impacts, collision_losses(trajectory, impacts, mass, net_weight, blend_gap)):
+        if audit is not None:
+            impact["losses"] = audit
