@@ -456,6 +456,19 @@ def test_meshing_answers_a_signal(tmp_path):
     assert list((tmp_path / "cache" / "meshes").iterdir()) == []
 
 
+def test_sigterm_after_meshing_ends_with_a_summary(tmp_path):
+    """gmsh.initialize put the default SIGTERM handler back when the mesh was read: a resolved run then died of
+    SIGTERM without a word or a summary (a batch scheduler's stop)."""
+    out = tmp_path / "run"
+    process = spawn(["run", *FD_TOY, "--set", "run.end_time=1", "--out", str(out)], tmp_path)
+    wait_for(lambda: (out / "checkpoint" / "model.txt").is_file(), process)
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 143
+    assert_one_line(messages(err), "interrupted by SIGTERM at t = ", "fem-bounce run --restart")
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+
+
 def test_a_run_below_its_step_floor_ends_as_diverged():
     """A run whose steps shrink to nothing crawled for ever (Young's modulus 1e-320: 12 minutes at t = 0)."""
     time_unit = 0.03

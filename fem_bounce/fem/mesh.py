@@ -266,12 +266,14 @@ def create_mesh(comm, spec: HalfPlane, cache: bool = True):
     Rank 0 reads the cached .msh file, or meshes it (`_generate`: in a child process, which a signal can stop)
     and caches it; every rank takes part in the distribution.  A cache entry is written atomically (beside its
     place, fsynced, renamed) with the hash of its content beside it, and checked against that hash when read: a
-    damaged or half-written entry is made again, never read.  gmsh leaves the process's SIGINT handler as it
-    found it (its Python API sets the default one and does not put the old one back), so Ctrl-C still ends a
-    run with its summary."""
+    damaged or half-written entry is made again, never read.  gmsh leaves the process's SIGINT and SIGTERM
+    handlers as it found them (gmsh.initialize puts the default SIGTERM handler back at the C level, and its
+    Python API the default SIGINT one, and neither restores them), so a signal still ends a run with its
+    summary."""
     import gmsh
     from dolfinx.io import gmsh as gmsh_io
 
+    handlers = _Handlers()
     path = cache_directory() / f"halfplane-{spec.key()}.msh" if comm.rank == 0 else None
     scratch = Path(tempfile.mkdtemp()) if comm.rank == 0 and not cache else None
     try:
@@ -283,8 +285,8 @@ def create_mesh(comm, spec: HalfPlane, cache: bool = True):
         else:
             on_root_watching(comm, lambda: None)
         if comm.rank == 0:
-            handler = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
             gmsh.initialize(interruptible=False)
+            handlers.restore()
             gmsh.option.setNumber("General.Terminal", 0)
             try:
                 # always read the file back: a fresh and a cached mesh are then identical to the last bit
@@ -292,14 +294,26 @@ def create_mesh(comm, spec: HalfPlane, cache: bool = True):
                 result = gmsh_io.model_to_mesh(gmsh.model, comm, 0, gdim=2)
             finally:
                 gmsh.finalize()
-                if handler is not None:
-                    signal.signal(signal.SIGINT, handler)
+                handlers.restore()
         else:
             result = gmsh_io.model_to_mesh(None, comm, 0, gdim=2)
     finally:
         if scratch is not None:
             shutil.rmtree(scratch, ignore_errors=True)
     return result.mesh, result.cell_tags, result.facet_tags
+
+
+class _Handlers:
+    """The process's SIGINT and SIGTERM handlers as Python set them (the main thread only), to put back."""
+
+    def __init__(self):
+        main = threading.current_thread() is threading.main_thread()
+        self.saved = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)} if main else {}
+
+    def restore(self) -> None:
+        for signum, handler in self.saved.items():
+            if handler is not None:  # None: not set from Python, nothing to put back
+                signal.signal(signum, handler)
 
 
 # The largest mesh a model may ask for: about 4.5 unknowns a triangle (Taylor-Hood P2-P1, two velocity components),
