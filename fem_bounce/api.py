@@ -25,11 +25,14 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
+import math
+import numbers
 import shutil
 import sys
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from os import PathLike
 from pathlib import Path
 from typing import Any
 
@@ -77,10 +80,38 @@ def _overrides(changes: Mapping[str, Any] | Iterable[str] | str | None) -> dict[
     if changes is None:
         return {}
     if isinstance(changes, Mapping):
+        wrong = next((key for key in changes if not isinstance(key, str)), None)
+        if wrong is not None:
+            raise SceneError(f"overrides: the key {wrong!r} is not a dotted scene key such as 'sphere.density'")
         return dict(changes)
     if isinstance(changes, str):
         changes = [changes]
+    if not isinstance(changes, Iterable):
+        raise SceneError(f"overrides = {changes!r} must be a mapping {{'sphere.density': 8000.0}} or texts "
+                         "['sphere.density=8000']")
     return dict(_scenes.parse_override(text) for text in changes)
+
+
+def _scene(scene: Scene | str | Path) -> Scene:
+    """A Scene as given, or the one a preset name or a TOML file holds; SceneError for anything else."""
+    if isinstance(scene, Scene):
+        return scene
+    if not isinstance(scene, (str, PathLike)):
+        raise SceneError(f"scene = {scene!r} must be a fem_bounce.Scene, a preset name or a TOML file's path "
+                         "(fb.presets() lists the presets)")
+    return load(scene)
+
+
+def _path(value, what: str) -> Path:
+    if not isinstance(value, (str, PathLike)):
+        raise OutputError(f"{what} = {value!r} must be a path (a str or a pathlib.Path)")
+    return Path(value)
+
+
+def _model(model) -> str:
+    if not isinstance(model, str):
+        raise ModelError(f"model = {model!r} must be a model's name: one of {', '.join(_models.MODELS)}")
+    return model
 
 
 def load(source: str | Path, overrides: Mapping[str, Any] | Iterable[str] | None = None) -> Scene:
@@ -93,7 +124,10 @@ def load(source: str | Path, overrides: Mapping[str, Any] | Iterable[str] | None
 def save(scene: Scene, path: str | Path) -> Path:
     """Write the scene as TOML (whole or not at all) that load() reads back to an equal scene; OutputError
     when it cannot be written."""
-    path = Path(path)
+    if not isinstance(scene, Scene):
+        raise SceneError(f"save() needs a fem_bounce.Scene, not {scene!r}: load it first, e.g. "
+                         "fb.save(fb.load('li2011-case3'), 'my.toml')")
+    path = _path(path, "path")
     _output.write_scene(path, scene)
     return path
 
@@ -206,11 +240,13 @@ def _data_frame(columns):
 
 def _world(comm=None):
     """The communicator a run uses: the caller's, else MPI.COMM_WORLD (one process when not under mpiexec)."""
-    if comm is not None:
-        return comm
     from mpi4py import MPI
 
-    return MPI.COMM_WORLD
+    if comm is None:
+        return MPI.COMM_WORLD
+    if not isinstance(comm, MPI.Comm):
+        raise RunnerError(f"comm = {comm!r} must be an mpi4py communicator, e.g. MPI.COMM_WORLD (or None for it)")
+    return comm
 
 
 class _Scratch:
@@ -256,8 +292,7 @@ def simulate(scene: Scene | str | Path, model: str = "ode", out: str | Path | No
 
     A run that ends early raises RunDiverged, RunInterrupted or RunFailed (all RunFailed); the exception's
     `result` attribute holds what was computed until then (None when nothing was)."""
-    if not isinstance(scene, Scene):
-        scene = load(scene)
+    scene, model = _scene(scene), _model(model)
     _models.info(model)
     if settings:
         scene = scene.replace(**{key if "." in key else f"numerics.{model}.{key}": value
@@ -279,7 +314,9 @@ def resume(run_dir: str | Path, model: str | None = None, *, progress: bool = Fa
     DIR`): the scene is run_dir/scene.toml, the model the checkpoint's (model, if given, must match)."""
     from . import run
 
-    run_dir = Path(run_dir)
+    run_dir = _path(run_dir, "run_dir")
+    if model is not None:
+        _models.info(_model(model))
     scene, model = run.restart_target(run_dir, model)
     return _run(scene, model, _world(comm), run_dir, True, restart=True, progress=progress, plots=plots,
                 command=f"fem_bounce.resume({str(run_dir)!r})")
@@ -333,10 +370,17 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
     from .studies import restitution as study
     from .studies.runner import study_runner
 
-    points = (40 if model == "ode" else 12) if points is None else points
-    st_min, st_max = st_range
-    if points < 2 or not 0 < st_min < st_max:
-        raise SceneError("restitution: need --points >= 2 and 0 < --st-min < --st-max")
+    model = _model(model)
+    if points is not None and not (isinstance(points, numbers.Integral) and not isinstance(points, bool)):
+        raise SceneError(f"points = {points!r} must be a whole number of Stokes numbers (--points), e.g. 12")
+    points = (40 if model == "ode" else 12) if points is None else int(points)
+    try:
+        st_min, st_max = (float(x) for x in st_range)
+    except (TypeError, ValueError):
+        raise SceneError(f"st_range = {st_range!r} must be two numbers (--st-min, --st-max), e.g. (1, 1000)") from None
+    if points < 2 or not (math.isfinite(st_min) and math.isfinite(st_max) and 0 < st_min < st_max):
+        raise SceneError(f"restitution: need --points >= 2 and 0 < --st-min < --st-max, both finite (got --points "
+                         f"{points}, --st-min {st_min:g}, --st-max {st_max:g})")
     _models.get(model)
     out = _output.out_path(out)
     changes = _overrides(overrides)
@@ -357,8 +401,7 @@ def compare(scene: Scene | str | Path, models: str | Sequence[str] = ("ode", "fd
     from .studies import compare as study
 
     names = _models.model_list(models)
-    if not isinstance(scene, Scene):
-        scene = load(scene)
+    scene = _scene(scene)
     comm = _world(comm)
     out = _output.out_path(out)
     command = command or f"fem_bounce.compare({scene.name!r}, {','.join(names)!r})"

@@ -12,17 +12,26 @@ study resumes where it stopped: finished runs are found, unfinished ones run aga
 """
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import functools
 import hashlib
+import json
+import os
+import shutil
+import time
 from importlib import metadata
 from pathlib import Path
 
 from . import cachedir, models
 from . import scene as scenes
-from .errors import RunDiverged
+from .errors import OutputError, RunDiverged
 from .models.registry import CORE_SOURCES
-from .output import read_summary
-from .run import simulate
+from .output import MARKER, read_summary, sync_file
+from .progress import on_root_watching, stop_requested
+from .run import on_root, simulate
+
+POLL_SECONDS = 0.1  # how often a wait for another process's run of the same entry looks for a signal
 
 def default_root() -> Path:
     """The finished runs' folder in fem_bounce's cache ($FEM_BOUNCE_CACHE/runs, fem_bounce.cachedir)."""
@@ -61,7 +70,14 @@ def stack_version() -> str:
 
 
 def run_key(scene: scenes.Scene, model: str) -> str:
+    """The key of a run: its model, code and libraries, its resolved scene and the content of every file the scene
+    names (motion.series: the scene holds only its path, and an edited series must not hit the old run)."""
     text = f"{model}\n{code_version(model)}\n{stack_version()}\n{scenes.dumps(scene)}"
+    if scene.motion.series:
+        try:
+            text += f"\nmotion.series: {hashlib.sha256(Path(scene.motion.series).read_bytes()).hexdigest()}"
+        except OSError as err:
+            raise scenes.SceneError(f"motion.series = {scene.motion.series!r}: {err.strerror or err}") from None
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -70,31 +86,99 @@ def run_directory(scene: scenes.Scene, model: str, root: Path | None = None) -> 
     return Path(root or default_root()) / f"{scene.name}-{model}-{run_key(scene, model)}"
 
 
+ENTRY = "cache-entry.json"  # written last into a finished entry: the hashes of the files the studies read
+ENTRY_FILES = ("scene.toml", "summary.json", "trajectory.csv")
+
+
 def finished(run_dir: Path) -> Path | None:
-    """run_dir if it holds a finished run (completed or diverged), else None: a run killed before its
-    summary, interrupted or failed is not finished and runs again."""
-    summary = Path(run_dir) / "summary.json"
-    if not summary.exists():
-        return None
+    """run_dir if it holds a finished run (completed or diverged) that is whole: its entry file lists the hashes of
+    its files and they still match (a run killed before its summary, interrupted or failed is not finished, and a
+    damaged entry or a directory the cache did not write is not trusted: both run again)."""
+    run_dir = Path(run_dir)
     try:
+        entry = json.loads((run_dir / ENTRY).read_text())
+        if entry.get("key") != run_dir.name or any(_digest(run_dir / name) != entry["files"].get(name)
+                                                   for name in ENTRY_FILES):
+            return None
         status = read_summary(run_dir).get("status", "")
-    except (OSError, ValueError):  # a summary cut short by a kill
+    except (OSError, ValueError, AttributeError, KeyError, TypeError):  # missing, cut short, edited
         return None
-    return None if status.startswith(("interrupted", "failed")) else Path(run_dir)
+    return None if status.startswith(("interrupted", "failed")) else run_dir
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def cached_run(scene: scenes.Scene, model: str, comm, root: Path | None = None, progress: bool = False,
                command: str = "") -> Path:
-    """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed."""
+    """The directory of a finished run of `model` on `scene` (completed or diverged), running it if needed.
+
+    One process at a time makes an entry: the others wait for its lock (watching for signals) and then find it
+    finished, so identical studies at once share their runs.  The run is made in a directory of its own beside the
+    entry and renamed into place once finished, its entry file written last; a damaged entry is made again."""
     run_dir = run_directory(scene, model, root)
     # decided on rank 0 for every rank: a rank that arrives after rank 0 has finished the run would
     # otherwise skip the run's collectives that the others are in
-    if not comm.bcast(finished(run_dir) is not None if comm.rank == 0 else None, root=0):
-        try:
-            simulate(scene, model, comm, run_dir, force=True, progress=progress, plots=False,
-                     command=command or f"cached run of {scene.name} with {model}")
-        except RunDiverged:
-            pass  # recorded in summary.json; a study classifies it (an interrupted or failed run is redone)
+    if comm.bcast(finished(run_dir) is not None if comm.rank == 0 else None, root=0):
+        return run_dir
+    lock = on_root_watching(comm, lambda: _lock(run_dir))
+    try:
+        if not comm.bcast(finished(run_dir) is not None if comm.rank == 0 else None, root=0):  # made meanwhile?
+            partial = comm.bcast(run_dir.with_name(f".{run_dir.name}.{os.getpid()}.partial"), root=0)
+            try:
+                simulate(scene, model, comm, partial, force=True, progress=progress, plots=False,
+                         command=command or f"cached run of {scene.name} with {model}")
+            except RunDiverged:
+                pass  # recorded in summary.json; a study classifies it (an interrupted or failed run is redone)
+            finally:
+                on_root(comm, lambda: _settle(partial, run_dir))
+    finally:
+        if comm.rank == 0:  # rank 0 alone holds the lock (its number reached every rank)
+            os.close(lock)
     return run_dir
 
 
+def _lock(run_dir: Path) -> int:
+    """Take the entry's lock (a file beside it, flock), waiting while another process makes the same run."""
+    path = run_dir.with_name(f".{run_dir.name}.lock")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as err:
+        raise OutputError(f"cannot use {path.parent} as fem_bounce's cache: {err.strerror or err}") from None
+    while True:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return fd
+        except BlockingIOError:
+            pass
+        try:
+            stop_requested()
+        except BaseException:
+            os.close(fd)
+            raise
+        time.sleep(POLL_SECONDS)
+
+
+def _settle(partial: Path, run_dir: Path) -> None:
+    """A finished run in `partial` becomes the entry `run_dir` (its files fsynced, the entry file last); an
+    unfinished one is removed (it runs again)."""
+    status = ""
+    with contextlib.suppress(OSError, ValueError):
+        status = read_summary(partial).get("status", "")
+    if not status or status.startswith(("interrupted", "failed")):
+        shutil.rmtree(partial, ignore_errors=True)
+        return
+    try:
+        if run_dir.exists():  # an earlier entry, damaged or unfinished
+            shutil.rmtree(run_dir)
+        (partial / MARKER).unlink(missing_ok=True)  # the cache's entry, not a run directory --force may replace
+        files = {name: _digest(partial / name) for name in ENTRY_FILES}
+        partial.replace(run_dir)
+        entry = run_dir / f".{ENTRY}.partial"
+        entry.write_text(json.dumps({"key": run_dir.name, "files": files}, indent=1) + "\n")
+        sync_file(entry)
+        entry.replace(run_dir / ENTRY)
+    except OSError as err:
+        raise OutputError(f"cannot write the cache entry {run_dir}: {err.strerror or err}") from None

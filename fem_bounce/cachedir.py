@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from .output import OutputError
+from .errors import OutputError
 
 VARIABLE = "FEM_BOUNCE_CACHE"
 

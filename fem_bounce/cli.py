@@ -165,10 +165,12 @@ def _cmd_run(args) -> int:
     _route_warnings()
     LIBRARY_LOG.verbose = args.verbose
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
-    if comm.rank == 0:
+
+    def start_line() -> None:  # once nothing can refuse the run: a refusal prints its one line alone
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
+
     summary = run.run_logged(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                             command=command, progress=not args.quiet)
+                             command=command, progress=not args.quiet, on_start=start_line)
     if comm.rank == 0:
         _print_records(summary)
     return 0
@@ -271,7 +273,11 @@ def _cmd_scenes(args) -> int:
 def _cmd_restitution(args) -> int:
     from mpi4py import MPI
 
-    out = Path("results") / f"restitution-{args.model}" if args.out is None else args.out
+    from .studies.common import check_study_directory
+
+    out = Path("results") / f"restitution-{args.model}" if args.out is None else output.out_path(args.out)
+    if (MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD).rank == 0:
+        check_study_directory(out)
     rows = api.restitution(args.model, points=args.points, st_range=(args.st_min, args.st_max),
                            overrides=args.overrides, out=out, jobs=args.jobs, executor=args.executor)
     found = rows.summary
@@ -304,15 +310,16 @@ def _cmd_study(args) -> int:
 
 def _study(args, comm, runner) -> int:
     from . import studies
+    from .studies.common import LADDERS
 
     changes = dict(scenes.parse_override(text) for text in args.overrides)
-    model_names = (args.models if args.kind == "speed-accuracy" else args.model).split(",")
-    for name in model_names:
-        models.get(name)
+    model_names = models.model_list(args.models if args.kind == "speed-accuracy" else [args.model])
     _route_warnings()
     scene_name = getattr(args, "scene", None)
     default_out = "-".join(["study", args.kind, *([scene_name] if scene_name else []), *model_names])
     out = output.out_path(args.out) or Path("results") / default_out
+    if comm.rank == 0:
+        studies.common.check_study_directory(out)
 
     def numbers(text: str | None, option: str = "--levels") -> tuple | None:
         try:
@@ -324,6 +331,9 @@ def _study(args, comm, runner) -> int:
         return values
 
     if args.kind == "convergence":
+        if args.cfls and LADDERS[args.model].time_step_key is None:
+            raise scenes.SceneError(f"--cfls {args.cfls!r}: the {args.model} model has no time-step setting (its "
+                                    "tolerance sets its steps; --levels refines it): drop --cfls")
         studies.convergence.run(scenes.load(args.scene, changes), args.model, comm, out, numbers(args.levels),
                                 numbers(args.cfls, "--cfls"), runner=runner)
     elif args.kind == "speed-accuracy":
@@ -332,6 +342,9 @@ def _study(args, comm, runner) -> int:
             name = text.partition("=")[0]
             if name not in model_names:
                 raise scenes.SceneError(f"--levels {text!r}: expected MODEL=V1,V2,... with MODEL one of {args.models}")
+            if name in levels:
+                raise scenes.SceneError(f"--levels {text!r}: the {name} model's levels are given twice; give them "
+                                        f"once, as --levels {name}=V1,V2,...")
             levels[name] = _speed_levels(text, name)
         reference_step = studies.speed_accuracy.REFERENCE_STEP if args.reference_step is None else args.reference_step
         if not (math.isfinite(reference_step) and 0.0 < reference_step <= 1.0):
@@ -359,7 +372,6 @@ def _study(args, comm, runner) -> int:
 
 def _speed_levels(text: str, model: str) -> list:
     """--levels MODEL=V1,V2@F,...: the speed-accuracy study's levels of one model (V@F: F times the step)."""
-    from .studies.common import LADDERS
     from .studies.speed_accuracy import Level
 
     values = text.partition("=")[2]
@@ -371,6 +383,8 @@ def _speed_levels(text: str, model: str) -> list:
                             and math.isfinite(level.step_factor) and level.step_factor > 0.0 for level in found):
         raise scenes.SceneError(f"--levels {text!r}: expected MODEL=V1,V2,... with positive numbers, each "
                                 "optionally V@F for F times the time step, e.g. ale=8,8@0.5,12")
+    from .studies.common import LADDERS
+
     if LADDERS[model].time_step_key is None and any(lv.step_factor != 1.0 for lv in found):
         raise scenes.SceneError(f"--levels {text!r}: the {model} model has no time-step setting (its tolerance "
                                 "sets its steps): drop @F")
@@ -422,7 +436,9 @@ def main(argv: list[str] | None = None) -> int:
 
     if under_mpi_futures():
         petsc_on_self()  # rank 0 of an mpi4py.futures pool: the workers never join PETSc's COMM_WORLD
-    from .run import Interrupts, signal_name  # PETSc: after the line above
+    # PETSc starts here, after the line above, and before Interrupts installs its handlers (PETSc's own abort on
+    # SIGTERM with MPI_Abort)
+    from .run import Interrupts, signal_name
 
     library_log.RANK = MPI.COMM_WORLD.rank
     args = _parser().parse_args(argv)

@@ -2,9 +2,9 @@
 them in summary.json and the command line turns them into one line and an exit status.
 
 Every error the package raises on purpose derives from Error (fem_bounce.Error): a scene value out of
-range (scene.SceneError), an unusable run directory (output.OutputError), --jobs or --executor asked for
-what cannot be (RunnerError), a run that ended early (RunFailed and its kinds).  The command line prints
-each as one line; a Python caller may catch them all with `except fem_bounce.Error`.
+range (scene.SceneError), an unusable run directory or cache (OutputError, CheckpointError), --jobs or
+--executor asked for what cannot be (RunnerError), a run that ended early (RunFailed and its kinds).  The
+command line prints each as one line; a Python caller may catch them all with `except fem_bounce.Error`.
 
 Low in the package on purpose: a model imports its errors from here, never from the run module
 that drives it.
@@ -14,6 +14,14 @@ from __future__ import annotations
 
 class Error(Exception):
     """Every error fem_bounce raises on purpose; the message is one line naming the field, path or cause."""
+
+
+class OutputError(Error, RuntimeError):
+    """A run directory, a cache or one of their files cannot be used; the message names the path and the reason."""
+
+
+class CheckpointError(OutputError):
+    """A run directory's checkpoint is missing, unreadable or not this run's."""
 
 
 class RunnerError(Error, ValueError):

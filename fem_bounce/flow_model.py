@@ -181,9 +181,17 @@ class FlowModel(ABC):
         raise NotImplementedError(f"the {self.name} model has no steady solve")
 
     # -- outputs ----------------------------------------------------------------------------------
-    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+    def side_files(self) -> dict[str, tuple]:
+        """The model's own per-step CSV files in the run directory, {name: columns}.  The run owns them as it owns
+        trajectory.csv (output.RunDirectory): synced with every checkpoint, which counts their rows, and cut back to
+        those rows on a restart, so a killed and restarted run leaves them as an uninterrupted one would."""
+        return {}
+
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
         """Open the model's own files in the run directory (field snapshots when `fields`: the controller
-        writes them on the scene's cadence); collective.  `restart`: continue what an earlier segment wrote."""
+        writes them on the scene's cadence); collective.  `restart`: continue what an earlier segment wrote.
+        `sides`: rank 0's writers of side_files() by name (output.TrajectoryWriter: call one with a row dict of
+        its columns); empty on the other ranks."""
 
     def write_fields(self, time: float) -> None:
         """One snapshot of the flow now (collective)."""

@@ -58,7 +58,7 @@ def start_worker() -> None:
     quiet = logging.StreamHandler(sys.stderr)
     quiet.setLevel(logging.WARNING)
     logging.getLogger().handlers[:] = [quiet]  # ffcx's logging.basicConfig() then adds no handler of its own
-    from .run import Interrupts  # PETSc: after petsc_on_self() above (the module docstring)
+    from .run import Interrupts  # PETSc: after petsc_on_self() above, before Interrupts installs its handlers
 
     Interrupts(announce=False).__enter__()
     signal.signal(signal.SIGINT, signal.SIG_IGN)

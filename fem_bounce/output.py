@@ -32,6 +32,7 @@ import csv
 import dataclasses
 import errno
 import fcntl
+import io
 import json
 import os
 import platform
@@ -46,9 +47,10 @@ from pathlib import Path
 
 import numpy as np
 
+from . import cachedir
 from . import scene as scenes
 from ._version import __version__
-from .errors import Error
+from .errors import CheckpointError, OutputError
 
 TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_lubrication", "f_history", "f_added_mass",
                       "f_theory", "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
@@ -76,14 +78,6 @@ MARKER = ".fem-bounce-run"
 MARKER_TEXT = "fem-bounce run directory: `fem-bounce run --force` may replace everything in it.\n"
 
 
-class OutputError(Error, RuntimeError):
-    """A run directory or one of its files cannot be used; the message names the path and the reason."""
-
-
-class CheckpointError(OutputError):
-    """A run directory's checkpoint is missing, unreadable or not this run's."""
-
-
 def _reason(err: Exception) -> str:
     """Why an operation failed: an OSError's strerror, else the exception's message."""
     return getattr(err, "strerror", None) or str(err)
@@ -92,7 +86,7 @@ def _reason(err: Exception) -> str:
 # -- whole files ------------------------------------------------------------------------------
 
 
-def _sync_file(path: Path) -> None:
+def sync_file(path: Path) -> None:
     """fsync a file (or a directory: the renames inside it)."""
     fd = os.open(path, os.O_RDONLY)
     try:
@@ -104,7 +98,7 @@ def _sync_file(path: Path) -> None:
 def _sync_directory(path: Path) -> None:
     """Make a rename inside `path` durable (where the file system supports it)."""
     with contextlib.suppress(OSError):
-        _sync_file(path)
+        sync_file(path)
 
 
 def _write_all(fd: int, data: bytes) -> None:
@@ -194,7 +188,9 @@ class RunDirectory:
     def __init__(self, path: Path):
         self.path = Path(path)
         self.checkpoint: Checkpoint | None = None  # the newest whole one on the disk: resumed, then each committed
-        self._continued_rows: int | None = None  # the trajectory's rows a restart continues
+        self._continued: dict[str, int] = {}  # a restart: the rows of trajectory.csv and each side file it continues
+        self._unsettled: Checkpoint | None = None  # a restart's checkpoint, settled by begin()
+        self._made = False  # prepare() made the directory
 
     # -- prepare and resume --
     def prepare(self, force: bool = False, scene=None) -> None:
@@ -220,6 +216,7 @@ class RunDirectory:
                         shutil.rmtree(entry)
                     elif entry.name != MARKER:
                         entry.unlink()
+            self._made = not path.exists()
             path.mkdir(parents=True, exist_ok=True)
         except OSError as err:
             raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
@@ -230,10 +227,11 @@ class RunDirectory:
     def resume(self, scene, model_name: str, checkpoint_files: tuple = ()) -> Checkpoint:
         """Lock DIR and check that it can continue `scene` with `model_name`: a whole checkpoint of that
         model (holding `checkpoint_files`), written for the same scene (up to RESTART_MAY_CHANGE), and
-        the trajectory rows it continues.  Only then make that checkpoint DIR/checkpoint again and cut
-        the trajectory back to its rows; returns it (the run's state to restore)."""
+        the rows of trajectory.csv and of each side file it continues.  Nothing in DIR changes here: begin()
+        settles the checkpoint and cuts the files back once the run has restored it, so a restart refused on
+        the way leaves DIR byte for byte as it was.  Returns the checkpoint (the run's state to restore)."""
         path = self.path
-        self._check_place()
+        self._check_place(replacing=False)
         if not is_run_directory(path):
             raise OutputError(f"{path} is not a run directory" + ("" if path.is_dir() else ": it does not exist"))
         self._lock()  # no second run continues it at the same time
@@ -242,28 +240,49 @@ class RunDirectory:
             raise CheckpointError(f"the checkpoint in {path} was written by the {found.model!r} model, "
                                   f"not {model_name}")
         record = found.run
-        if not isinstance(record, dict) or not isinstance(record.get("trajectory_rows"), int):
-            raise CheckpointError(f"the checkpoint in {path} is unreadable: it holds no run record "
-                                  "(written by an older version?); start a new run")
-        changes = _scene_changes(record["scene"], scene)
+        rows = record.get("trajectory_rows") if isinstance(record, dict) else None
+        side_rows = record.get("side_rows", {}) if isinstance(record, dict) else None
+        counts = [rows, *side_rows.values()] if isinstance(side_rows, dict) else [None]
+        if not (isinstance(record.get("scene") if isinstance(record, dict) else None, str)
+                and all(_is_count(n) for n in counts)):
+            raise CheckpointError(f"the checkpoint in {path} is unreadable: {found.folder.name}/state.json holds no "
+                                  "whole run record (scene, row counts; damaged or edited, or written by an older "
+                                  "version?); start a new run")
+        if record.get("model", found.model) != found.model:
+            raise CheckpointError(f"the checkpoint in {path} is unreadable: {found.folder.name}/model.txt names the "
+                                  f"{found.model} model, but its state was written by the {record['model']} model "
+                                  "(damaged or edited); restore model.txt or start a new run")
+        changes = _scene_changes(record["scene"], scene, path)
         if changes:
             raise CheckpointError(
                 f"{path}/scene.toml no longer matches its checkpoint ({'; '.join(changes)}): restore it, or start "
                 f"a new run (a restart may change only {', '.join(RESTART_MAY_CHANGE[:2])})")
-        trajectory, rows = path / "trajectory.csv", record["trajectory_rows"]
-        offset = _trajectory_offset(trajectory, rows)
+        continued = {"trajectory.csv": rows, **side_rows}
+        for name, count in continued.items():
+            _trajectory_offset(path / name, count)  # every file holds the rows the checkpoint counts
         for skipped in found.skipped:
             warnings.warn(f"{skipped}; continuing from the older copy ({found.folder.name})", stacklevel=2)
-        self._settle(found)
-        try:
-            os.truncate(trajectory, offset)
-            _sync_file(trajectory)
-        except OSError as err:
-            raise OutputError(f"cannot write {trajectory}: {_reason(err)}") from None
-        self.checkpoint, self._continued_rows = found, rows
+        self.checkpoint, self._continued, self._unsettled = found, continued, found
         return found
 
-    def _check_place(self) -> None:
+    def begin(self) -> None:
+        """A restart whose checkpoint the run has restored: make it DIR/checkpoint again and cut trajectory.csv and
+        the side files back to the rows it counts, so that no row is lost or doubled (nothing to do otherwise)."""
+        chosen, self._unsettled = self._unsettled, None
+        if chosen is None:
+            return
+        self._settle(chosen)
+        for name, rows in self._continued.items():
+            file = self.path / name
+            try:
+                os.truncate(file, _trajectory_offset(file, rows))
+                sync_file(file)
+            except OSError as err:
+                raise OutputError(f"cannot write {file}: {_reason(err)}") from None
+
+    def _check_place(self, replacing: bool = True) -> None:
+        """Refuse a DIR that cannot be a run directory; `replacing` (prepare: a new run, maybe --force) also one
+        the user works in or one inside another run directory (a restart only continues DIR)."""
         path = self.path
         loop = OutputError(f"{path} is a loop of symbolic links; choose another --out")
         try:
@@ -272,13 +291,15 @@ class RunDirectory:
             if err.errno == errno.ELOOP:  # Python 3.13's Path.resolve no longer says so
                 raise loop from None
         try:
-            why = _protected(path)
+            why = _protected(path) if replacing else None
         except RuntimeError:  # Python 3.12's Path.resolve met a loop of symbolic links
             raise loop from None
         except OSError as err:  # a name too long for the filesystem, ...
             raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
         if why is not None:
             raise OutputError(f"{path} is {why}: it cannot be a run directory; choose another --out")
+        if not replacing:
+            return
         try:
             if path.exists() and not path.is_dir():
                 raise OutputError(f"{path} exists and is not a directory; choose another --out")
@@ -330,9 +351,11 @@ class RunDirectory:
             raise OutputError(f"cannot reserve {size // 1024} kB for {self.path / 'summary.json'}: "
                               f"{_reason(err)}") from None
 
-    def trajectory(self, interval: float, columns: tuple) -> TrajectoryWriter:
-        """The writer of DIR/trajectory.csv: a new file, or after resume() the old one, continued."""
-        return TrajectoryWriter(self.path / "trajectory.csv", interval, continue_from=self._continued_rows,
+    def trajectory(self, interval: float, columns: tuple, name: str = "trajectory.csv") -> TrajectoryWriter:
+        """The writer of DIR/trajectory.csv, or of a side file `name` (a model's own per-step CSV, e.g. the ale
+        model's ale_forces.csv): a new file, or after resume() the old one, continued after begin() has cut it
+        back.  Every such file is synced with each checkpoint, which records its rows (run.py)."""
+        return TrajectoryWriter(self.path / name, interval, continue_from=self._continued.get(name),
                                 columns=columns)
 
     def commit_checkpoint(self, model_name: str, state: dict, data_file: str, arrays: dict) -> None:
@@ -345,16 +368,20 @@ class RunDirectory:
         if record and record.get("trajectory_error"):  # the rows it would claim are not on the disk
             raise OutputError(f"{record['trajectory_error']}; no checkpoint written")
         partial, old = run_dir / "checkpoint.partial", run_dir / "checkpoint.old"
+        archive = io.BytesIO()  # in memory first: a full disk then fails one plain write, not numpy's zip file
+        np.savez(archive, **arrays)
         try:
             if partial.exists():
                 shutil.rmtree(partial)
             partial.mkdir(parents=True)
-            np.savez(partial / data_file, **arrays)
-            for data in partial.iterdir():
-                _sync_file(data)
-            for name, text in (("state.json", json.dumps(state, indent=1)), ("model.txt", model_name + "\n")):
-                (partial / name).write_text(text)
-                _sync_file(partial / name)
+            for name, data in ((data_file, archive.getvalue()), ("state.json", json.dumps(state, indent=1).encode()),
+                               ("model.txt", (model_name + "\n").encode())):
+                fd = os.open(partial / name, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+                try:
+                    _write_all(fd, data)
+                    os.fsync(fd)
+                finally:
+                    os.close(fd)
             _sync_directory(partial)
             if final.exists():
                 final.replace(old)
@@ -373,6 +400,13 @@ class RunDirectory:
     def commit_summary(self, data: dict) -> None:
         """DIR/summary.json, into the room reserve() kept; a killed run never leaves half a summary."""
         _atomic_write_text(self.path / "summary.json", json.dumps(data, indent=2) + "\n")
+
+    def abandon(self) -> None:
+        """A run refused after prepare() or resume() (no room for its summary or its trajectory): remove the
+        directory prepare() made, and release() (a directory that was there stays, as resume() left it)."""
+        self.release()
+        if self._made:
+            shutil.rmtree(self.path, ignore_errors=True)
 
     def release(self) -> None:
         """Give back the room reserve() kept (if the summary did not use it) and this process's lock."""
@@ -433,9 +467,19 @@ def _flatten(data: dict, prefix: str = "") -> dict:
     return flat
 
 
-def _scene_changes(saved_text: str, scene) -> list[str]:
+def _is_count(value) -> bool:
+    """A row count as a checkpoint records it: a whole number >= 0 (not a bool)."""
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _scene_changes(saved_text: str, scene, run_dir: Path) -> list[str]:
     """What differs between a checkpoint's scene and `scene`, beyond RESTART_MAY_CHANGE."""
-    saved, now = _flatten(tomllib.loads(saved_text)), _flatten(tomllib.loads(scenes.dumps(scene)))
+    try:
+        saved = _flatten(tomllib.loads(saved_text))
+    except tomllib.TOMLDecodeError as err:
+        raise CheckpointError(f"the checkpoint in {run_dir} is unreadable: its scene is not valid TOML ({err}): "
+                              "damaged or edited; start a new run") from None
+    now = _flatten(tomllib.loads(scenes.dumps(scene)))
     return [f"{key} {saved.get(key, 'unset')!r} -> {now.get(key, 'unset')!r}"
             for key in sorted(saved.keys() | now.keys())
             if saved.get(key) != now.get(key) and key not in RESTART_MAY_CHANGE]
@@ -443,12 +487,23 @@ def _scene_changes(saved_text: str, scene) -> list[str]:
 
 def out_path(text: str | Path | None) -> Path | None:
     """An output directory as the user gave it (--out, out=): an empty string is refused, not read as the
-    current directory."""
+    current directory, and so is a place inside fem_bounce's cache (its runs are the studies' own: a run written
+    there by hand would be read back as the cached answer of another scene)."""
     if text is None:
         return None
+    if not isinstance(text, (str, os.PathLike)):
+        raise OutputError(f"--out {text!r} must be a path (a str or a pathlib.Path)")
     if not str(text).strip():
         raise OutputError("--out is empty: give a directory, e.g. --out runs/mine")
-    return Path(text)
+    path = Path(text)
+    try:
+        resolved, cache = path.resolve(), cachedir.root().resolve()
+    except (OSError, RuntimeError):  # a loop of links, ...: RunDirectory says so
+        return path
+    if resolved == cache or cache in resolved.parents:
+        raise OutputError(f"{text} is inside fem_bounce's cache {cache}: its runs belong to the studies "
+                          f"(${cachedir.VARIABLE} moves it); choose another --out")
+    return path
 
 
 def unused_directory(base: Path) -> Path:
@@ -623,6 +678,11 @@ class TrajectoryWriter:
 
     def close(self) -> None:
         self._flush()
+        if self._fd is not None:
+            try:
+                os.fsync(self._fd)  # on the disk before the summary that counts on it
+            except OSError as err:
+                self._fail(err)
         if self._fd is not None:
             os.close(self._fd)
             self._fd = None

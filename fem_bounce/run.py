@@ -29,7 +29,6 @@ import contextlib
 import math
 import pickle
 import signal
-import sys
 import time
 import warnings
 from pathlib import Path
@@ -43,60 +42,12 @@ from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
 from .integrator import BodyIntegrator, PenetrationError
 from .library_log import LIBRARY_LOG, library_output
-from .progress import Monitor, ProgressBar
+from .progress import Interrupts, Monitor, ProgressBar, signal_name, wait_for_root
 from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
 ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error before a gain stops the run
-
-
-class StopNow(KeyboardInterrupt):
-    """A second SIGINT or SIGTERM: stop at once, not after the step."""
-
-    def __init__(self, signum: int):
-        super().__init__()
-        self.signum = signum
-
-
-def signal_name(signum: int) -> str:
-    return signal.Signals(signum).name
-
-
-class Interrupts:
-    """SIGINT (Ctrl-C) and SIGTERM (batch schedulers; MPICH's mpiexec passes Ctrl-C on as SIGINT, OpenMPI's
-    as SIGTERM) as a request to stop.  The first sets a flag that the run checks after every step, on every
-    rank together, so it ends between two steps with its summary written; a second raises StopNow at once.
-
-        with Interrupts():
-            simulate(...)        # any run inside, also through studies and the cache
-    """
-
-    active: "Interrupts | None" = None
-
-    def __init__(self, announce: bool = True):
-        self.signum = 0
-        self.announce = announce
-        self._previous: dict = {}
-
-    def __enter__(self) -> "Interrupts":
-        with contextlib.suppress(ValueError):  # not the main thread: signals stay as they were
-            for signum in (signal.SIGINT, signal.SIGTERM):
-                self._previous[signum] = signal.signal(signum, self._handle)
-        Interrupts.active = self
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for signum, handler in self._previous.items():
-            signal.signal(signum, handler)
-        Interrupts.active = None
-
-    def _handle(self, signum, frame) -> None:
-        if self.signum:
-            raise StopNow(signum)
-        self.signum = signum
-        if self.announce and sys.stderr.isatty():  # a person at a terminal; logs get the one final line
-            print(f"\nfem-bounce: {signal_name(signum)} received: stopping after this step (again to stop at once)",
-                  file=sys.stderr, flush=True)
+RESTART_STEP = 1e-7  # time units: the integrator's step after an event (integrator._new_ts), and after a 0 step
 
 
 def on_root(comm, action):
@@ -117,12 +68,21 @@ def on_root(comm, action):
 # -- what every step shares ----------------------------------------------------------------------
 
 
-class _RunIntegrator(BodyIntegrator):
+class RunIntegrator(BodyIntegrator):
     """The shared integrator, whose checkpoint state also carries the run's record (the trajectory's rows,
     put on the disk first; the wall time; the scene): every model that checkpoints the integrator, as it
     must to restart, so checkpoints the run whole."""
 
     record: "_RunRecord | None" = None
+
+    def advance(self, t_end: float, fluid=None) -> None:
+        # PETSc 3.25's TS can leave a step of 0 after a step that lands on the end time (MATCHSTEP) as an event is
+        # located there (pair-settling-wall, ale: the lower sphere resting in its Hertz contact at t = 0.16938 s);
+        # the next solve then divides by it (PETSc error 72, "Infinite or not-a-number generated in norm").  A
+        # step is restarted at the integrator's own post-event step, 1e-7 time units (integrator._new_ts).
+        if self.ts is not None and not self.ts.getTimeStep() > 0.0:
+            self.ts.setTimeStep(RESTART_STEP * self.scene.time_unit)
+        super().advance(t_end, fluid)
 
     def state_dict(self) -> dict:
         state = super().state_dict()
@@ -132,10 +92,11 @@ class _RunIntegrator(BodyIntegrator):
 
 
 class _RunRecord:
-    def __init__(self, scene, model_name: str, writer: output.TrajectoryWriter | None, previous_wall: list):
+    def __init__(self, scene, model_name: str, writers: dict[str, output.TrajectoryWriter], previous_wall: list):
+        """`writers`: rank 0's trajectory.csv and side files by name (none elsewhere)."""
         self.scene_text = scenes.dumps(scene)
         self.model_name = model_name
-        self.writer = writer
+        self.writers = writers
         self.previous_wall = list(previous_wall)  # earlier segments, each up to its last checkpoint [s]
         self.start = time.perf_counter()
 
@@ -143,14 +104,16 @@ class _RunRecord:
         return time.perf_counter() - self.start
 
     def checkpoint(self) -> dict:
-        rows, error = None, None
-        if self.writer is not None:  # rank 0
+        """The record a checkpoint carries: every file's rows put on the disk first (rank 0)."""
+        rows, error = {}, None
+        for name, writer in self.writers.items():
             try:
-                rows = self.writer.sync()
+                rows[name] = writer.sync()
             except output.OutputError as err:
-                error = str(err)  # RunDirectory.commit_checkpoint refuses to commit then
-        return {"scene": self.scene_text, "model": self.model_name, "trajectory_rows": rows, "trajectory_error": error,
-                "wall_time_s": self.previous_wall + [self.elapsed()]}
+                error = error or str(err)  # RunDirectory.commit_checkpoint refuses to commit then
+        trajectory = rows.pop("trajectory.csv", None)
+        return {"scene": self.scene_text, "model": self.model_name, "trajectory_rows": trajectory,
+                "side_rows": rows, "trajectory_error": error, "wall_time_s": self.previous_wall + [self.elapsed()]}
 
 
 class _Safeguards:
@@ -246,18 +209,21 @@ class Controller:
     models.registry.ModelInfo): the controller knows nothing of pairs, time-step keys or meshes."""
 
     def __init__(self, flow_model: FlowModel, info, integrator: BodyIntegrator, monitor=None,
-                 run_dir: output.RunDirectory | None = None):
+                 run_dir: output.RunDirectory | None = None, sides: dict | None = None):
         """`monitor(t, steps, gaps, velocities, force=False)` is called after every step (the run's progress
-        line and stop requests); without `run_dir` nothing is written."""
+        line and stop requests); without `run_dir` nothing is written.  `sides`: rank 0's writers of the model's
+        side files (FlowModel.side_files), by name."""
         self.flow_model, self.info, self.integrator, self.comm = flow_model, info, integrator, flow_model.comm
         self.monitor = monitor or (lambda *args, **kwargs: None)
         self.run_dir = run_dir
+        self.sides = sides or {}
         self.fields_every, self.checkpoint_every = info.cadences(flow_model.scene) if run_dir is not None else (0, 0)
         self.last_checkpoint: tuple[int, float] | None = None
         self.stepper: Stepper | None = None
 
-    def run(self, resumed: output.Checkpoint | None = None) -> dict:
-        """The run from its start, or from `resumed` (a restart: the checkpoint RunDirectory.resume chose)."""
+    def run(self, resumed: output.Checkpoint | None = None, started=None) -> dict:
+        """The run from its start, or from `resumed` (a restart: the checkpoint RunDirectory.resume chose);
+        `started()` once it is restored (a refused restart has changed nothing)."""
         flow_model, integrator, run_dir = self.flow_model, self.integrator, self.run_dir
         restart, fields_every = resumed is not None, self.fields_every
         try:
@@ -265,10 +231,15 @@ class Controller:
             self.stepper = stepper = stepper_for(self.info, flow_model, integrator)
             if restart:
                 self._restore(resumed)
+            if run_dir is not None:
+                on_root(self.comm, run_dir.begin)  # a restart: the checkpoint restored, its files cut back
+            if started is not None:
+                started()
+            self._progress()  # a signal that came while the model was built stops the run here, on every rank
             first_step = flow_model.step
             observers = [self._progress]
             if run_dir is not None:
-                flow_model.open_outputs(run_dir.path, restart, fields=bool(fields_every))
+                flow_model.open_outputs(run_dir.path, restart, fields=bool(fields_every), sides=self.sides)
                 if fields_every:
                     if not restart:
                         flow_model.write_fields(integrator.time)
@@ -335,22 +306,71 @@ class Controller:
         """Continue from `resumed` (RunDirectory.resume has checked it and cut the trajectory back)."""
         data, = self.info.checkpoint_files
         arrays, state = resumed.arrays(data), resumed.state
-        if not isinstance(state.get("flow"), dict) or "velocities" not in state:
-            raise output.CheckpointError(f"the checkpoint in {self.run_dir.path} is unreadable: it was written by an "
-                                         "older version; start a new run")
         failure = None
         try:
             self.flow_model.restore(state["flow"], arrays)
+            self.flow_model.step = state["step"]
+            self.stepper.restore(state)
+            self.integrator.load_state_dict(state["integrator"])
         except output.CheckpointError as err:  # on one rank (a dof of its part that fits no stored one)
             failure = str(err)
+        except (KeyError, TypeError, ValueError, IndexError, AttributeError, ArithmeticError,
+                np.linalg.LinAlgError, PETSc.Error) as err:  # what check_checkpoint cannot see: the model's own part
+            failure = (f"its state does not fit the {self.info.name} model ({type(err).__name__}: {err}): damaged, "
+                       "edited or written by another model")
         failures = [f for f in self.comm.allgather(failure) if f]
         if failures:
             raise output.CheckpointError(f"the checkpoint in {self.run_dir.path} cannot continue this run: "
                                          f"{failures[0]}")
-        self.flow_model.step = state["step"]
-        self.stepper.restore(state)
-        self.integrator.load_state_dict(state["integrator"])
         self.last_checkpoint = (state["step"], state["time"])
+
+
+def check_checkpoint(checkpoint: output.Checkpoint, integrator: BodyIntegrator) -> output.Checkpoint:
+    """The parts of a checkpoint's state.json that every model shares, checked before anything is built or
+    changed: the controller's step and time, the stepper's velocities, and the body integrator's state (its
+    length, finite numbers, its records); CheckpointError naming the entry otherwise.  A model checks its own
+    part as it restores it (Controller._restore)."""
+    state, bodies = checkpoint.state, len(integrator.bodies)
+
+    def bad(entry: str, what: str) -> output.CheckpointError:
+        return output.CheckpointError(f"the checkpoint in {checkpoint.folder.parent} is unreadable: "
+                                      f"{checkpoint.folder.name}/state.json: {entry} {what} (damaged or edited); "
+                                      "start a new run")
+
+    def number(value, low: float = 0.0) -> bool:
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= low
+
+    def numbers(values, count: int) -> bool:
+        return isinstance(values, list) and len(values) == count and all(number(v, -math.inf) for v in values)
+
+    if not (isinstance(state.get("step"), int) and not isinstance(state["step"], bool) and state["step"] >= 0):
+        raise bad("step", f"= {state.get('step')!r} is not a whole number of steps")
+    if not number(state.get("time")):
+        raise bad("time", f"= {state.get('time')!r} is not a time >= 0 s")
+    if not isinstance(state.get("flow"), dict):
+        raise bad("flow", "is not a table of the model's state")
+    velocities = state.get("velocities", [])
+    if not (isinstance(velocities, list)
+            and all(numbers(v, bodies) or (bodies == 1 and number(v, -math.inf)) for v in velocities)):
+        raise bad("velocities", f"is not a list of {bodies} finite velocities per level")
+    saved = state.get("integrator")
+    if not isinstance(saved, dict):
+        raise bad("integrator", "is not a table")
+    if not number(saved.get("time")):
+        raise bad("integrator.time", f"= {saved.get('time')!r} is not a time >= 0 s")
+    if not number(saved.get("step_size")):  # 0 can be saved: RunIntegrator.advance restarts it
+        raise bad("integrator.step_size", f"= {saved.get('step_size')!r} is not a step >= 0 s")
+    if not numbers(saved.get("y"), integrator.n):
+        raise bad("integrator.y", f"is not {integrator.n} finite numbers (the bodies' gaps, velocities and history)")
+    machine = saved.get("machine")
+    if not (isinstance(machine, dict) and isinstance(machine.get("done"), bool)
+            and isinstance(machine.get("steps"), int) and not isinstance(machine["steps"], bool)
+            and machine["steps"] >= 0):
+        raise bad("integrator.machine", "is not a table of done (true or false) and steps (a whole number)")
+    records, names = saved.get("records"), {contact.name for contact in integrator.contacts}
+    if not (isinstance(records, dict) and set(records) == names and all(isinstance(r, dict) for r in records.values())):
+        raise bad("integrator.records", f"is not a table of the contacts {', '.join(sorted(names))}")
+    return checkpoint
 
 
 # -- the run --------------------------------------------------------------------------------------
@@ -358,14 +378,15 @@ class Controller:
 
 def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force: bool = False,
              restart: bool = False, command: str = "", progress: bool = True, plots: bool = True,
-             interrupts: Interrupts | None = None) -> dict:
+             interrupts: Interrupts | None = None, on_start=None) -> dict:
     """Run the model named `model_name` on `scene`; write DIR/{scene.toml,trajectory.csv,summary.json,*.png}
-    if out_dir is given.
+    if out_dir is given.  `on_start()` is called on rank 0 once nothing can refuse the run any more (the command
+    line's start line: a refusal prints only its one line).
     Raises RunDiverged, RunInterrupted or RunFailed after writing the summary when the run ends early."""
     info = models.info(model_name)  # what the model is, resolved once and handed down
     if info.serial and comm.size > 1:
         return _serial_on_root(scene, model_name, comm, out_dir, force=force, restart=restart, command=command,
-                               progress=progress, plots=plots, interrupts=interrupts)
+                               progress=progress, plots=plots, interrupts=interrupts, on_start=on_start)
     # Everything that can refuse the run comes before anything is written.
     models.check_scene(info, scene)
     model_cls = models.flow_model_class(info)
@@ -379,7 +400,7 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
         if out_dir is None:
             raise output.OutputError("a restart needs the run directory it continues")
     flow_model = model_cls(scene, comm)
-    integrator = _RunIntegrator(scene, resolved=model_cls.resolved)
+    integrator = RunIntegrator(scene, resolved=model_cls.resolved)
     guards = _Safeguards(scene, integrator, info, flow_model.resolved_top())
     if root:
         if guards.light:
@@ -390,36 +411,56 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
         for message in info.scene_warnings(scene):
             warnings.warn(message, stacklevel=2)
     run_dir, resumed, writer = None, None, None  # resumed: the checkpoint a restart continues (rank 0 checks it)
+    sides: dict[str, output.TrajectoryWriter] = {}  # the model's side files (rank 0)
     if out_dir is not None:
         run_dir = output.RunDirectory(out_dir)
         if restart:
-            resumed = comm.bcast(on_root(comm, lambda: run_dir.resume(scene, model_name, info.checkpoint_files)), 0)
+            resumed = comm.bcast(on_root(comm, lambda: check_checkpoint(
+                run_dir.resume(scene, model_name, info.checkpoint_files), integrator)), 0)
         else:
             on_root(comm, lambda: run_dir.prepare(force, scene))
-        on_root(comm, run_dir.reserve)
         interval_key = info.trajectory_interval_key
         interval = info.setting(scene, interval_key) if interval_key else 0.0
         columns = output.trajectory_columns(len(scene.spheres))
-        writer = on_root(comm, lambda: run_dir.trajectory(interval, columns))
+
+        def open_files():
+            run_dir.reserve()
+            files = {"trajectory.csv": run_dir.trajectory(interval, columns)}
+            return {**files, **{name: run_dir.trajectory(0.0, side_columns, name)
+                                for name, side_columns in flow_model.side_files().items()}}
+
+        try:
+            files = on_root(comm, open_files) or {}  # refused for want of room: nothing left behind
+        except output.OutputError:
+            on_root(comm, run_dir.abandon)
+            raise
+        writer = files.pop("trajectory.csv", None)
+        sides = files
+    if root and on_start is not None and not restart:
+        on_start()
     earlier_wall = resumed.wall_time_s if resumed is not None else []  # [s], one per earlier segment
-    record = _RunRecord(scene, model_name, writer, earlier_wall)
+    record = _RunRecord(scene, model_name, {"trajectory.csv": writer, **sides} if writer else {}, earlier_wall)
     integrator.record = record
     if writer is not None:
         integrator.observers.append(writer)
     integrator.observers.append(guards)
     bar = ProgressBar(scene.run.end_time, [body.diameter for body in integrator.bodies], enabled=progress and root)
-    monitor = Monitor(bar, comm, interrupts, writer)
+    monitor = Monitor(bar, comm, interrupts, list(record.writers.values()), scene.time_unit)
+
+    def close_files() -> None:
+        for each in record.writers.values():
+            each.close()
 
     status, message, signum = "completed", "", 0
     result: dict = {}
     try:
-        result = Controller(flow_model, info, integrator, monitor, run_dir).run(resumed)
+        result = Controller(flow_model, info, integrator, monitor, run_dir, sides).run(
+            resumed, started=on_start if restart and root else None)
     except output.CheckpointError:
-        # the restart could not load its checkpoint: no summary for a run that never continued
+        # the restart could not load its checkpoint: no summary for a run that never continued, and DIR as it was
         bar.close()
-        if writer is not None:
-            with contextlib.suppress(output.OutputError):
-                writer.close()
+        with contextlib.suppress(output.OutputError):
+            close_files()
         if run_dir is not None:
             on_root(comm, run_dir.release)
         raise
@@ -433,12 +474,11 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     except (RunFailed, output.OutputError) as err:
         status, message = f"failed: {err}", str(err)
     bar.close()
-    if writer is not None:
-        try:
-            writer.close()
-        except output.OutputError as err:
-            if status == "completed":
-                status, message = f"failed: {err}", str(err)
+    try:
+        close_files()
+    except output.OutputError as err:
+        if status == "completed":
+            status, message = f"failed: {err}", str(err)
     # rank 0 alone writes, so rank 0's account of how the run ended is every rank's
     status, message, signum = comm.bcast((status, message, signum), root=0)
 
@@ -466,7 +506,14 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
                 losses.annotate(data, output.read_trajectory(out_dir))
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
-                _draw(out_dir)  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
+                try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
+                    _draw(out_dir)
+                except KeyboardInterrupt as err:  # Ctrl-C while drawing, with no Interrupts installed (the API)
+                    stopped = getattr(err, "signum", signal.SIGINT)
+                    reason = f"interrupted by {signal_name(stopped)} while drawing the figures"
+                    run_dir.commit_summary({**data, "status": "interrupted", "stop_reason": reason})
+                    raise RunInterrupted(f"{reason}; the run itself {status} (summary.json, trajectory.csv)",
+                                         stopped) from None
             return _interruption_note(run_dir, info) if status == "interrupted" else ""
 
         try:
@@ -475,7 +522,8 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
             if status == "completed":
                 raise RunFailed(str(err)) from None
             unwritten = f" ({err})"
-        on_root(comm, run_dir.release)
+        finally:
+            on_root(comm, run_dir.release)
     if status == "completed":
         return data
     if status == "interrupted":
@@ -508,9 +556,7 @@ def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **option
             pickle.dumps(error)
         except Exception:  # noqa: BLE001 -- an exception that cannot travel goes as its message
             error = RunFailed(f"{type(error).__name__}: {error}")
-    waiting = comm.Ibarrier()
-    while not waiting.Test():
-        time.sleep(0.05)
+    wait_for_root(comm)
     result, error = comm.bcast((result, error), root=0)
     if own is not None:
         raise own

@@ -16,6 +16,8 @@ import csv
 import dataclasses
 import difflib
 import math
+import numbers
+import os
 import re
 import tomllib
 import typing
@@ -42,12 +44,23 @@ NEUTRAL_BUOYANCY = 1e-5
 DIAMETER_NOTE = ("below 1 um Brownian motion, not modelled, moves the sphere; 1e3 m lets a second sphere stand in "
                  "for a wall (the pair's wall limit)")
 SOLID_DENSITY_NOTE = "the densest solid, osmium, is 2.26e4 kg/m3"
-MODULUS_NOTE = "the stiffest solid, diamond, has 1.2e12 Pa"
+MODULUS_NOTE = "from the softest gels, ~1e2 Pa, to beyond diamond, the stiffest solid, 1.2e12 Pa"
+MODULUS_MIN = 1e2
 LIQUID_DENSITY_NOTE = ("the densest liquid, mercury, is 1.35e4 kg/m3; down to 1e-30 for near-dry checks, below "
                        "which the flow's kinematic viscosity overflows the solvers")
 ROUGHNESS_NOTE = "the height of the surface's asperities; Li et al. (2011) section 3.1 give 0.02 um (2e-8 m)"
 VISCOSITY_NOTE = ("pitch is ~1e8 Pa s; above it the sphere's viscous relaxation time m / (6 pi mu a) falls below "
                   "the integrator's smallest step and a run stops advancing")
+# The contact gap h_c (lubricated-hertz: contact_gap_factor x the larger of the roughness and the elastohydrodynamic gap
+# x_d at the impact speed) must stay thin against the spheres: below this fraction of the reduced radius a*, where
+# Hertz's small-strain contact holds (contact.MAX_OVERLAP), and below delta_sl times the gap scale, where the contact
+# takes over from the lubrication.  Softer solids start their contact a sizeable part of a diameter away (Young's
+# modulus 1e-10 Pa: 1.6 D above the wall).
+FILM_GAP_FRACTION = 0.1
+# A run's end time, in time units (sqrt(D/g), or D over the launch speed without gravity), when nothing ends it earlier
+# (free spheres over a wall come to rest on it, or stall in its film: integrator.py; a pair without a wall drifts on,
+# a held or prescribed sphere goes on): the ode model's largest step is 0.02 of them, so 1e5 is 5e6 steps (~40 min).
+MAX_END_TIME_UNITS = 1e5
 # contact.model = "ehd": the gap where the film collision takes over (docs/ehd.md), and its bounds
 EHD_HANDOVER = 20e-6
 EHD_HANDOVER_NOTE = ("the film collision's handover gap h0: thin against the sphere's radius (below 0.1 a, and "
@@ -64,7 +77,7 @@ PRESSURE_NOTE = "absolute; from a vacuum to 1e9 Pa (10,000 atm)"
 # keys that were renamed: what a scene file written before says now
 RENAMED = {"contact.ehd_cavitation": "contact.cavitation_pressure (\"off\", \"liquid\", \"auto\" or a pressure; the "
                                      "default \"auto\" now limits every film's tension, the ehd film's included)"}
-_PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f.][^/\\\x00-\x1f]{0,99}")
+_PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f\x7f.][^/\\\x00-\x1f\x7f]{0,99}")
 
 
 class SceneError(Error, ValueError):
@@ -110,6 +123,9 @@ def _check_fields(obj: Any, prefix: str) -> None:
             for k, item in enumerate(value):
                 _check_fields(item, f"{key}[{k}].")
             continue
+        if isinstance(value, str) and any("\ud800" <= ch <= "\udfff" for ch in value):
+            raise SceneError(f"{key} = {value!r} holds bytes that are not UTF-8 text (a lone surrogate): give it as "
+                             "UTF-8 text")
         if "choices" in f.metadata and value not in f.metadata["choices"]:
             allowed = ", ".join(repr(c) for c in f.metadata["choices"])
             raise SceneError(f"{key} = {value!r} is not one of {allowed}")
@@ -133,7 +149,7 @@ def _check_fields(obj: Any, prefix: str) -> None:
 class Sphere:
     diameter: float = _between(1e-6, 1e3, unit="m", note=DIAMETER_NOTE)
     density: float = _positive(unit="kg/m3", hi=1e5, note=SOLID_DENSITY_NOTE)
-    youngs_modulus: float = _positive(unit="Pa", hi=1e13, note=MODULUS_NOTE)
+    youngs_modulus: float = _between(MODULUS_MIN, 1e13, unit="Pa", note=MODULUS_NOTE)
     poisson_ratio: float = _between(-1.0, 0.5, open_ends=True, note="an isotropic solid's range")
     # keyword-only so that SecondSphere's own required fields may follow it
     roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note=ROUGHNESS_NOTE, kw_only=True)
@@ -197,7 +213,7 @@ class Wall:
     """The plane z = 0.  Without it (present = false) z = 0 is only the origin (and the bottom of the
     domain a resolved model meshes, an open boundary there); its elastic constants are then unused."""
 
-    youngs_modulus: float | None = _positive(None, unit="Pa", hi=1e13, note=MODULUS_NOTE)
+    youngs_modulus: float | None = _between(MODULUS_MIN, 1e13, None, unit="Pa", note=MODULUS_NOTE)
     poisson_ratio: float | None = _between(-1.0, 0.5, None, open_ends=True, note="an isotropic solid's range")
     present: bool = True
     roughness: float = _between(0.0, 1e-3, 0.0, unit="m", note=f"{ROUGHNESS_NOTE} for their Zerodur block")
@@ -469,8 +485,8 @@ class Scene:
         """Check every range and the relations between fields; return self."""
         _check_fields(self, "")
         if not _PLAIN_NAME.fullmatch(self.name):
-            raise SceneError(f"name = {self.name!r} must be a plain name of 1-100 characters, without '/' and not "
-                             "starting with '.': it names the run directory runs/NAME-MODEL")
+            raise SceneError(f"name = {self.name!r} must be a plain name of 1-100 printable characters, without '/' "
+                             "and not starting with '.': it names the run directory runs/NAME-MODEL")
         diameter, free = self.sphere.diameter, self.motion.mode == "free"
         if free and abs(self.density_ratio - 1.0) < NEUTRAL_BUOYANCY:
             if self.sphere.density == self.liquid.density:
@@ -481,14 +497,19 @@ class Scene:
                              f"(density ratio {self.density_ratio:.8g}): "
                              "so nearly neutrally buoyant a sphere barely moves and its integration crawls; make "
                              f"|density ratio - 1| at least {NEUTRAL_BUOYANCY:g}")
-        if self.container.unbounded and self.initial_gap > MAX_GAP_DIAMETERS * diameter:
-            raise SceneError(f"initial_gap = {self.initial_gap:.4g} m is {self.initial_gap / diameter:.3g} diameters: "
-                             f"allowed up to {MAX_GAP_DIAMETERS:g} D = {MAX_GAP_DIAMETERS * diameter:.4g} m in an "
-                             "unbounded liquid (or give a container)")
+        lengths = [("initial_gap", self.initial_gap),
+                   *((f"{key}.gap", sphere.gap) for key, sphere in self._upper_spheres()),
+                   ("container.radius", self.container.radius or 0.0),
+                   ("container.height", self.container.height or 0.0)]
+        for key, length in lengths:
+            if length > MAX_GAP_DIAMETERS * diameter:
+                raise SceneError(f"{key} = {length:.4g} m is {length / diameter:.3g} diameters: allowed up to "
+                                 f"{MAX_GAP_DIAMETERS:g} D = {MAX_GAP_DIAMETERS * diameter:.4g} m (D of sphere 1; far "
+                                 "beyond any wall effect, and the force formulas overflow further out)")
         wall = self.wall
         if wall.present and (wall.youngs_modulus is None or wall.poisson_ratio is None):
             missing = [f"wall.{key} ({allowed})" for key, allowed in
-                       (("youngs_modulus", "> 0 Pa"), ("poisson_ratio", "in (-1, 0.5)"))
+                       (("youngs_modulus", f"in [{MODULUS_MIN:g}, 1e+13] Pa"), ("poisson_ratio", "in (-1, 0.5)"))
                        if getattr(wall, key) is None]
             raise SceneError(f"{' and '.join(missing)} {'are' if len(missing) > 1 else 'is'} required when "
                              "wall.present = true (or set wall.present = false)")
@@ -504,6 +525,15 @@ class Scene:
             raise SceneError(f"initial_velocity = {self.initial_velocity:g} m/s launches a free sphere: with "
                              f"motion.mode = {self.motion.mode!r} give motion.velocity instead")
         self._check_start_outside_contact()
+        end_units = self.run.end_time / self.time_unit
+        resting = self.wall.present and free and all(s.mode == "free" for _, s in self._upper_spheres())
+        if end_units > MAX_END_TIME_UNITS and not resting:
+            unit = "D / launch speed" if self.gravity == 0.0 else "sqrt(D/g)"
+            raise SceneError(f"run.end_time = {self.run.end_time:.4g} s is {end_units:.3g} time units ({unit} = "
+                             f"{self.time_unit:.3g} s): allowed up to {MAX_END_TIME_UNITS:g} of them, "
+                             f"{MAX_END_TIME_UNITS * self.time_unit:.4g} s, for a scene that nothing ends earlier (no "
+                             "wall to come to rest on, or a held or prescribed sphere): the ode model's largest step "
+                             "is 0.02 time units, so that is 5e6 steps, about 40 minutes")
         c = self.contact
         if second is not None and self.near_wall_law != "correction":
             raise SceneError(f"contact.near_wall = {c.near_wall!r} is not implemented for a pair of spheres: use "
@@ -511,6 +541,7 @@ class Scene:
         if c.model == "ehd":
             self._check_ehd()
         self._check_cavitation()
+        self._check_contact_gaps()
         if c.delta_ss >= c.delta_sl:
             raise SceneError(f"contact.delta_ss = {c.delta_ss:g} must be smaller than contact.delta_sl = "
                              f"{c.delta_sl:g}")
@@ -543,8 +574,8 @@ class Scene:
         return self
 
     def _check_ehd(self) -> None:
-        """contact.model = "ehd": one sphere and a wall, a handover gap where the film is thin and still
-        rigid, and a cavitation pressure that is "off" or a tension."""
+        """contact.model = "ehd": one sphere and a wall, and a handover gap where the film is thin and still
+        rigid (the cavitation pressure: _check_cavitation)."""
         c = self.contact
         if self.second_sphere is not None:
             raise SceneError('contact.model = "ehd" is not implemented for a pair of spheres (second_sphere): the film '
@@ -600,6 +631,44 @@ class Scene:
             if not c.paper and gap <= roughness:
                 raise SceneError(f"{key} = {gap:g} m is out of range: allowed > {roughness_name} = {roughness:g} m: "
                                  "start outside contact")
+
+    def _check_contact_gaps(self) -> None:
+        """contact.model = "lubricated-hertz": each contact's gap h_c = contact_gap_factor x max(roughness, x_d), x_d
+        the elastohydrodynamic gap at the estimated impact speed, thin against the two surfaces (FILM_GAP_FRACTION
+        a*, and below delta_sl times the gap scale): else the solids are too soft for a contact that starts at a
+        gap, and the lubrication before it, to mean anything."""
+        c = self.contact
+        if c.model != "lubricated-hertz":
+            return
+        speed = max(self.estimated_impact_speed(), self.launch_speed)
+        contacts = []
+        if self.wall.present:
+            contacts.append(("sphere", self.sphere, "wall", None, self.sphere.diameter,
+                             self.sphere.roughness + self.wall.roughness))
+        lower = ("sphere", self.sphere)
+        for key, sphere in self._upper_spheres():
+            contacts.append((lower[0], lower[1], key, sphere, pair_diameter(lower[1], sphere),
+                             lower[1].roughness + sphere.roughness))
+            lower = (key, sphere)
+        for first_key, first, second_key, second, scale, roughness in contacts:
+            if second is None:  # the wall: a partner of infinite radius
+                e_star = reduced_modulus(first.youngs_modulus, first.poisson_ratio, self.wall.youngs_modulus,
+                                         self.wall.poisson_ratio)
+            else:
+                e_star = reduced_modulus(first.youngs_modulus, first.poisson_ratio, second.youngs_modulus,
+                                         second.poisson_ratio)
+            a_star = 0.5 * scale
+            film = elastohydrodynamic_gap(a_star, e_star, self.liquid.viscosity, speed)
+            gap = c.contact_gap_factor * max(roughness, film)
+            allowed = min(FILM_GAP_FRACTION * a_star, c.delta_sl * scale)
+            if gap >= allowed:
+                raise SceneError(
+                    f"{first_key}.youngs_modulus = {first.youngs_modulus:g} Pa and {second_key}.youngs_modulus = "
+                    f"{(second or self.wall).youngs_modulus:g} Pa are too soft for this scene: its "
+                    f"{'wall' if second is None else 'pair'} contact would begin {gap:.3g} m apart "
+                    f"(contact_gap_factor {c.contact_gap_factor:g} x the elastohydrodynamic gap {film:.3g} m at "
+                    f"{speed:.3g} m/s), allowed below {allowed:.3g} m ({FILM_GAP_FRACTION:g} a* and delta_sl times the "
+                    "gap scale: a thin film and Hertz's small strain); give stiffer solids")
 
     def _upper_spheres(self) -> list[tuple[str, SecondSphere]]:
         """(scene key, sphere) of each sphere above the first, lowest first."""
@@ -663,8 +732,13 @@ def _table_type(hint: Any):
 
 
 def _coerce(value: Any, expected: Any, key: str) -> Any:
-    """TOML writes 1 for 1.0 and users write 8000 for 8000.0: accept both, reject the rest."""
+    """TOML writes 1 for 1.0 and users write 8000 for 8000.0: accept both, reject the rest.  NumPy's numbers
+    (np.float32(8000.0), np.int64(2): numbers.Real and numbers.Integral) are numbers too."""
     allowed = typing.get_args(expected) or (expected,)
+    if isinstance(value, numbers.Integral) and not isinstance(value, (bool, int)):
+        value = int(value)
+    elif isinstance(value, numbers.Real) and not isinstance(value, (bool, int, float)):
+        value = float(value)
     if (isinstance(value, bool) and bool not in allowed) or not isinstance(value, allowed):
         if float in allowed and isinstance(value, int) and not isinstance(value, bool):
             return float(value)
@@ -719,15 +793,22 @@ def dumps(scene: Scene) -> str:
     return "\n".join(lines) + "\n"
 
 
+# a TOML basic string's escapes; any other control character is written \\uXXXX (TOML 1.0, "String")
+_TOML_ESCAPES = {"\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r", '"': '\\"', "\\": "\\\\"}
+
+
 def _toml_value(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else "inf" if value > 0 else "-inf"
     if isinstance(value, float) and value != 0.0 and not 1e-4 <= abs(value) < 1e5:
         return min((f"{value:.{p}e}" for p in range(17) if float(f"{value:.{p}e}") == value), key=len)
     if isinstance(value, (int, float)):
         return repr(value)
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + "".join(_TOML_ESCAPES.get(ch) or (f"\\u{ord(ch):04x}" if ord(ch) < 0x20 or ord(ch) == 0x7f else ch)
+                             for ch in value) + '"'
     raise TypeError(f"cannot write {value!r} to TOML")
 
 
@@ -747,6 +828,8 @@ def _set_dotted(data: dict, changes: dict[str, Any]) -> dict:
 
 def parse_override(text: str) -> tuple[str, Any]:
     """'sphere.density=8000' -> ('sphere.density', 8000); values parse as TOML, else as strings."""
+    if not isinstance(text, str):
+        raise SceneError(f"--set {text!r}: expected a text key=value, e.g. 'sphere.density=8000'")
     key, sep, raw = text.partition("=")
     if not sep or not key.strip():
         raise SceneError(f"--set {text!r}: expected key=value, e.g. sphere.density=8000")
@@ -795,6 +878,11 @@ def read_scene_file(path: Path) -> str:
 
 def load(source: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
     """A scene from a preset name or a TOML file, with dotted-key overrides applied."""
+    if not isinstance(source, (str, os.PathLike)):
+        raise SceneError(f"scene = {source!r} must be a preset name or a TOML file's path (see `fem-bounce scenes`)")
+    if overrides is not None and not (isinstance(overrides, dict) and all(isinstance(k, str) for k in overrides)):
+        raise SceneError(f"overrides = {overrides!r} must be a mapping of dotted keys to values, e.g. "
+                         "{'sphere.density': 8000.0}")
     path = Path(source)
     if path.suffix == ".toml" or path.exists() or path.is_symlink():
         text, default_name = read_scene_file(path), path.stem

@@ -100,7 +100,7 @@ def test_start_inside_contact_names_the_numbers(tmp_path, monkeypatch, capsys):
     (["contact.model=li2011", "contact.dry_restitution=0.01"], "raise contact.delta_ss or use contact.model = "
                                                                 '"lubricated-hertz"'),
     (["contact.model=li2011", "contact.delta_ss=1e-300"], "stores too little energy over delta_ss"),
-    (["sphere.youngs_modulus=1"], "the solids are too soft for this impact (sphere.youngs_modulus, "
+    (["sphere.youngs_modulus=1e4"], "the solids are too soft for this impact (sphere.youngs_modulus, "
                                   "wall.youngs_modulus)"),
 ])
 def test_a_contact_that_cannot_stop_the_sphere_is_named(overrides, cause, tmp_path, monkeypatch, capsys):

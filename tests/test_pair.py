@@ -254,7 +254,8 @@ def test_a_single_sphere_scene_is_unchanged(tmp_path):
     ({"second_sphere.mode": "wobbling"}, "second_sphere.mode = 'wobbling' is not one of"),
     ({"second_sphere.density": -1.0}, "second_sphere.density = -1.0 kg/m3 is out of range"),
     ({"contact.near_wall": "blend"}, "contact.near_wall = 'blend' is not implemented for a pair"),
-    ({"wall.present": True}, "wall.youngs_modulus (> 0 Pa) and wall.poisson_ratio (in (-1, 0.5)) are required"),
+    ({"wall.present": True}, "wall.youngs_modulus (in [100, 1e+13] Pa) and wall.poisson_ratio (in (-1, 0.5)) are "
+                             "required"),
     ({"wall.present": True, "wall.youngs_modulus": 91e9}, "wall.poisson_ratio (in (-1, 0.5)) is required"),
     ({"second_sphere.colour": 1}, "unknown key second_sphere.colour"),
 ])

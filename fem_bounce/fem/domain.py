@@ -64,8 +64,15 @@ def extent(scene: Scene, model: str) -> Extent:
     else:
         size_r, size_z = scene.container.radius, scene.container.height
         refined = Box(r_max=min(refined.r_max, size_r), z_min=refined.z_min, z_max=min(refined.z_max, size_z))
-    if size_r < radius + 2.0 * fine:
-        raise SceneError(f"numerics.{model}: the domain radius {size_r:g} m leaves no fluid beside the sphere")
+    keys = ["sphere", *(["second_sphere"] if scene.pair else []),
+            *(f"further_spheres[{k}]" for k in range(len(scene.further_spheres)))]
+    for key, sphere in zip(keys, scene.spheres):
+        if size_r < sphere.radius + 2.0 * fine:
+            where = ("container.radius" if not scene.container.unbounded
+                     else f"numerics.{model}.far_field = {settings.far_field:g} D of sphere 1")
+            raise SceneError(f"{key}.diameter = {sphere.diameter:g} m does not fit in the {model} model's domain: its "
+                             f"radius {size_r:.4g} m ({where}) leaves no fluid beside it; allowed below "
+                             f"{2.0 * (size_r - 2.0 * fine):.4g} m")
     return Extent(radius=size_r, height=size_z, refined=refined, sides=sides,
                   inflow_speed=scene.motion.stream_velocity if is_stream(scene) else 0.0, center=center)
 

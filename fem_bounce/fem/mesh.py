@@ -13,10 +13,13 @@ lowest first): their surfaces are the groups SPHERE, SPHERE_2, ..., each meshed 
 own size, and the thin gap to the wall or between two surfaces keeps a set number
 of triangles across.
 
-gmsh runs on rank 0 only; `dolfinx.io.gmsh` distributes the mesh.  The .msh
-file is cached under the mesh cache directory (see `cache_directory`), keyed by
-a hash of the spec and the gmsh version (another release meshes the same spec
-differently), so a convergence study or a restart never meshes twice.
+gmsh meshes in a child process of rank 0 (a signal stops it: `_generate`);
+`dolfinx.io.gmsh` distributes the mesh.  The .msh file is cached under the mesh
+cache directory (see `cache_directory`), keyed by a hash of the spec and the gmsh
+version (another release meshes the same spec differently), written atomically and
+checked against its hash when read, so a convergence study or a restart never
+meshes twice and a damaged entry is made again.  A mesh above MAX_CELLS triangles
+is refused before anything runs (`check_size`).
 """
 from __future__ import annotations
 
@@ -24,17 +27,25 @@ import dataclasses
 import hashlib
 import importlib.metadata
 import json
+import math
 import os
+import pickle
 import shutil
 import signal
-import threading
+import subprocess
+import sys
 import tempfile
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .. import cachedir
+from ..errors import OutputError
+from ..output import sync_file
+from ..progress import on_root_watching, stop_requested
+from ..scene import SceneError
 
 # physical group tags
 FLUID = 1
@@ -165,6 +176,19 @@ class HalfPlane:
             size = np.minimum(size, hole.size_at(r, z, self.grading, below))
         return size
 
+    def estimated_cells(self, samples: int = 400) -> float:
+        """About how many triangles gmsh makes of this half-plane: the integral of 1 / (sqrt(3)/4 size^2), an
+        equilateral triangle per size^2 sqrt(3)/4, over r and z on grids that are uniform and log-spaced from the
+        fine size (so both a large container and the fine region near the axis and the wall are seen)."""
+        def nodes(length: float) -> np.ndarray:
+            return np.unique(np.r_[np.linspace(0.0, length, samples),
+                                   np.geomspace(min(self.fine_size, length) / 4.0, length, samples)])
+
+        r, z = nodes(self.radius), nodes(self.height)
+        rc, zc = 0.5 * (r[1:] + r[:-1]), 0.5 * (z[1:] + z[:-1])
+        size = self.size_at(rc[:, None], zc[None, :])
+        return float(np.sum(np.diff(r)[:, None] * np.diff(z)[None, :] / (math.sqrt(3.0) / 4.0 * size**2)))
+
     def _gmsh_size_expression(self) -> str:
         terms = [f"{self.coarse_size!r}"]
         for box in self.refined:
@@ -239,39 +263,181 @@ def gmsh_version() -> str:
 def create_mesh(comm, spec: HalfPlane, cache: bool = True):
     """(mesh, cell_tags, facet_tags) of the half-plane, distributed over comm.
 
-    Rank 0 reads the cached .msh file, or meshes and caches it; every rank takes part
-    in the distribution.  The cache file is written atomically, so concurrent runs
-    that need the same mesh are safe.  gmsh leaves the process's SIGINT handler as it found it
-    (its Python API sets the default one and does not put the old one back), so Ctrl-C still
-    ends a run with its summary."""
+    Rank 0 reads the cached .msh file, or meshes it (`_generate`: in a child process, which a signal can stop)
+    and caches it; every rank takes part in the distribution.  A cache entry is written atomically (beside its
+    place, fsynced, renamed) with the hash of its content beside it, and checked against that hash when read: a
+    damaged or half-written entry is made again, never read.  gmsh leaves the process's SIGINT and SIGTERM
+    handlers as it found them (gmsh.initialize puts the default SIGTERM handler back at the C level, and its
+    Python API the default SIGINT one, and neither restores them), so a signal still ends a run with its
+    summary."""
     import gmsh
     from dolfinx.io import gmsh as gmsh_io
 
-    if comm.rank == 0:
-        handler = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
-        gmsh.initialize(interruptible=False)
-        gmsh.option.setNumber("General.Terminal", 0)
-        path = cache_directory() / f"halfplane-{spec.key()}.msh"
-        try:
-            if not (cache and path.is_file()):
-                gmsh.model.add("halfplane")
-                _build_model(gmsh, spec)
-                if not cache:
-                    path = Path(tempfile.mkdtemp()) / path.name
-                path.parent.mkdir(parents=True, exist_ok=True)
-                partial = path.with_suffix(f".{os.getpid()}.msh")
-                gmsh.write(str(partial))
-                partial.replace(path)
-                gmsh.clear()
-            # always read the file back: a fresh and a cached mesh are then identical to the last bit
-            gmsh.merge(str(path))
-            result = gmsh_io.model_to_mesh(gmsh.model, comm, 0, gdim=2)
-            if not cache:
-                shutil.rmtree(path.parent)
-        finally:
-            gmsh.finalize()
-            if handler is not None:
-                signal.signal(signal.SIGINT, handler)
-    else:
-        result = gmsh_io.model_to_mesh(None, comm, 0, gdim=2)
+    handlers = _Handlers()
+    path = cache_directory() / f"halfplane-{spec.key()}.msh" if comm.rank == 0 else None
+    scratch = Path(tempfile.mkdtemp()) if comm.rank == 0 and not cache else None
+    try:
+        if not cache:
+            path = scratch / f"halfplane-{spec.key()}.msh" if comm.rank == 0 else None
+            on_root_watching(comm, lambda: _generate(spec, path))
+        elif comm.rank == 0 and not _verified(path):
+            on_root_watching(comm, lambda: _cache(spec, path))
+        else:
+            on_root_watching(comm, lambda: None)
+        if comm.rank == 0:
+            gmsh.initialize(interruptible=False)
+            handlers.restore()
+            gmsh.option.setNumber("General.Terminal", 0)
+            try:
+                # always read the file back: a fresh and a cached mesh are then identical to the last bit
+                gmsh.merge(str(path))
+                result = gmsh_io.model_to_mesh(gmsh.model, comm, 0, gdim=2)
+            finally:
+                gmsh.finalize()
+                handlers.restore()
+        else:
+            result = gmsh_io.model_to_mesh(None, comm, 0, gdim=2)
+    finally:
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
     return result.mesh, result.cell_tags, result.facet_tags
+
+
+class _Handlers:
+    """The process's SIGINT and SIGTERM handlers as Python set them (the main thread only), to put back."""
+
+    def __init__(self):
+        main = threading.current_thread() is threading.main_thread()
+        self.saved = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)} if main else {}
+
+    def restore(self) -> None:
+        for signum, handler in self.saved.items():
+            if handler is not None:  # None: not set from Python, nothing to put back
+                signal.signal(signum, handler)
+
+
+# The largest mesh a model may ask for: about 4.5 unknowns a triangle (Taylor-Hood P2-P1, two velocity components),
+# so 1e6 triangles are ~4.5e6 unknowns, whose sparse LU factors (MUMPS) take of the order of 10 GB; a container of
+# 100 m around a 9.5 mm sphere would need 2.6e8 (HalfPlane.estimated_cells).
+MAX_CELLS = 1e6
+
+
+def check_size(spec: HalfPlane, setting: str) -> None:
+    """Refuse, before anything is written, a half-plane whose mesh would pass MAX_CELLS (`setting`: the model's
+    numerics table, named in the message)."""
+    cells = spec.estimated_cells()
+    if cells > MAX_CELLS:
+        raise SceneError(f"{setting}: its mesh of this scene would have ~{cells:.2g} triangles (the half-plane "
+                         f"{spec.radius:.4g} m x {spec.height:.4g} m, at {spec.fine_size:.3g} m near the spheres "
+                         f"growing to {spec.coarse_size:.3g} m): allowed up to {MAX_CELLS:.0e} (~4.5 unknowns each; "
+                         f"their factors need ~10 GB); make the container smaller (or {setting}.far_field, without "
+                         f"one), lower {setting}.cells_per_diameter, or use the ode model")
+
+
+POLL_SECONDS = 0.1  # how often a wait for gmsh looks for a signal (progress.stop_requested)
+# what MPI's launchers tell the processes they start: a child of a rank must not take it for itself
+_MPI_ENVIRONMENT = ("PMI_", "PMIX_", "MPI_LOCAL", "HYDRA_", "OMPI_")
+
+
+def _verified(path: Path) -> bool:
+    """A cached mesh file that is whole: its hash is the one written beside it when it was made."""
+    try:
+        return _digest(path) == _hash_file(path).read_text().strip()
+    except OSError:
+        return False
+
+
+def _hash_file(path: Path) -> Path:
+    return path.with_name(path.name + ".sha256")
+
+
+def _digest(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _cache(spec: HalfPlane, path: Path) -> None:
+    """Mesh `spec` into the cache entry `path`: the file beside its place, checked and fsynced, renamed over it,
+    then its hash (written the same way).  A half-made entry has no matching hash and is made again."""
+    partial = path.with_name(f".{path.stem}.{os.getpid()}.partial{path.suffix}")  # gmsh reads the format from it
+    try:
+        _generate(spec, partial)
+        sync_file(partial)
+        _hash_file(path).unlink(missing_ok=True)
+        partial.replace(path)
+        hashed = partial.with_name(partial.name + ".sha256")
+        hashed.write_text(_digest(path) + "\n")
+        sync_file(hashed)
+        hashed.replace(_hash_file(path))
+    except OSError as err:
+        raise OutputError(f"cannot write the mesh cache {path}: {err.strerror or err} (set {cachedir.VARIABLE} to a "
+                          "folder with room)") from None
+    finally:
+        partial.unlink(missing_ok=True)
+
+
+def _generate(spec: HalfPlane, target: Path) -> None:
+    """Mesh `spec` into the .msh file `target` in a child process (_child), waiting for it while watching for a
+    signal: gmsh's meshing is one long call that no signal reaches, but a child can be stopped.  The child reads
+    the file back and compares it with what it meshed; OutputError naming the file when it could not write it."""
+    environment = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_ENVIRONMENT)}
+    environment["MPI4PY_RC_INITIALIZE"] = "0"  # the package imports mpi4py.MPI; the child needs no MPI
+    package = Path(__file__).resolve().parents[2]
+    code = f"import sys; sys.path.insert(0, {str(package)!r}); from fem_bounce.fem.mesh import _child; _child()"
+    child = subprocess.Popen([sys.executable, "-c", code, str(target)], stdin=subprocess.PIPE,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=environment)
+    try:
+        data = pickle.dumps(spec)
+        while True:
+            try:
+                _, err = child.communicate(data, timeout=POLL_SECONDS)
+                break
+            except subprocess.TimeoutExpired:
+                data = None  # sent
+                stop_requested()
+    finally:
+        if child.poll() is None:  # a signal, or an exception while waiting: the child goes too
+            child.kill()
+            child.wait()
+    if child.returncode:
+        lines = err.decode(errors="replace").strip().splitlines() or [f"exit status {child.returncode}"]
+        raise OutputError(f"cannot mesh into {target}: {lines[-1]}")
+
+
+def _child() -> None:
+    """The child process of _generate: the spec (pickled) on stdin, the target file as its argument."""
+    import ctypes
+
+    import gmsh
+
+    if sys.platform.startswith("linux"):  # killed with its parent, however that dies (SIGKILL included)
+        ctypes.CDLL(None).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    spec, target = pickle.load(sys.stdin.buffer), sys.argv[1]
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("halfplane")
+        _build_model(gmsh, spec)
+        made = _counts(gmsh)
+        gmsh.write(target)
+        gmsh.clear()
+        try:
+            gmsh.merge(target)
+        except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception
+            raise OSError(f"reading it back failed ({err}): is the disk full?") from None
+        if _counts(gmsh) != made:
+            raise OSError(f"it holds {_counts(gmsh)} boundary segments and triangles of the {made} meshed (is the disk "
+                          "full?)")
+    except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception: one line for the parent
+        sys.exit(f"{type(err).__name__}: {err}")
+    finally:
+        gmsh.finalize()
+
+
+def _counts(gmsh) -> tuple[int, int]:
+    """(boundary segments, triangles) of the current gmsh model's mesh (the nodes are not compared: the arcs'
+    centres are the geometry's, not written)."""
+    return tuple(sum(len(tags) for tags in gmsh.model.mesh.getElements(dim)[1]) for dim in (1, 2))

@@ -22,7 +22,7 @@ class ModelError(Error, ValueError):
 
 def info(name: str) -> ModelInfo:
     """The registry's entry for a --model value."""
-    if name not in MODELS:
+    if not isinstance(name, str) or name not in MODELS:
         raise ModelError(f"unknown model {name!r}: choose one of {', '.join(MODELS)}")
     return MODELS[name]
 
@@ -45,6 +45,13 @@ def model_list(names: str | Sequence[str]) -> list[str]:
     """The models of a comparison ("ode,fd" or a list, as --models), each known and installed."""
     if isinstance(names, str):
         names = names.split(",")
+    try:
+        names = list(names)
+    except TypeError:
+        names = [names]
+    wrong = next((name for name in names if not isinstance(name, str)), None)
+    if wrong is not None:
+        raise ModelError(f"--models: {wrong!r} is not a model's name: choose from {', '.join(MODELS)}")
     names = [name.strip() for name in names if name.strip()]
     if not names:
         raise ModelError("--models needs at least one model, e.g. --models ode,ib")

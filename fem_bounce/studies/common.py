@@ -15,7 +15,8 @@ import numpy as np
 
 from .. import reference
 from .. import scene as scenes
-from ..output import read_summary, read_trajectory
+from ..errors import OutputError
+from ..output import MARKER, is_run_directory, read_summary, read_trajectory
 from ..models.registry import MODELS
 from ..motion import is_held, is_stream
 from .runner import Runner
@@ -166,38 +167,72 @@ def pareto(points: list[tuple[float, float]]) -> list[int]:
     return front
 
 
+def check_study_directory(path: Path) -> None:
+    """Refuse a study's --out before the study runs (rank 0), naming the path: a file, a run directory (its
+    files are a run's own), or a place this process cannot write (the nearest existing folder on its way)."""
+    path = Path(path)
+    try:
+        if path.exists() and not path.is_dir():
+            raise OutputError(f"{path} exists and is not a directory: a study writes a directory; choose another --out")
+        if is_run_directory(path) or any(is_run_directory(parent) for parent in path.resolve().parents):
+            raise OutputError(f"{path} is a run directory or inside one (it holds {MARKER}): a study writes beside "
+                              "runs, not into one; choose another --out")
+        existing = next(p for p in (path, *path.absolute().parents) if p.exists())
+        if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+            raise OutputError(f"cannot write the study in {path}: {existing} is not writable (Permission denied); "
+                              "choose another --out")
+    except OSError as err:
+        raise OutputError(f"cannot use {path} for the study: {err.strerror or err}") from None
+
+
 class StudyDirectory:
-    """Where a study writes: CSV/JSON data, PNG figures and a progress log (rank 0)."""
+    """Where a study writes: CSV/JSON data, PNG figures and a progress log (rank 0).  A write that fails is one
+    OutputError naming the file."""
 
     def __init__(self, path: Path, comm):
         self.path, self.comm = Path(path), comm
         self._start = time.perf_counter()
+        if comm.rank == 0:
+            check_study_directory(self.path)
 
     def file(self, name: str) -> Path:
         """DIR/name, the directory made at the first write: a study refused before it writes leaves nothing."""
-        self.path.mkdir(parents=True, exist_ok=True)
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise OutputError(f"cannot write the study in {self.path}: {err.strerror or err}") from None
         return self.path / name
+
+    def _write(self, name: str, write) -> None:
+        path = self.file(name)
+        try:
+            with open(path, "a" if name == "progress.log" else "w", newline="") as stream:
+                write(stream)
+        except OSError as err:
+            raise OutputError(f"cannot write {path}: {err.strerror or err}") from None
 
     def log(self, message: str) -> None:
         if self.comm.rank != 0:
             return
         line = f"[{time.perf_counter() - self._start:7.0f} s] {message}"
         print(line, file=sys.stderr, flush=True)
-        with open(self.file("progress.log"), "a") as stream:
-            stream.write(line + "\n")
+        self._write("progress.log", lambda stream: stream.write(line + "\n"))
 
     def write_csv(self, name: str, rows: list[dict]) -> None:
         if self.comm.rank != 0 or not rows:
             return
         columns = list(dict.fromkeys(k for row in rows for k in row))
-        with open(self.file(name), "w", newline="") as stream:
+
+        def write(stream) -> None:
             writer = csv.DictWriter(stream, columns)
             writer.writeheader()
             writer.writerows(rows)
 
+        self._write(name, write)
+
     def write_json(self, name: str, data) -> None:
         if self.comm.rank == 0:
-            self.file(name).write_text(json.dumps(data, indent=2, default=float) + "\n")
+            self._write(name, lambda stream: stream.write(json.dumps(data, indent=2, default=float) + "\n"))
 
 
 def measure_all(tasks: list[tuple[scenes.Scene, str, str]], study: StudyDirectory,

@@ -59,6 +59,12 @@ def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), o
     runner = runner or Runner(comm)
     restitution.tabulate_bands(restitution.MATERIAL_SETS, runner.map)
     planned = restitution.plan(points, st_range)
+    if not planned:
+        bands = [restitution.stokes_band(name)[1] for name in restitution.MATERIAL_SETS]
+        low, high = min(band[0] for band in bands), max(band[-1] for band in bands)
+        raise scenes.SceneError(f"--st-min {st_range[0]:g} --st-max {st_range[1]:g}: no Table 3 set reaches a Stokes "
+                                f"number there (launched at {restitution.LAUNCH_SPEEDS[0]:g}-"
+                                f"{restitution.LAUNCH_SPEEDS[1]:g} m/s they reach St {low:.3g} to {high:.3g})")
     if scenes.load(restitution.DSS_PLUS_5, overrides).contact.paper:  # the paper's runs 30-35
         restitution.tabulate_bands([restitution.DSS_PLUS_5], runner.map)
         lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5)[1][[0, -1]]

@@ -29,6 +29,7 @@ import numpy as np
 
 from .. import scene as scenes
 from ..integrator import BodyIntegrator
+from ..progress import stop_requested
 
 # Table 3, runs 1-29, in the order a Stokes number is assigned to a set that reaches it
 MATERIAL_SETS = (
@@ -73,8 +74,12 @@ def first_bounce(scene: scenes.Scene, launch: float, rebound: bool = True) -> di
     """ODE model launched at `launch` [m/s] to the end of the first rebound (or to the impact only)."""
     trial = bounce_scene(scene, launch)
     integrator = BodyIntegrator(trial, stop_after_impacts=0 if rebound else 1)
-    integrator.advance(trial.run.end_time)
-    integrator.finish()
+    integrator.observers.append(lambda row: stop_requested())  # a signal stops the planning within a step
+    try:
+        integrator.advance(trial.run.end_time)
+    finally:
+        integrator.finish()
+        integrator.destroy()
     speed_in, speed_out = crossing_speeds(integrator.blend_crossings)
     return {"launch": launch, "St": trial.stokes(speed_in), "Re": trial.reynolds(speed_in), "speed_in": speed_in,
             "speed_out": speed_out, "restitution": speed_out / speed_in if speed_in else 0.0,

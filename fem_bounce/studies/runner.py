@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
+import numbers
 import os
 import signal
 from pathlib import Path
@@ -30,7 +31,7 @@ from .. import scene as scenes
 from ..cache import cached_run, default_root, finished, run_directory
 from ..errors import RunFailed, RunInterrupted, RunnerError
 from ..mpi_pool import run_one, start_worker, under_mpi_futures
-from ..run import Interrupts, signal_name
+from ..progress import Interrupts, signal_name
 
 EXECUTORS = ("local", "mpi")
 POLL_SECONDS = 0.2  # how often the study looks for a signal while its workers run
@@ -42,7 +43,9 @@ class Runner:
     def __init__(self, comm, jobs: int = 1, executor: str = "local", root: Path | None = None):
         if executor not in EXECUTORS:
             raise RunnerError(f"--executor {executor!r}: choose one of {', '.join(EXECUTORS)}")
-        if not isinstance(jobs, int) or jobs < 1:
+        if isinstance(jobs, numbers.Integral) and not isinstance(jobs, bool):
+            jobs = int(jobs)  # NumPy's integers too
+        if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs < 1:
             raise RunnerError(f"--jobs {jobs!r}: give a whole number of processes, 1 or more")
         if executor == "mpi":
             if jobs != 1:
@@ -57,6 +60,8 @@ class Runner:
                               "over MPI ranks with `mpiexec -n K python -m mpi4py.futures -m fem_bounce ... "
                               "--executor mpi`")
         self.comm, self.jobs, self.executor = comm, jobs, executor
+        if root is not None and not isinstance(root, (str, os.PathLike)):
+            raise RunnerError(f"cache = {root!r} must be a folder's path (or None for fem_bounce's cache)")
         self.root = Path(root or default_root()).absolute()
         self._executor: cf.Executor | None = None  # the worker pool, started at first use, kept until close()
 
@@ -81,7 +86,11 @@ class Runner:
         pieces of a study (the restitution planning's ODE runs).  function must be a module-level function."""
         if not self.parallel:
             return list(map(function, *iterables))
-        return list(self._pool().map(function, *iterables))
+        calls = list(zip(*iterables))
+        found: list = [None] * len(calls)
+        for k, result in self._watch({self._pool().submit(function, *args): k for k, args in enumerate(calls)}):
+            found[k] = result
+        return found
 
     @property
     def workers(self) -> int:
@@ -149,6 +158,15 @@ class Runner:
         pool = self._pool()
         futures = {pool.submit(run_one, scene, model, str(self.root)): (run_dir, indices)
                    for run_dir, ((scene, model), indices) in pending.items()}
+        for (run_dir, indices), _ in self._watch(futures):
+            for k in indices:
+                yield k, run_dir
+
+    def _watch(self, futures: dict) -> Iterator[tuple]:
+        """(futures[f], f's result) as each of `futures` finishes, while watching for a signal (Interrupts) every
+        POLL_SECONDS: on one the runs not started are cancelled, the running ones asked to stop, and
+        RunInterrupted raised; a failed one stops the rest and is raised."""
+        pool = self._pool()
         interrupts = Interrupts.active
         signum, failure = 0, None
         try:
@@ -156,13 +174,11 @@ class Runner:
             while waiting:
                 done, waiting = cf.wait(waiting, timeout=POLL_SECONDS, return_when=cf.FIRST_COMPLETED)
                 for future in done:
-                    run_dir, indices = futures[future]
                     if future.cancelled():
                         continue
                     error = future.exception()
                     if error is None:
-                        for k in indices:
-                            yield k, run_dir
+                        yield futures[future], future.result()
                     elif failure is None:
                         failure = error
                 if interrupts is not None and interrupts.signum and not signum:

@@ -193,12 +193,34 @@ RECORD_DIRECTORY = Path("results")  # where `study speed-accuracy --record` writ
 
 def recorded(directory: Path = RECORD_DIRECTORY) -> dict:
     """{scene name: {"5%": {"model": ..., "setting": {...}, ...}}}: the record shipped with the package
-    (a deliberate, committed file), overlaid by the user's own in `directory`/accuracy_recommendations.json."""
+    (a deliberate, committed file), overlaid by the user's own in `directory`/accuracy_recommendations.json (as
+    `--record` wrote it; SceneError naming the file if it is not such a record)."""
     shipped = resources.files("fem_bounce") / "data" / RECORD
     data = json.loads(shipped.read_text()) if shipped.is_file() else {}
     own = Path(directory) / RECORD
     if own.is_file():
-        data.update(json.loads(own.read_text()))
+        data.update(_read_record(own))
+    return data
+
+
+def _read_record(path: Path) -> dict:
+    """A record as `--record` writes it: {scene: {"N%": null or {"model", "setting", "error", "quantities"}}}."""
+    what = f"{path} (the accuracy record `--accuracy` reads over the shipped one)"
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise scenes.SceneError(f"{what} cannot be read: {getattr(err, 'strerror', None) or err}; fix or delete "
+                                "it") from None
+    pick_keys = {"model": str, "setting": dict, "error": (int, float), "quantities": list}
+    whole = isinstance(data, dict) and all(
+        isinstance(levels, dict) and all(
+            pick is None or (isinstance(pick, dict) and all(isinstance(pick.get(k), t) for k, t in pick_keys.items()))
+            for pick in levels.values())
+        for levels in data.values())
+    if not whole:
+        shape = '{scene: {"5%": {model, setting, error, quantities}}}'
+        raise scenes.SceneError(f"{what} is not a record of {shape} as `study speed-accuracy --record` writes it; "
+                                "fix or delete it")
     return data
 
 
@@ -206,7 +228,7 @@ def record(result: dict, directory: Path = RECORD_DIRECTORY) -> Path:
     """Add one study's recommendations to `directory`/accuracy_recommendations.json (never to the installed
     package: to ship a record, copy the file into fem_bounce/data/ and commit it)."""
     path = Path(directory) / RECORD
-    data = json.loads(path.read_text()) if path.exists() else {}
+    data = _read_record(path) if path.exists() else {}
     data[result["scene"]] = result["recommendations"]
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")

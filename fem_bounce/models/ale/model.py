@@ -49,7 +49,6 @@ Re -> 0).  numerics.ale.fixed_solver = "march" time-marches them instead.
 """
 from __future__ import annotations
 
-import csv
 import math
 import resource
 import time
@@ -61,7 +60,7 @@ import numpy as np
 
 from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
-from ...fem.mesh import SPHERE_TAGS, create_mesh
+from ...fem.mesh import SPHERE_TAGS, check_size, create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
 from ...flow_model import FlowModel, Prediction, flow_gaps
@@ -164,6 +163,7 @@ class AleModel(FlowModel):
         super().__init__(scene, comm)
         self.writer: MovingFieldWriter | None = None
         self.domain: AleDomain = domain_for(scene)
+        check_size(self.domain.spec(self.domain.initial_centers), "numerics.ale")
         self.steady = is_steady(scene)
         self.dt = self.cfl_step = time_step(scene)  # the coming step; the shortest (adaptive_step) [s]
         self.mesh = self.motion = self.flow = None
@@ -175,8 +175,7 @@ class AleModel(FlowModel):
         self.radii = np.array(self.domain.radii)
         self.holds = self.domain.holds  # the contact model's where it holds the flow (build)
         self.last_force = (np.zeros(count), np.zeros((count, count)))  # F* [N] and the added mass [kg]
-        self._force_file = None
-        self._force_rows = 0  # rows of ale_forces.csv (every rank counts them; rank 0 writes)
+        self._forces = None  # rank 0's writer of ale_forces.csv (run.py owns it: a side file)
 
     # -- meshes ------------------------------------------------------------------------------
     def build_mesh(self, centers: np.ndarray, cache: bool = True) -> tuple:
@@ -377,12 +376,11 @@ class AleModel(FlowModel):
 
     def _record_force(self, t, gap, force, added_mass, quality, remeshed) -> None:
         surface = self.flow.surface_force()
-        self._force_rows += 1
-        if self._force_file is None:
+        if self._forces is None:
             return
         values = [t, gap, *self.mesh_pair_gaps(self.kinematics.centers[0]), *np.ravel(force), *np.ravel(surface),
-                  *np.ravel(added_mass), quality]
-        self._force_writer.writerow([f"{x:.10g}" for x in values] + [int(remeshed)])
+                  *np.ravel(added_mass), quality, int(remeshed)]
+        self._forces(dict(zip(self._forces.columns, values)))
 
     def steady_force(self) -> FluidForce:
         """The held spheres' steady state (SphereFlow.steady), held from the start to the end time: each
@@ -417,7 +415,7 @@ class AleModel(FlowModel):
                  "mesh_center": self.motion.reference_center.tolist(),
                  "velocities": [v.tolist() for v in k.velocities], "centers": [z.tolist() for z in k.centers],
                  "kinematics_step": k.step, "last_force": [x.tolist() for x in self.last_force],
-                 "statistics": stats, "force_rows": self._force_rows}
+                 "statistics": stats}
         return state, arrays
 
     def restore(self, state: dict, arrays) -> None:
@@ -445,22 +443,16 @@ class AleModel(FlowModel):
         count = len(self.bodies)
         force, added_mass = state["last_force"]
         self.last_force = (body_array(force), body_array(added_mass).reshape(count, count))
-        self._force_rows = state["force_rows"]
 
     # -- outputs ----------------------------------------------------------------------------------
-    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+    def side_files(self) -> dict[str, tuple]:
+        return {"ale_forces.csv": force_columns(len(self.diameters))}
+
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
         if fields:
             path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
             self.writer = MovingFieldWriter(self.comm, path)
-        if self.comm.rank == 0:
-            forces = Path(out_dir) / "ale_forces.csv"
-            resume = restart and forces.is_file()
-            if resume:  # cut back to the checkpoint's rows, then continue
-                forces.write_text("".join(forces.read_text().splitlines(keepends=True)[: 1 + self._force_rows]))
-            self._force_file = open(forces, "a" if resume else "w", newline="")
-            self._force_writer = csv.writer(self._force_file)
-            if not resume:
-                self._force_writer.writerow(force_columns(len(self.diameters)))
+        self._forces = (sides or {}).get("ale_forces.csv")
 
     def write_fields(self, time_now: float) -> None:
         self.writer.write(self.flow.now, time_now)
@@ -468,8 +460,6 @@ class AleModel(FlowModel):
     def close_outputs(self) -> None:
         if self.writer is not None:
             self.writer.close()
-        if self._force_file is not None:
-            self._force_file.close()
 
     def destroy(self) -> None:
         if self.flow is not None:

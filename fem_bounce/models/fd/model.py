@@ -31,7 +31,7 @@ import numpy as np
 
 from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
-from ...fem.mesh import create_mesh
+from ...fem.mesh import check_size, create_mesh
 from ...fem.solver import SolverError
 from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
 from ...motion import is_stream
@@ -90,6 +90,7 @@ class FictitiousDomainModel(FlowModel):
     def __init__(self, scene, comm):
         super().__init__(scene, comm)
         self.domain: Domain = domain_for(scene)
+        check_size(self.domain.spec, "numerics.fd")
         self.dt = time_step(scene)
         self.bodies = scene_bodies(scene)
         self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
@@ -287,7 +288,7 @@ class FictitiousDomainModel(FlowModel):
                                   "the scene was changed")
         self.history = History(self.flow.bdf, velocities, interiors)
 
-    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
         if not fields:
             return
         path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)

@@ -253,7 +253,7 @@ class ImmersedBoundaryModel(FlowModel):
         self.drag_history = [tuple(row) for row in arrays["drag_history"]]
         self.time = state["time"]
 
-    def open_outputs(self, out_dir: Path, restart: bool, fields: bool) -> None:
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
         if fields and self.comm.rank == 0:
             self.writer = SnapshotWriter(out_dir, self.grid.R, self.grid.Z,
                                          continue_until=self.time if restart else None)
