@@ -47,7 +47,6 @@ from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
 ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error before a gain stops the run
-RESTART_STEP = 1e-7  # time units: the integrator's step after an event (integrator._new_ts), and after a 0 step
 
 
 def on_root(comm, action):
@@ -74,15 +73,6 @@ class RunIntegrator(BodyIntegrator):
     must to restart, so checkpoints the run whole."""
 
     record: "_RunRecord | None" = None
-
-    def advance(self, t_end: float, fluid=None) -> None:
-        # PETSc 3.25's TS can leave a step of 0 after a step that lands on the end time (MATCHSTEP) as an event is
-        # located there (pair-settling-wall, ale: the lower sphere resting in its Hertz contact at t = 0.16938 s);
-        # the next solve then divides by it (PETSc error 72, "Infinite or not-a-number generated in norm").  A
-        # step is restarted at the integrator's own post-event step, 1e-7 time units (integrator._new_ts).
-        if self.ts is not None and not self.ts.getTimeStep() > 0.0:
-            self.ts.setTimeStep(RESTART_STEP * self.scene.time_unit)
-        super().advance(t_end, fluid)
 
     def state_dict(self) -> dict:
         state = super().state_dict()

@@ -320,6 +320,9 @@ class _Handlers:
 # so 1e6 triangles are ~4.5e6 unknowns, whose sparse LU factors (MUMPS) take of the order of 10 GB; a container of
 # 100 m around a 9.5 mm sphere would need 2.6e8 (HalfPlane.estimated_cells).
 MAX_CELLS = 1e6
+# Below this many triangles gmsh meshes in about a second or less (the default ale mesh of case 3, ~6,000
+# triangles, in 0.1 s): made in the process, as a signal waits no longer than that.
+IN_PROCESS_CELLS = 5e4
 
 
 def check_size(spec: HalfPlane, setting: str) -> None:
@@ -380,9 +383,20 @@ def _cache(spec: HalfPlane, path: Path) -> None:
 
 
 def _generate(spec: HalfPlane, target: Path) -> None:
-    """Mesh `spec` into the .msh file `target` in a child process (_child), waiting for it while watching for a
-    signal: gmsh's meshing is one long call that no signal reaches, but a child can be stopped.  The child reads
-    the file back and compares it with what it meshed; OutputError naming the file when it could not write it."""
+    """Mesh `spec` into the .msh file `target`, read it back and compare it with what was meshed; OutputError
+    naming the file when it could not be written.  A small mesh (below IN_PROCESS_CELLS triangles, every model's
+    default and most studies') is made here, the signal handlers put back after gmsh; a larger one in a child
+    process (_child) watched for a signal: gmsh's meshing is one long call that no signal reaches, but a child
+    can be stopped (starting it costs ~0.3 s)."""
+    if spec.estimated_cells() < IN_PROCESS_CELLS:
+        handlers = _Handlers()
+        try:
+            _mesh_into(spec, target)
+        except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception
+            raise OutputError(f"cannot mesh into {target}: {type(err).__name__}: {err}") from None
+        finally:
+            handlers.restore()
+        return
     environment = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_ENVIRONMENT)}
     environment["MPI4PY_RC_INITIALIZE"] = "0"  # the package imports mpi4py.MPI; the child needs no MPI
     package = Path(__file__).resolve().parents[2]
@@ -411,28 +425,34 @@ def _child() -> None:
     """The child process of _generate: the spec (pickled) on stdin, the target file as its argument."""
     import ctypes
 
-    import gmsh
-
     if sys.platform.startswith("linux"):  # killed with its parent, however that dies (SIGKILL included)
         ctypes.CDLL(None).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     spec, target = pickle.load(sys.stdin.buffer), sys.argv[1]
+    try:
+        _mesh_into(spec, target)
+    except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception: one line for the parent
+        sys.exit(f"{type(err).__name__}: {err}")
+
+
+def _mesh_into(spec: HalfPlane, target) -> None:
+    """gmsh meshes `spec` into the file `target`, reads it back and checks it holds what it meshed."""
+    import gmsh
+
     gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("halfplane")
         _build_model(gmsh, spec)
         made = _counts(gmsh)
-        gmsh.write(target)
+        gmsh.write(str(target))
         gmsh.clear()
         try:
-            gmsh.merge(target)
+            gmsh.merge(str(target))
         except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception
             raise OSError(f"reading it back failed ({err}): is the disk full?") from None
         if _counts(gmsh) != made:
             raise OSError(f"it holds {_counts(gmsh)} boundary segments and triangles of the {made} meshed (is the disk "
                           "full?)")
-    except Exception as err:  # noqa: BLE001 -- gmsh raises plain Exception: one line for the parent
-        sys.exit(f"{type(err).__name__}: {err}")
     finally:
         gmsh.finalize()
 
