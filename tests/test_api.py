@@ -136,7 +136,7 @@ def test_a_run_kept_in_memory_draws_where_it_is_told(tmp_path):
     with pytest.raises(fb.OutputError, match="kept in memory: give draw\\(\\) a directory"):
         result.draw()
     drawn = result.draw(tmp_path / "figures")
-    assert sorted(p.name for p in drawn) == ["trajectory.png", "velocity_gap.png"]
+    assert sorted(p.name for p in drawn) == ["losses.png", "trajectory.png", "velocity_gap.png"]
     assert all(p.stat().st_size > 10_000 for p in drawn)
 
 
