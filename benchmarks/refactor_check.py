@@ -10,7 +10,11 @@ Records in benchmarks/history/: refactor_check_before_issue25.json (at 0d4af21),
 refactor_check_after_issue25.json (after its items 1-4, at c16a6dd: the same within 1.1e-11 but for
 ode-pair-wall's one added wall record, a column at rest closing its last approach as one sphere does) and
 refactor_check_issue25_done.json (fd and ale without a one-sphere path, the package smaller: the same as
-the record before within 1e-10, with ode-three, fd-three and ale-three added; the next refactor's baseline).
+the record before within 1e-10, with ode-three, fd-three and ale-three added).  Issue 34 (the PyPI stack):
+refactor_check_dolfinx052.json (Debian's dolfinx 0.5.2 on this machine, at be6a627) and
+refactor_check_dolfinx011.json (the same code on dolfinx 0.11; docs/performance.md accounts for each
+difference).  refactor_check_issue35_done.json: after issues 35-38 (the ode model's exact Jacobian and step
+control, the liquid's tension limit: rebounds higher, first impacts the same); the next refactor's baseline.
 
 --compare prints each run's largest relative difference and lists the numbers that moved by more than
 --rtol (1e-10 by default); numbers both below ZERO (1e-12, SI) in size are round-off zeros and compare
