@@ -503,8 +503,8 @@ class BodyIntegrator:
         out[2:2 * count:2] += rates[:-1]  # a pair gap's rate is the upper sphere's less the lower's
         out[1:2 * count:2] = mass @ accelerations - rhs
         modes = slice(2 * count, None)  # every sphere's, each z' - dV/dt + z / T
-        out[modes] = (ydot[modes] - (self._remembering() * accelerations)[self._mode_owners]
-                      + y[modes] / self._all_mode_times)
+        taken_in = accelerations if not self._pause_history else self._remembering() * accelerations
+        out[modes] = ydot[modes] - taken_in[self._mode_owners] + y[modes] / self._all_mode_times
         return out
 
     def _remembering(self) -> np.ndarray:

@@ -45,6 +45,8 @@ CASES = {  # preset, scene changes, gaps (h_1, s_1, ...) [m], velocities [m/s], 
     "resolved, correction, separating": ("li2011-case3", {}, [1e-5], [0.2], (), FLOW_1),
     "hertz, film fading": ("li2011-case3", {}, [1.5e-7], [-0.3], [(0, 0.35)], None),
     "hertz, overlapping": ("li2011-case3", {}, [-3e-6], [0.2], [(0, 0.35)], None),
+    "hertz, history paused": ("li2011-case3", {"contact.history_across_contact": "pause"}, [-3e-6], [0.2],
+                              [(0, 0.35)], None),
     "paper's spring": ("li2011-case3", {"contact.model": "li2011"}, [1e-4], [-0.3], [(0, 0.35)], None),
     "ehd, above h0": ("li2011-case3", {"contact.model": "ehd"}, [3e-5], [-0.3], (), None),
     "exact image sum, multiplied drag, drag-scaled history": (
