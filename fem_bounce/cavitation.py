@@ -9,7 +9,7 @@ the growing gap; e.g. Hamrock, Fundamentals of Fluid Film Lubrication, ch. 7) th
 the singular part of Brenner's (1961) drag.  No liquid holds an arbitrary tension: where the absolute
 pressure would fall below the liquid's cavitation pressure the liquid vaporises or releases its gas, and
 the pressure there stays at the floor, gauge p >= -dp (dp = p_ambient + rho g H - p_vapour, the package's
-Scene.cavitation_tension).  The suction first reaches the floor on the axis, when h falls to
+minus Scene.cavitation_pressure).  The suction first reaches the floor on the axis, when h falls to
 
     h_on = sqrt(3 mu a V / dp).
 
