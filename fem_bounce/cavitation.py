@@ -43,7 +43,6 @@ import math
 
 import numpy as np
 
-# the cavitated branch's table: s = h / h_on from 0 to 1, G(s) and dG/ds at each node (cubic Hermite between)
 _SERIES_TERMS = 60  # the series in q converge as 0.5^m below q = 0.5; above it the closed forms are used
 
 
@@ -106,6 +105,7 @@ def _table(nodes: int = 4001) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return s_nodes, big_g, slope
 
 
+# the cavitated branch's table: s = h / h_on from 0 to 1, G(s) and dG/ds at each node (cubic Hermite between)
 _S, _G, _DG = _table()
 _DS = _S[1] - _S[0]
 
