@@ -136,7 +136,6 @@ class ForceTerms:
         self.blend = [1.0] * count
         self.theory, self.drag, self.am_velocity, self.pair, self.pair_am_velocity, self.history = (
             [0.0] * count for _ in range(6))
-        self.lubrication = [0.0] * count  # the part of the drag the wall adds (no derivatives: a record only)
         self.elastic, self.correction, self.correction_mass = [0.0] * count, [0.0] * count, [0.0] * count
         self.theory_mass = [[0.0] * count for _ in range(count)]
         self.history_factors = [1.0] * count  # K_H^(3/2)
@@ -366,7 +365,6 @@ class BodyIntegrator:
             velocity = 2 * k + 1  # V_k's column
             drag, d_gap, d_share, d_velocity = theory.drag_slopes(gap, v[k], share)
             f.drag[k] = drag
-            f.lubrication[k] = drag - theory.free_drag(v[k])
             d_height = d_gap * gap_slope + d_share * share_slope
             slopes.append((k, velocity, d_velocity))
             c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
@@ -766,7 +764,8 @@ class BodyIntegrator:
         sim = self.fluid.explicit - self.fluid.added_mass @ accel if self.resolved else theory
         correction = np.array(f.correction) - np.array(f.correction_mass) * accel
         per_sphere = dict(gap=f.heights, velocity=f.velocities, acceleration=accel, f_drag=drag,
-                          f_lubrication=f.lubrication,
+                          f_lubrication=[d - theory.free_drag(u) for d, theory, u in
+                                         zip(drag, self.theories, f.velocities)],
                           f_history=history, f_pair=pair, f_added_mass=added_mass, f_theory=theory,
                           f_sim=sim, blend=blend, f_liquid=blend * theory + (1.0 - blend) * sim + correction,
                           f_elastic=f.elastic, f_correction=correction)
