@@ -384,7 +384,7 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
     _models.get(model)
     out = _output.out_path(out)
     changes = _overrides(overrides)
-    comm, runner = study_runner(jobs, executor, comm, cache)
+    comm, runner = study_runner(jobs, executor, None if comm is None else _world(comm), cache)
     with runner, _Scratch(comm) if out is None else contextlib.nullcontext(out) as where:
         rows = study.run(model, comm, where, points, (st_min, st_max), overrides=changes, runner=runner)
     return Table(rows, study.compare(rows))

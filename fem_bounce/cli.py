@@ -273,11 +273,7 @@ def _cmd_scenes(args) -> int:
 def _cmd_restitution(args) -> int:
     from mpi4py import MPI
 
-    from .studies.common import check_study_directory
-
     out = Path("results") / f"restitution-{args.model}" if args.out is None else output.out_path(args.out)
-    if (MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD).rank == 0:
-        check_study_directory(out)
     rows = api.restitution(args.model, points=args.points, st_range=(args.st_min, args.st_max),
                            overrides=args.overrides, out=out, jobs=args.jobs, executor=args.executor)
     found = rows.summary
@@ -310,7 +306,6 @@ def _cmd_study(args) -> int:
 
 def _study(args, comm, runner) -> int:
     from . import studies
-    from .studies.common import LADDERS
 
     changes = dict(scenes.parse_override(text) for text in args.overrides)
     model_names = models.model_list(args.models if args.kind == "speed-accuracy" else [args.model])
@@ -318,8 +313,6 @@ def _study(args, comm, runner) -> int:
     scene_name = getattr(args, "scene", None)
     default_out = "-".join(["study", args.kind, *([scene_name] if scene_name else []), *model_names])
     out = output.out_path(args.out) or Path("results") / default_out
-    if comm.rank == 0:
-        studies.common.check_study_directory(out)
 
     def numbers(text: str | None, option: str = "--levels") -> tuple | None:
         try:
@@ -331,9 +324,6 @@ def _study(args, comm, runner) -> int:
         return values
 
     if args.kind == "convergence":
-        if args.cfls and LADDERS[args.model].time_step_key is None:
-            raise scenes.SceneError(f"--cfls {args.cfls!r}: the {args.model} model has no time-step setting (its "
-                                    "tolerance sets its steps; --levels refines it): drop --cfls")
         studies.convergence.run(scenes.load(args.scene, changes), args.model, comm, out, numbers(args.levels),
                                 numbers(args.cfls, "--cfls"), runner=runner)
     elif args.kind == "speed-accuracy":

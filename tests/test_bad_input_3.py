@@ -212,7 +212,8 @@ def test_wrong_types_raise_the_package_errors(tmp_path, monkeypatch):
                         lambda: fb.restitution(st_range=(1,)), lambda: fb.restitution(st_range=(1, float("inf"))),
                         lambda: fb.save("li2011-case3", "x.toml")],
         fb.ModelError: [lambda: fb.simulate(scene, model=["ode"]), lambda: fb.compare(scene, [1, 2])],
-        fb.RunnerError: [lambda: fb.simulate(scene, comm="world"), lambda: fb.restitution(points=2, cache=5)],
+        fb.RunnerError: [lambda: fb.simulate(scene, comm="world"), lambda: fb.restitution(points=2, cache=5),
+                         lambda: fb.restitution(points=2, comm="world")],
         fb.OutputError: [lambda: fb.resume(None), lambda: fb.save(scene, 5), lambda: fb.simulate(scene, out=5)],
     }
     for kind, wrong in calls.items():
@@ -372,6 +373,21 @@ def test_an_st_range_no_set_reaches_is_refused(tmp_path, monkeypatch, capsys):
     """It exited 0 saying "0 runs -> .../restitution.csv" and wrote no CSV.  (Its planning takes ~30 s.)"""
     refused(capsys, tmp_path, monkeypatch, "restitution", "--st-min", "2000", "--st-max", "3000", "--out", "o",
             message="--st-min 2000 --st-max 3000: no Table 3 set reaches a Stokes number there")
+
+
+@pytest.mark.mpi
+def test_a_study_out_is_refused_on_every_rank(shared_tmp, capsys):
+    """Under mpiexec only rank 0 checked a study's --out: it exited 2 while the other ranks went on into the
+    study and waited for rank 0 for ever.  (Serial here too.)"""
+    notes = shared_tmp / "notes.txt"
+    if MPI.COMM_WORLD.rank == 0:
+        notes.write_text("keep")
+    MPI.COMM_WORLD.barrier()
+    status, lines = run_cli(capsys, "study", "convergence", "li2011-case3", "--model", "ode", "--levels",
+                            "1e-5,1e-6,1e-7", "--out", str(notes))
+    assert status == 2 and notes.read_text() == "keep"
+    if MPI.COMM_WORLD.rank == 0:
+        assert_one_line(lines, "error: ", "notes.txt exists and is not a directory")
 
 
 @pytest.mark.parametrize("place", ["a file", "a run directory", "read-only"])

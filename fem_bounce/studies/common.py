@@ -19,6 +19,7 @@ from ..errors import OutputError
 from ..output import MARKER, is_run_directory, read_summary, read_trajectory
 from ..models.registry import MODELS
 from ..motion import is_held, is_stream
+from ..run import on_root
 from .runner import Runner
 
 
@@ -192,8 +193,7 @@ class StudyDirectory:
     def __init__(self, path: Path, comm):
         self.path, self.comm = Path(path), comm
         self._start = time.perf_counter()
-        if comm.rank == 0:
-            check_study_directory(self.path)
+        on_root(comm, lambda: check_study_directory(self.path))  # refused on every rank alike
 
     def file(self, name: str) -> Path:
         """DIR/name, the directory made at the first write: a study refused before it writes leaves nothing."""

@@ -21,6 +21,9 @@ from .runner import Runner
 def run(scene: scenes.Scene, model: str, comm, out: Path, levels: tuple | None = None,
         cfls: tuple | None = None, runner: Runner | None = None) -> dict:
     ladder = LADDERS[model]
+    if cfls and ladder.time_step_key is None:
+        raise scenes.SceneError(f"--cfls {','.join(f'{c:g}' for c in cfls)!r}: the {model} model has no time-step "
+                                "setting (its tolerance sets its steps; --levels refines it): drop --cfls")
     levels = tuple(levels or ladder.values)
     study = StudyDirectory(out, comm)
     names = primary(scene)
