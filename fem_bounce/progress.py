@@ -12,6 +12,7 @@ trajectory or a side file (output.TrajectoryWriter.failure), or the steps fell b
 from __future__ import annotations
 
 import contextlib
+import pickle
 import signal
 import sys
 import time
@@ -89,16 +90,27 @@ def wait_for_root(comm) -> None:
 def on_root_watching(comm, action):
     """action() on rank 0, the other ranks waiting for it without blocking in a collective, so that a signal
     that stops rank 0 (a wait that calls stop_requested: RunInterrupted) or its failure stops every rank alike;
-    rank 0's result on every rank."""
-    failure, result = None, None
+    rank 0's result on every rank.  A second signal (StopNow) stops rank 0 at once and the others as
+    interrupted; an exception that cannot travel goes to them as RunFailed with its message."""
+    failure, result, own = None, None, None
     if comm.rank == 0:
         try:
             result = action()
-        except BaseException as err:  # noqa: BLE001 -- raised on every rank below
+        except Exception as err:  # noqa: BLE001 -- raised on every rank below
             failure = err
+        except BaseException as err:  # noqa: BLE001 -- rank 0 raises its own; the others stop as interrupted
+            own, signum = err, getattr(err, "signum", signal.SIGINT)
+            failure = RunInterrupted(f"interrupted by {signal_name(signum)}", signum)
     if comm.size > 1:
+        if comm.rank == 0:
+            try:
+                pickle.dumps(failure)
+            except Exception:  # noqa: BLE001 -- an exception that cannot travel goes as its message
+                failure = RunFailed(f"{type(failure).__name__}: {failure}")
         wait_for_root(comm)
         failure, result = comm.bcast((failure, result), root=0)
+    if own is not None:
+        raise own
     if failure is not None:
         raise failure
     return result

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import pickle
 import signal
 import time
 import warnings
@@ -42,7 +41,7 @@ from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
 from .integrator import BodyIntegrator, PenetrationError
 from .library_log import LIBRARY_LOG, library_output
-from .progress import Interrupts, Monitor, ProgressBar, signal_name, wait_for_root
+from .progress import Interrupts, Monitor, ProgressBar, on_root_watching, signal_name
 from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
@@ -526,33 +525,15 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
 
 def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **options) -> dict:
     """A serial model under mpiexec: rank 0 runs it on COMM_SELF while the other ranks wait without
-    spinning, then every rank gets rank 0's summary, or its exception, so that no rank repeats the same
-    serial solve and every rank ends the same way."""
+    spinning, then every rank gets rank 0's summary, or its exception (progress.on_root_watching), so that no
+    rank repeats the same serial solve and every rank ends the same way."""
     from mpi4py import MPI
 
-    result, error, own = None, None, None
     if comm.rank == 0:
         warnings.warn(f"the {model_name} model is serial: under mpiexec it runs on rank 0 alone and the other "
                       f"{comm.size - 1} rank(s) wait (no speed-up); run it without mpiexec, or spread a study's "
                       "runs with --jobs N or --executor mpi", stacklevel=3)
-        try:
-            result = simulate(scene, model_name, MPI.COMM_SELF, out_dir, **options)
-        except Exception as err:  # noqa: BLE001 -- re-raised on every rank below
-            error = err
-        except KeyboardInterrupt as err:  # a second signal: the other ranks stop as interrupted
-            own, signum = err, getattr(err, "signum", signal.SIGINT)
-            error = RunInterrupted(f"interrupted by {signal_name(signum)}", signum)
-        try:
-            pickle.dumps(error)
-        except Exception:  # noqa: BLE001 -- an exception that cannot travel goes as its message
-            error = RunFailed(f"{type(error).__name__}: {error}")
-    wait_for_root(comm)
-    result, error = comm.bcast((result, error), root=0)
-    if own is not None:
-        raise own
-    if error is not None:
-        raise error
-    return result
+    return on_root_watching(comm, lambda: simulate(scene, model_name, MPI.COMM_SELF, out_dir, **options))
 
 
 def _draw(out_dir: Path) -> None:
