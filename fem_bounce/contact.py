@@ -62,9 +62,12 @@ MAX_OVERLAP = 0.1
 REBOUND_MIN_APEX = 0.05
 
 
+BLEND_SHARPNESS = 10.0  # the paper's H = 1 / (1 + e^x), x = 10 (delta / delta_sl - 1)
+
+
 def blend(delta: float, delta_sl: float) -> float:
     """H(delta / delta_sl): 1 at contact, 1/2 at delta_sl, 0 far away."""
-    x = 10.0 * (delta / delta_sl - 1.0)
+    x = BLEND_SHARPNESS * (delta / delta_sl - 1.0)
     return 0.0 if x > 700.0 else 1.0 / (1.0 + math.exp(x))
 
 
@@ -277,7 +280,7 @@ class ContactModel(ContactGaps):
     def blend_slope(self, gap: float) -> tuple[float, float]:
         """(H, dH/d gap [1/m]) of the paper's blend: dH/dx = -H (1 - H) for H = 1 / (1 + e^x)."""
         weight = self.blend(gap)
-        return weight, -weight * (1.0 - weight) * 10.0 / (self.delta_sl * self.diameter)
+        return weight, -weight * (1.0 - weight) * BLEND_SHARPNESS / self.blend_gap
 
     def correction(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, float]:
         """(force [N], added mass [kg]) that a flow held at delta_sl misses when the sphere is at `gap`
@@ -304,8 +307,9 @@ class ContactModel(ContactGaps):
         d_gap, d_film, d_velocity = (-theory.stokes_drag * velocity * film * wall_gap + film * relief_gap,
                                      -theory.stokes_drag * velocity * missed + relief,
                                      -theory.stokes_drag * film * missed + film * relief_velocity)
-        c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
+        added_mass = theory.added_mass_slopes(gap)
+        c_m, c_m_slope, _ = added_mass
         if film == 1.0:  # inside a Hertz contact C_M is held at h_c: its velocity term vanishes
-            term, term_gap, term_velocity = theory.added_mass_velocity_term_slopes(gap, velocity)
+            term, term_gap, term_velocity = theory.added_mass_velocity_term_slopes(gap, velocity, added_mass)
             lubrication, d_gap, d_velocity = lubrication + term, d_gap + term_gap, d_velocity + term_velocity
         return lubrication, c_m - self._added_mass_hold, d_gap, d_film, d_velocity, c_m_slope

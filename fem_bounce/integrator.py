@@ -315,7 +315,7 @@ class BodyIntegrator:
 
     def _rates(self, y) -> np.ndarray:
         """dh_i/dt: a held sphere's gap stays (its surface may still move: motion.mode = "fixed")."""
-        return np.where(self.held, 0.0, np.asarray(y[1:2 * len(self.bodies):2]))
+        return self._rate_slope_array * y[1:2 * len(self.bodies):2]
 
     def _heights(self, y) -> np.ndarray:
         """Each sphere's lowest point above z = 0 [m] from the state's gaps."""
@@ -367,12 +367,12 @@ class BodyIntegrator:
             f.drag[k] = drag
             d_height = d_gap * gap_slope + d_share * share_slope
             slopes.append((k, velocity, d_velocity))
-            c_m, c_m_slope, _ = theory.added_mass_slopes(gap)
-            f.theory_mass[k][k] += c_m
-            f.theory_mass_height_slopes[k] = c_m_slope * gap_slope
+            added_mass = theory.added_mass_slopes(gap)
+            f.theory_mass[k][k] += added_mass[0]
+            f.theory_mass_height_slopes[k] = added_mass[1] * gap_slope
             term = 0.0
             if share == 1.0:  # C_M is held with the film inside a Hertz contact: no velocity term there
-                term, d_gap, d_velocity = theory.added_mass_velocity_term_slopes(gap, v[k])
+                term, d_gap, d_velocity = theory.added_mass_velocity_term_slopes(gap, v[k], added_mass)
                 d_height += d_gap * gap_slope
                 slopes.append((k, velocity, d_velocity))
             f.theory_height_slopes[k] += d_height
@@ -427,7 +427,7 @@ class BodyIntegrator:
                 f.theory_mass_slopes.append((k, other, column, slope[2 * i + j] * gap_slope))
         if share != 1.0:
             return
-        rate = rates[upper] - rates[lower]
+        rate = contact.rate(rates)
         values, d_gap, d_velocity, d_rate = pair.added_mass_velocity_term_slopes(gap, v[lower], v[upper], rate,
                                                                                   added_mass)
         rate_slopes = (-self._rate_slopes[lower], self._rate_slopes[upper])  # d rate / d(V_lower, V_upper)
@@ -451,9 +451,10 @@ class BodyIntegrator:
             for lower in self._adjacent_pairs[k]:  # the pairs below and above it
                 gap, share, gap_slope, share_slope = self._pair_films[lower]
                 side = 3 if lower < k else 0  # (X22 or X11) in (11, 12, 21, 22)
-                resistance, resistance_slopes = self.pair_contacts[lower].model.resistance_slopes(gap)
+                pair = self.pair_contacts[lower]
+                resistance, resistance_slopes = pair.model.resistance_slopes(gap)
                 factor += share * (resistance[side] - 1.0)
-                f.theory_slopes.append((k, 2 * lower + 2, -memory * (share * resistance_slopes[side] * gap_slope
+                f.theory_slopes.append((k, pair.gap_index, -memory * (share * resistance_slopes[side] * gap_slope
                                                                       + (resistance[side] - 1.0) * share_slope)))
         f.history[k] = -factor * memory
         f.theory[k] -= factor * memory
@@ -495,7 +496,7 @@ class BodyIntegrator:
         the next call."""
         count = len(self.bodies)
         mass, rhs = self._balance(t, self.forces(t, y))
-        out, rates = self._residual_out, self._rate_slope_array * y[1:2 * count:2]
+        out, rates = self._residual_out, self._rates(y)
         accelerations = ydot[1:2 * count:2]
         out[0:2 * count:2] = ydot[0:2 * count:2] - rates
         out[2:2 * count:2] += rates[:-1]  # a pair gap's rate is the upper sphere's less the lower's

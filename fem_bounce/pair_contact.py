@@ -176,7 +176,7 @@ class PairContactModel(ContactGaps):
             F_i = -sum_j (dM_ij/dh) hdot V_j + (1/2) (dh/dz_i) V^T (dM/dh) V,     hdot = `rate` [m/s].
 
         With sphere 2 held and infinitely large (hdot = -V1) it is the wall's -(1/2) m_l V1^2 dC_M/dh_wall
-        (theory.TheoryForces.added_mass_velocity_term).  The sum over the spheres is -(dM/dt) V: what the
+        (theory.TheoryForces.added_mass_velocity_term_slopes).  The sum over the spheres is -(dM/dt) V: what the
         pair hands the liquid's impulse, so that sum_i m_i V_i + sum_ij M_ij V_j is conserved."""
         return np.array(self.added_mass_velocity_term_slopes(gap, *velocities, rate)[0])
 

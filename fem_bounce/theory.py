@@ -330,13 +330,11 @@ class TheoryForces:
         m_l, length = self.displaced_mass, self.diameter
         return 0.5 * (1.0 + 3.0 * w) * m_l, 1.5 * dw / length * m_l, 1.5 * d2w / length**2 * m_l
 
-    def added_mass_velocity_term(self, gap: float, velocity: float) -> float:
-        """-(3/4) m_l V dW/dt [N]."""
-        return self.added_mass_velocity_term_slopes(gap, velocity)[0]
-
-    def added_mass_velocity_term_slopes(self, gap: float, velocity: float) -> tuple[float, float, float]:
-        """(-(1/2) m_l V^2 dC_M/dh [N], its derivatives d/d gap [N/m] and d/dV [N s/m])."""
-        _, slope, curvature = self.added_mass_slopes(gap)
+    def added_mass_velocity_term_slopes(self, gap: float, velocity: float,
+                                        added_mass: tuple | None = None) -> tuple[float, float, float]:
+        """(-(1/2) m_l V^2 dC_M/dh [N], the paper's -(3/4) m_l V dW/dt; its derivatives d/d gap [N/m] and d/dV
+        [N s/m]).  `added_mass`: `added_mass_slopes(gap)` when the caller has it already."""
+        _, slope, curvature = added_mass or self.added_mass_slopes(gap)
         return -0.5 * velocity**2 * slope, -0.5 * velocity**2 * curvature, -velocity * slope
 
     def history_sensitivity(self, inertia: float, duration: float) -> np.ndarray:
