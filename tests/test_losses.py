@@ -19,17 +19,21 @@ def audited_run(tmp_path, model: str, changes: dict) -> dict:
     return json.loads((tmp_path / model / "summary.json").read_text())
 
 
-@pytest.mark.parametrize("model, changes", [("ode", {"run.bounces": 2}), ("ale", TOY_ALE)])
-def test_the_impulses_add_up_to_the_momentum_change(tmp_path, model, changes):
+# |imbalance| measured 5e-4 (ode) and 4e-3 (ale at 6 cells/D): leaving out the smallest term (the ode's drag, a
+# net 5e-3 of m_p V_peak on the first impact; ale's correction, 0.045) breaks the limit
+@pytest.mark.parametrize("model, changes, limit", [("ode", {"run.bounces": 2}, 2e-3), ("ale", TOY_ALE, 0.01)])
+def test_the_impulses_add_up_to_the_momentum_change(tmp_path, model, changes, limit):
     summary = audited_run(tmp_path, model, changes)
     audits = [impact["losses"] for impact in summary["impacts"]]
     assert audits
     for audit in audits:
-        assert abs(audit["imbalance"]) < 0.01  # sum of impulses against m_p (V_out + V_in), of m_p V_peak
+        assert abs(audit["imbalance"]) < limit  # sum of impulses against m_p (V_out + V_in), of m_p V_peak
         phases = audit["phases"]
-        assert phases["approach"][1] == phases["contact"][0] and phases["contact"][1] == phases["rebound"][0]
-        contact = audit["impulse"]["contact"]
-        assert contact[1] > 0.0 and contact[0] == pytest.approx(0.0, abs=1e-6 * contact[1])
+        assert phases["approach"][0] < phases["contact"][0] < phases["contact"][1] < phases["rebound"][1]
+        contact = audit["impulse"]["contact"]  # the elastic force acts inside the contact phase only
+        assert audit["left_contact"] and contact[1] > 0.0
+        assert contact[0] == pytest.approx(0.0, abs=1e-6 * contact[1])
+        assert contact[2] == pytest.approx(0.0, abs=1e-6 * contact[1])
     first = audits[0]
     names = set(first["impulse"])
     if model == "ode":
@@ -46,7 +50,8 @@ def test_the_audit_is_redrawn_from_the_files(tmp_path):
     for impact in again["impacts"]:
         impact.pop("losses")
     losses.annotate(again, trajectory)
-    assert again["impacts"][0]["losses"]["share"] == summary["impacts"][0]["losses"]["share"]
+    for name, shares in summary["impacts"][0]["losses"]["share"].items():
+        assert again["impacts"][0]["losses"]["share"][name] == pytest.approx(shares, rel=1e-9, abs=1e-12)
     trajectory["f_elastic"] = np.zeros_like(trajectory["f_elastic"])
     losses.annotate(again, trajectory)
     assert abs(again["impacts"][0]["losses"]["imbalance"]) > 0.5  # without the contact nothing adds up
