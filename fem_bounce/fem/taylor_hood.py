@@ -1,6 +1,6 @@
 """The pieces of an axisymmetric Taylor-Hood (P2/P1) flow that every finite-element model shares (the fd
 model's fixed mesh, the ale model's moving one): the mixed space, the BDF and extrapolation coefficients,
-the side conditions named by the mesh's facet tags, the pressure pin and the lifted right-hand side.
+the side conditions named by the mesh's facet tags, the pressure pin, the lifted right-hand side and a uniform state.
 
 Boundaries: "no-slip" (u = 0), "slip" (zero normal velocity, free tangential), "inflow" (u = (0, U_in)),
 "outflow" (do nothing: mu du/dn - p n = 0); the axis always has u_r = 0.  When every side fixes the normal
@@ -23,6 +23,15 @@ SIDE_KINDS = ("no-slip", "slip", "inflow", "outflow")
 BDF = {1: (1.0, -1.0), 2: (1.5, -2.0, 0.5), 3: (11.0 / 6.0, -3.0, 1.5, -1.0 / 3.0)}
 EXTRAPOLATION = {1: (1.0,), 2: (2.0, -1.0), 3: (3.0, -3.0, 1.0)}
 _NORMAL_COMPONENT = {WALL: 1, TOP: 1, OUTER: 0, AXIS: 0}
+
+
+def set_velocity(state: fem.Function, velocity: tuple[float, float]) -> None:
+    """A mixed (u, p) function set to a uniform velocity and zero pressure."""
+    state.x.array[:] = 0.0
+    W = state.function_space
+    for component in range(2):
+        _, dofs = collapse(W.sub(0).sub(component))
+        state.x.array[dofs] = velocity[component]
 
 
 def step_coefficients(order: int, ratio: float = 1.0) -> tuple[tuple, tuple]:

@@ -73,8 +73,8 @@ from ...fem import forms
 from ...fem.compat import collapse
 from ...fem.mesh import AXIS, SPHERE
 from ...fem.solver import FactorizedOperator, ReusedFactorOperator
-from ...fem.taylor_hood import (SIDE_KINDS, lifted_rhs, owned_dirichlet_rows, pressure_pin, step_coefficients,
-                                side_constraints, taylor_hood_space)
+from ...fem.taylor_hood import (SIDE_KINDS, lifted_rhs, owned_dirichlet_rows, pressure_pin, set_velocity,
+                                side_constraints, step_coefficients, taylor_hood_space)
 
 FACTORISATIONS = ("reuse", "every-step")  # numerics.ale.factorisation
 
@@ -401,12 +401,3 @@ def surface_force(state: fem.Function, viscosity, r, ds_sphere):
     strain = ufl.grad(u) + ufl.grad(u).T
     traction_z = -p * n[1] + viscosity * (strain[1, 0] * n[0] + strain[1, 1] * n[1])
     return -2.0 * math.pi * traction_z * r * ds_sphere
-
-
-def set_velocity(state: fem.Function, velocity: tuple[float, float]) -> None:
-    """A mixed (u, p) function set to a uniform velocity and zero pressure."""
-    state.x.array[:] = 0.0
-    W = state.function_space
-    for component in range(2):
-        _, dofs = collapse(W.sub(0).sub(component))
-        state.x.array[dofs] = velocity[component]

@@ -26,8 +26,8 @@ from ...fem import forms
 from ...fem.compat import collapse
 from ...fem.mesh import AXIS
 from ...fem.solver import FactorizedOperator, FieldSplitOperator
-from ...fem.taylor_hood import (BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, side_constraints,
-                                taylor_hood_space)
+from ...fem.taylor_hood import (BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, set_velocity,
+                                side_constraints, taylor_hood_space)
 
 
 class FlowSolver:
@@ -111,12 +111,7 @@ class FlowSolver:
     def set_uniform(self, velocity: tuple[float, float]) -> None:
         """u^n = u^{n-1} = ... = velocity everywhere (an impulsive start from a uniform state)."""
         for state in self.states:
-            state.x.array[:] = 0.0
-            values = state.x.array.reshape(-1)
-            for component in range(2):
-                _, dofs = collapse(self.W.sub(0).sub(component))
-                values[dofs] = velocity[component]
-            state.x.scatter_forward()
+            set_velocity(state, velocity)
 
     def predictor_rhs(self) -> PETSc.Vec:
         """b(u^n, u^{n-1}, ...): history and extrapolated convection, boundary values set."""
@@ -138,8 +133,7 @@ class FlowSolver:
     def commit(self, new: PETSc.Vec) -> None:
         """u^{n-1} <- u^n <- new (a mixed-space vector), and so on down the history."""
         for older, newer in zip(self.states[::-1], self.states[-2::-1]):
-            older.x.array[:] = newer.x.array
-            older.x.scatter_forward()
+            older.x.array[:] = newer.x.array  # ghosts included
         self.now.x.petsc_vec.array[:] = new.array_r
         self.now.x.scatter_forward()
 
