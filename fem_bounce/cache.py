@@ -27,7 +27,7 @@ from . import cachedir, models
 from . import scene as scenes
 from .errors import OutputError, RunDiverged
 from .models.registry import CORE_SOURCES
-from .output import MARKER, read_summary, sync_file
+from .output import MARKER, atomic_write_text, file_digest, read_summary
 from .progress import on_root_watching, stop_requested
 from .run import on_root, simulate
 
@@ -75,7 +75,7 @@ def run_key(scene: scenes.Scene, model: str) -> str:
     text = f"{model}\n{code_version(model)}\n{stack_version()}\n{scenes.dumps(scene)}"
     if scene.motion.series:
         try:
-            text += f"\nmotion.series: {hashlib.sha256(Path(scene.motion.series).read_bytes()).hexdigest()}"
+            text += f"\nmotion.series: {file_digest(Path(scene.motion.series))}"
         except OSError as err:
             raise scenes.SceneError(f"motion.series = {scene.motion.series!r}: {err.strerror or err}") from None
     return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -97,17 +97,13 @@ def finished(run_dir: Path) -> Path | None:
     run_dir = Path(run_dir)
     try:
         entry = json.loads((run_dir / ENTRY).read_text())
-        if entry.get("key") != run_dir.name or any(_digest(run_dir / name) != entry["files"].get(name)
+        if entry.get("key") != run_dir.name or any(file_digest(run_dir / name) != entry["files"].get(name)
                                                    for name in ENTRY_FILES):
             return None
         status = read_summary(run_dir).get("status", "")
     except (OSError, ValueError, AttributeError, KeyError, TypeError):  # missing, cut short, edited
         return None
     return None if status.startswith(("interrupted", "failed")) else run_dir
-
-
-def _digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def cached_run(scene: scenes.Scene, model: str, comm, root: Path | None = None, progress: bool = False,
@@ -125,7 +121,8 @@ def cached_run(scene: scenes.Scene, model: str, comm, root: Path | None = None, 
     lock = on_root_watching(comm, lambda: _lock(run_dir))
     try:
         if not comm.bcast(finished(run_dir) is not None if comm.rank == 0 else None, root=0):  # made meanwhile?
-            partial = comm.bcast(run_dir.with_name(f".{run_dir.name}.{os.getpid()}.partial"), root=0)
+            # one name: only the lock's holder makes it, and a maker killed outright left its run here to replace
+            partial = run_dir.with_name(f".{run_dir.name}.partial")
             try:
                 simulate(scene, model, comm, partial, force=True, progress=progress, plots=False,
                          command=command or f"cached run of {scene.name} with {model}")
@@ -174,11 +171,8 @@ def _settle(partial: Path, run_dir: Path) -> None:
         if run_dir.exists():  # an earlier entry, damaged or unfinished
             shutil.rmtree(run_dir)
         (partial / MARKER).unlink(missing_ok=True)  # the cache's entry, not a run directory --force may replace
-        files = {name: _digest(partial / name) for name in ENTRY_FILES}
+        files = {name: file_digest(partial / name) for name in ENTRY_FILES}
         partial.replace(run_dir)
-        entry = run_dir / f".{ENTRY}.partial"
-        entry.write_text(json.dumps({"key": run_dir.name, "files": files}, indent=1) + "\n")
-        sync_file(entry)
-        entry.replace(run_dir / ENTRY)
+        atomic_write_text(run_dir / ENTRY, json.dumps({"key": run_dir.name, "files": files}, indent=1) + "\n")
     except OSError as err:
         raise OutputError(f"cannot write the cache entry {run_dir}: {err.strerror or err}") from None

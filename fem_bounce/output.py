@@ -32,6 +32,7 @@ import csv
 import dataclasses
 import errno
 import fcntl
+import hashlib
 import io
 import json
 import os
@@ -95,6 +96,12 @@ def sync_file(path: Path) -> None:
         os.close(fd)
 
 
+def file_digest(path: Path) -> str:
+    """The SHA-256 of a file's bytes (hex), read in blocks."""
+    with open(path, "rb") as stream:
+        return hashlib.file_digest(stream, "sha256").hexdigest()
+
+
 def _sync_directory(path: Path) -> None:
     """Make a rename inside `path` durable (where the file system supports it)."""
     with contextlib.suppress(OSError):
@@ -112,7 +119,7 @@ def _partial(path: Path) -> Path:
     return path.with_name(f".{path.name}.partial")
 
 
-def _atomic_write_text(path: Path, text: str) -> None:
+def atomic_write_text(path: Path, text: str) -> None:
     """Write `text` to `path` whole or not at all (write beside, fsync, rename).  Space reserved for
     it beforehand (RunDirectory.reserve) is written into, so the write succeeds on a disk that filled since."""
     path = Path(path)
@@ -134,7 +141,7 @@ def _atomic_write_text(path: Path, text: str) -> None:
 
 
 def write_scene(path: Path, scene) -> None:
-    _atomic_write_text(path, scenes.dumps(scene))
+    atomic_write_text(path, scenes.dumps(scene))
 
 
 # -- the run directory ------------------------------------------------------------------------
@@ -399,7 +406,7 @@ class RunDirectory:
 
     def commit_summary(self, data: dict) -> None:
         """DIR/summary.json, into the room reserve() kept; a killed run never leaves half a summary."""
-        _atomic_write_text(self.path / "summary.json", json.dumps(data, indent=2) + "\n")
+        atomic_write_text(self.path / "summary.json", json.dumps(data, indent=2) + "\n")
 
     def abandon(self) -> None:
         """A run refused after prepare() or resume() (no room for its summary or its trajectory): remove the

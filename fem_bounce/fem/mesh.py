@@ -43,7 +43,7 @@ import numpy as np
 
 from .. import cachedir
 from ..errors import OutputError
-from ..output import sync_file
+from ..output import file_digest, sync_file
 from ..progress import on_root_watching, stop_requested
 from ..scene import SceneError
 
@@ -345,21 +345,13 @@ _MPI_ENVIRONMENT = ("PMI_", "PMIX_", "MPI_LOCAL", "HYDRA_", "OMPI_")
 def _verified(path: Path) -> bool:
     """A cached mesh file that is whole: its hash is the one written beside it when it was made."""
     try:
-        return _digest(path) == _hash_file(path).read_text().strip()
+        return file_digest(path) == _hash_file(path).read_text().strip()
     except OSError:
         return False
 
 
 def _hash_file(path: Path) -> Path:
     return path.with_name(path.name + ".sha256")
-
-
-def _digest(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def _cache(spec: HalfPlane, path: Path) -> None:
@@ -372,7 +364,7 @@ def _cache(spec: HalfPlane, path: Path) -> None:
         _hash_file(path).unlink(missing_ok=True)
         partial.replace(path)
         hashed = partial.with_name(partial.name + ".sha256")
-        hashed.write_text(_digest(path) + "\n")
+        hashed.write_text(file_digest(path) + "\n")
         sync_file(hashed)
         hashed.replace(_hash_file(path))
     except OSError as err:
