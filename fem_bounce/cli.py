@@ -8,13 +8,13 @@
     fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
     fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
-Only this module, the Python API behind it (api.py, the default communicator of fem_bounce.simulate) and the
-demos touch MPI.COMM_WORLD (mpi_pool and the study runner ask its size, to find the workers of an mpi4py.futures
-pool).  Errors a user can cause print one line (on rank 0 only under mpiexec) naming the field or path and exit
-with status 2; a run that ends early prints one line and exits with 1 (diverged, or an output could not be
-written) or 128 + the signal (130 for SIGINT, 143 for SIGTERM) when interrupted.  What the libraries print
-(ffcx's compiler lines and ResourceWarnings on a form's first compile) goes to the run directory's run.log, not
-the terminal (`fem-bounce run --verbose`: to both; fem_bounce.library_log).
+Only this module, the Python API behind it (api.py, the default communicator of fem_bounce.simulate), the study
+runner (studies.runner.study_runner, a study's default communicator) and the demos touch MPI.COMM_WORLD (mpi_pool
+asks its size, to find the workers of an mpi4py.futures pool).  Errors a user can cause print one line (on rank 0
+only under mpiexec) naming the field or path and exit with status 2; a run that ends early prints one line and
+exits with 1 (diverged, or an output could not be written) or 128 + the signal (130 for SIGINT, 143 for SIGTERM)
+when interrupted.  What the libraries print (ffcx's compiler lines and ResourceWarnings on a form's first
+compile) goes to the run directory's run.log, not the terminal (`fem-bounce run --verbose`: to both; fem_bounce.library_log).
 
 A parser and printer over the library below it: the API (api.py), the run (run.run_logged, run.restart_target)
 and the studies.  The modules that import PETSc (run.py and the studies) are imported inside the commands, once

@@ -765,7 +765,7 @@ class BodyIntegrator:
         sim = self.fluid.explicit - self.fluid.added_mass @ accel if self.resolved else theory
         correction = np.array(f.correction) - np.array(f.correction_mass) * accel
         per_sphere = dict(gap=f.heights, velocity=f.velocities, acceleration=accel, f_drag=drag,
-                          f_lubrication=[d - theory.free_drag(u) for d, theory, u in
+                          f_lubrication=[d - sphere.free_drag(u) for d, sphere, u in
                                          zip(drag, self.theories, f.velocities)],
                           f_history=history, f_pair=pair, f_added_mass=added_mass, f_theory=theory,
                           f_sim=sim, blend=blend, f_liquid=blend * theory + (1.0 - blend) * sim + correction,

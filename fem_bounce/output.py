@@ -613,7 +613,8 @@ class TrajectoryWriter:
     which records `rows`) and at close().  A write that fails cuts the file back to its last whole
     row, stops writing and keeps the error in `failure`, for the run to stop on every rank alike;
     sync() and close() raise it.  `rows` counts the data rows written (the header not included);
-    `continue_from` opens an existing file already cut back to that many rows (RunDirectory.resume)."""
+    `continue_from` opens an existing file of at least that many rows, which RunDirectory.begin() cuts back to
+    them."""
 
     BUFFER_BYTES = 1 << 16
 

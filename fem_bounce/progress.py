@@ -166,7 +166,7 @@ class Monitor:
     """What the run calls after each step: the bar, the stop requests and the step floor (module docstring)."""
 
     def __init__(self, bar: ProgressBar, comm, interrupts, writers=(), time_unit: float = 0.0):
-        """`interrupts`: a run.Interrupts (its `signum` is set by SIGINT/SIGTERM) or None; `writers`: rank 0's
+        """`interrupts`: an Interrupts (its `signum` is set by SIGINT/SIGTERM) or None; `writers`: rank 0's
         output.TrajectoryWriters (none elsewhere and when the run writes nothing); `time_unit` [s]: the scene's,
         for the step floor (0: none)."""
         self.bar, self.comm, self.interrupts, self.writers = bar, comm, interrupts, list(writers)

@@ -292,7 +292,7 @@ class Controller:
         self.last_checkpoint = (flow_model.step, integrator.time)
 
     def _restore(self, resumed: output.Checkpoint) -> None:
-        """Continue from `resumed` (RunDirectory.resume has checked it and cut the trajectory back)."""
+        """Continue from `resumed` (RunDirectory.resume has checked it; begin() cuts the trajectory back)."""
         data, = self.info.checkpoint_files
         arrays, state = resumed.arrays(data), resumed.state
         failure = None

@@ -279,7 +279,8 @@ class TheoryForces:
     def drag(self, gap: float, velocity: float, film: float = 1.0) -> float:
         """f_D = -6 pi mu a V (lambda(delta) + phi(Re) - 1) when additive, lambda(delta) phi(Re) when
         multiplicative ("schiller-naumann") [N]; only the share `film` of the wall's excess lambda - 1 is
-        left inside a Hertz contact (contact.ContactLaw.film)."""
+        left inside a Hertz contact (contact.ContactLaw.film); the excess includes the liquid's tension
+        limit on a sphere leaving the wall (tension_relief, drag_slopes)."""
         return self.drag_slopes(gap, velocity, film)[0]
 
     def drag_slopes(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, float, float, float]:

@@ -1,4 +1,4 @@
-"""The calls where dolfinx 0.10 and 0.11 differ, and the one import order the PyPI wheel needs.
+"""The calls where dolfinx 0.10 and 0.11 differ (the import order the PyPI wheel needs is fem_bounce/__init__.py's).
 
 The package is written against dolfinx 0.11 (PyPI's `dolfinx-solver-real`, conda-forge) and runs on
 0.10 (conda-forge, Ubuntu 26.04) through these few functions; nothing else in it asks for a version.

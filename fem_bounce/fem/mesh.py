@@ -13,7 +13,7 @@ lowest first): their surfaces are the groups SPHERE, SPHERE_2, ..., each meshed 
 own size, and the thin gap to the wall or between two surfaces keeps a set number
 of triangles across.
 
-gmsh meshes in a child process of rank 0 (a signal stops it: `_generate`);
+gmsh meshes on rank 0, a large mesh in a child process that a signal stops (`_generate`);
 `dolfinx.io.gmsh` distributes the mesh.  The .msh file is cached under the mesh
 cache directory (see `cache_directory`), keyed by a hash of the spec and the gmsh
 version (another release meshes the same spec differently), written atomically and
@@ -157,11 +157,6 @@ class HalfPlane:
     def key(self) -> str:
         """A short hash of everything that shapes the mesh (the cache file name)."""
         data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION, "gmsh": gmsh_version()}
-        if not self.holes:
-            del data["holes"]  # meshes without a hole keep the keys they had before holes existed
-        for box in data["refined"]:
-            if box["size"] is None:
-                del box["size"]  # nor do boxes at the fine size
         text = json.dumps(data, sort_keys=True, default=lambda x: round(x, 15))
         return hashlib.sha1(text.encode()).hexdigest()[:16]
 
@@ -263,13 +258,13 @@ def gmsh_version() -> str:
 def create_mesh(comm, spec: HalfPlane, cache: bool = True):
     """(mesh, cell_tags, facet_tags) of the half-plane, distributed over comm.
 
-    Rank 0 reads the cached .msh file, or meshes it (`_generate`: in a child process, which a signal can stop)
-    and caches it; every rank takes part in the distribution.  A cache entry is written atomically (beside its
+    Rank 0 reads the cached .msh file, or meshes it (`_generate`: a large mesh in a child process, which a signal
+    can stop) and caches it; every rank takes part in the distribution.  A cache entry is written atomically (beside its
     place, fsynced, renamed) with the hash of its content beside it, and checked against that hash when read: a
-    damaged or half-written entry is made again, never read.  gmsh leaves the process's SIGINT and SIGTERM
-    handlers as it found them (gmsh.initialize puts the default SIGTERM handler back at the C level, and its
-    Python API the default SIGINT one, and neither restores them), so a signal still ends a run with its
-    summary."""
+    damaged or half-written entry is made again, never read.  The process's SIGINT and SIGTERM handlers are
+    left as they were found (gmsh.initialize puts the default SIGTERM handler back at the C level, and its
+    Python API the default SIGINT one, and neither restores them: _generate puts them back), so a signal still
+    ends a run with its summary."""
     import gmsh
     from dolfinx.io import gmsh as gmsh_io
 
