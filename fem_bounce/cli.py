@@ -14,7 +14,8 @@ asks its size, to find the workers of an mpi4py.futures pool).  Errors a user ca
 only under mpiexec) naming the field or path and exit with status 2; a run that ends early prints one line and
 exits with 1 (diverged, or an output could not be written) or 128 + the signal (130 for SIGINT, 143 for SIGTERM)
 when interrupted.  What the libraries print (ffcx's compiler lines and ResourceWarnings on a form's first
-compile) goes to the run directory's run.log, not the terminal (`fem-bounce run --verbose`: to both; fem_bounce.library_log).
+compile) goes to the run directory's run.log, not the terminal (`fem-bounce run --verbose`: to both;
+fem_bounce.library_log).
 
 A parser and printer over the library below it: the API (api.py), the run (run.run_logged, run.restart_target)
 and the studies.  The modules that import PETSc (run.py and the studies) are imported inside the commands, once
