@@ -70,6 +70,21 @@ def spawn(argv: list[str], cwd: Path, **kwargs) -> subprocess.Popen:
                             stderr=subprocess.PIPE, text=True, **kwargs)
 
 
+def children_of(pid: int, command: str = "") -> list[int]:
+    """The processes whose parent is `pid` and whose command line holds `command`, from /proc (as pgrep -P -f,
+    without procps)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            parent = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+            line = (stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except (OSError, IndexError, ValueError):  # gone meanwhile
+            continue
+        if parent == pid and command in line:
+            found.append(int(stat.parent.name))
+    return sorted(found)
+
+
 def wait_for(predicate, process: subprocess.Popen, timeout: float = 120.0) -> None:
     start = time.monotonic()
     while not predicate():

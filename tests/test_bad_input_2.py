@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from fem_bounce import output
-from test_bad_input import ODE, assert_one_line, run_cli, spawn
+from test_bad_input import ODE, assert_one_line, children_of, run_cli, spawn
 
 PRESET = Path(__file__).resolve().parents[1] / "fem_bounce" / "presets" / "li2011-case3.toml"
 
@@ -246,8 +246,7 @@ def test_study_workers_die_with_the_study(tmp_path):
     workers: list[int] = []
     start = time.monotonic()
     while len(workers) < 2 and time.monotonic() - start < 120 and study.poll() is None:
-        children = subprocess.run(["pgrep", "-P", str(study.pid), "-f", "spawn_main"], capture_output=True, text=True)
-        workers = [int(pid) for pid in children.stdout.split()]
+        workers = children_of(study.pid, "spawn_main")
         time.sleep(0.2)
     assert len(workers) == 2, "the study did not start its workers"
     study.kill()

@@ -21,8 +21,8 @@ import fem_bounce as fb
 from fem_bounce import cache, cli, progress, run
 from fem_bounce import scene as scenes
 from fem_bounce.fem import mesh as halfplane
-from test_bad_input import (FD_TOY, ODE, as_nobody_or_skip, assert_one_line, fd_copy, fd_run,  # noqa: F401
-                            messages, run_cli, spawn, tree, wait_for)
+from test_bad_input import (FD_TOY, ODE, as_nobody_or_skip, assert_one_line, children_of, fd_copy,  # noqa: F401
+                            fd_run, messages, run_cli, spawn, tree, wait_for)
 
 ALE_TOY = ["li2011-case3", "--model", "ale", "--quiet", "--set", "numerics.ale.cells_per_diameter=4",
            "--set", "run.bounces=1", "--set", "numerics.ale.checkpoint_every=10"]
@@ -454,9 +454,8 @@ def test_meshing_answers_a_signal(tmp_path):
                                 "--set", "numerics.ale.cells_per_diameter=128", "--out", str(out)], cwd=tmp_path,
                                env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
-    def mesher() -> list[str]:  # the child that meshes (gmsh, ~5 s at 128 cells/D)
-        found = subprocess.run(["pgrep", "-P", str(process.pid)], capture_output=True, text=True)
-        return found.stdout.split()
+    def mesher() -> list[int]:  # the child that meshes (gmsh, ~5 s at 128 cells/D)
+        return children_of(process.pid)
 
     wait_for(lambda: bool(mesher()), process)
     child = mesher()[0]
