@@ -64,15 +64,15 @@ class PairContactModel(ContactGaps):
                                       second.poisson_ratio)
         self.law = ContactLaw(c, self.reduced_radius, self.reduced_mass, self.e_star, scene.liquid.viscosity,
                               first.roughness + second.roughness, self.diameter, scene.cavitation_pressure)
-        self.stokes_drags = 6.0 * math.pi * scene.liquid.viscosity * self.radii  # 6 pi mu a_i [N s/m]
-        self._stokes_drags = tuple(self.stokes_drags.tolist())  # plain floats for the force terms
+        mu = scene.liquid.viscosity
+        self._stokes_drags = (6.0 * math.pi * mu * first.radius, 6.0 * math.pi * mu * second.radius)  # [N s/m]
         self._liquid = scene.liquid
         floor = scene.cavitation_pressure  # the most tension the film between the two holds [Pa]
         self.tension = math.inf if floor is None else -floor
         # the hold and the correction belong to a resolved flow with a free sphere (as at the wall)
         self.correcting = resolved and scene.near_wall_law == "correction" and any(free)
         self._resistance = PairResistance(first.radius, second.radius)  # tabulated once, ~3 us a call
-        self._resistance_hold = self.resistance(self.blend_gap)
+        self._resistance_hold = self.resistance(self.blend_gap).ravel().tolist()  # X_ij at the hold: 11, 12, 21, 22
         self._added_mass = PairAddedMass(first.radius, second.radius)  # tabulated once, microseconds a call
         self.displaced_masses = np.array([body.displaced_mass for body in bodies])  # m_l,i [kg]
         self._displaced_masses = tuple(self.displaced_masses.tolist())
@@ -123,7 +123,7 @@ class PairContactModel(ContactGaps):
         """`correction` and its derivatives, as `interaction_slopes`."""
         if not self.correcting or gap >= self.blend_gap:
             return (0.0, 0.0), (0.0, 0.0), (0.0, 0.0), ((0.0, 0.0), (0.0, 0.0))
-        excess = self._stokes_excess(self.resistance_slopes(gap), self._resistance_hold.ravel().tolist(), v1, v2, film)
+        excess = self._stokes_excess(self.resistance_slopes(gap), self._resistance_hold, v1, v2, film)
         return self._relieved(excess, gap, v1, v2, film)  # the held flow has no cavity
 
     def _relieved(self, forces: tuple, gap: float, v1: float, v2: float, film: float) -> tuple:
