@@ -399,8 +399,8 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
                           stacklevel=2)
         for message in info.scene_warnings(scene):
             warnings.warn(message, stacklevel=2)
-    run_dir, resumed, writer = None, None, None  # resumed: the checkpoint a restart continues (rank 0 checks it)
-    sides: dict[str, output.TrajectoryWriter] = {}  # the model's side files (rank 0)
+    run_dir, resumed = None, None  # resumed: the checkpoint a restart continues (rank 0 checks it)
+    files: dict[str, output.TrajectoryWriter] = {}  # trajectory.csv and the model's side files (rank 0)
     if out_dir is not None:
         run_dir = output.RunDirectory(out_dir)
         if restart:
@@ -423,12 +423,12 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
         except output.OutputError:
             on_root(comm, run_dir.abandon)
             raise
-        writer = files.pop("trajectory.csv", None)
-        sides = files
     if root and on_start is not None and not restart:
         on_start()
     earlier_wall = resumed.wall_time_s if resumed is not None else []  # [s], one per earlier segment
-    record = _RunRecord(scene, model_name, {"trajectory.csv": writer, **sides} if writer else {}, earlier_wall)
+    writer = files.get("trajectory.csv")
+    sides = {name: each for name, each in files.items() if name != "trajectory.csv"}
+    record = _RunRecord(scene, model_name, files, earlier_wall)
     integrator.record = record
     if writer is not None:
         integrator.observers.append(writer)

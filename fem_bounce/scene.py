@@ -651,12 +651,9 @@ class Scene:
                              lower[1].roughness + sphere.roughness))
             lower = (key, sphere)
         for first_key, first, second_key, second, scale, roughness in contacts:
-            if second is None:  # the wall: a partner of infinite radius
-                e_star = reduced_modulus(first.youngs_modulus, first.poisson_ratio, self.wall.youngs_modulus,
-                                         self.wall.poisson_ratio)
-            else:
-                e_star = reduced_modulus(first.youngs_modulus, first.poisson_ratio, second.youngs_modulus,
-                                         second.poisson_ratio)
+            partner = self.wall if second is None else second  # the wall: a partner of infinite radius
+            e_star = reduced_modulus(first.youngs_modulus, first.poisson_ratio, partner.youngs_modulus,
+                                     partner.poisson_ratio)
             a_star = 0.5 * scale
             film = elastohydrodynamic_gap(a_star, e_star, self.liquid.viscosity, speed)
             gap = c.contact_gap_factor * max(roughness, film)
