@@ -73,15 +73,15 @@ def _g_j(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     return g, j, dg, dj
 
 
-def _branch(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(s, G, dG/ds) of the cavitated film at the parameter q = b / c."""
+def _branch(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(s, G, dG/ds, ds/dq) of the cavitated film at the parameter q = b / c."""
     g, j, dg, dj = _g_j(q)
     root = np.sqrt(2.0 * g)
     s = q * root
     big_g = root * (1.0 - q + j / g)
     ds_dq = root + q * dg / root
     dG_dq = dg / root * (1.0 - q + j / g) + root * (-1.0 + dj / g - j * dg / g**2)
-    return s, big_g, dG_dq / ds_dq
+    return s, big_g, dG_dq / ds_dq, ds_dq
 
 
 def _table(nodes: int = 4001) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -90,14 +90,12 @@ def _table(nodes: int = 4001) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     s_nodes = np.linspace(0.0, 1.0, nodes)
     q = np.clip(s_nodes * math.sqrt(3.0), 1e-12, 1.0 - 1e-15)
     for _ in range(60):
-        s, _, _ = _branch(q)
-        g, _, dg, _ = _g_j(q)
-        root = np.sqrt(2.0 * g)
-        step = (s - s_nodes) / (root + q * dg / root)
+        s, _, _, ds_dq = _branch(q)
+        step = (s - s_nodes) / ds_dq
         q = np.clip(q - step, 1e-300, 1.0 - 1e-16)
         if np.max(np.abs(step)) < 1e-15:
             break
-    _, big_g, slope = _branch(q)
+    _, big_g, slope, _ = _branch(q)
     big_g[0], slope[0] = math.sqrt(3.0), _branch(np.array([1e-9]))[2][0]
     # the onset: the cavity has shrunk to the axis, and the slope tends (logarithmically slowly) to the
     # uncavitated film's -1/s^2 = -1
