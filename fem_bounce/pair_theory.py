@@ -132,9 +132,14 @@ def lubrication(a1: float, a2: float, h: float) -> float:
     depends on it).  Equal spheres: a/(2h) + (9/20) ln(a/(2h)); a2 -> inf: Cox & Brenner's (1967)
     a/h + (1/5) ln(a/h).  Relative error against the exact series: 2e-4 at h = 1e-4 a* (the missing
     constant), tending to zero as h -> 0.  Dimensionless; h and the radii in one unit."""
-    k = a2 / a1
     a_star = reduced_radius(a1, a2)
-    return a_star / h + (1.0 + 7.0 * k + k * k) / (5.0 * (1.0 + k) ** 2) * math.log(a_star / h)
+    return a_star / h + _log_weight(a1, a2) * math.log(a_star / h)
+
+
+def _log_weight(a1: float, a2: float) -> float:
+    """The logarithm's weight in `lubrication`: (1 + 7k + k^2) / (5 (1 + k)^2), k = a2 / a1."""
+    k = a2 / a1
+    return (1.0 + 7.0 * k + k * k) / (5.0 * (1.0 + k) ** 2)
 
 
 def _singular_part(a1: float, a2: float, h: float) -> np.ndarray:
@@ -211,16 +216,7 @@ def far_field(a1: float, a2: float, h: float) -> np.ndarray:
     the leading X12 being the Oseen tensor's velocity on the axis, F / (4 pi mu d), of the point force
     6 pi mu a2 U2 sphere 2 exerts on the liquid; then its source dipole -a2^3 U2 / (2 d^3), Faxen's
     (a1^2/6) del^2 u, and the third reflection (3 a2/2d)(3 a1/2d)(3 a2/2d).  Rows 2 by exchange."""
-    d = a1 + a2 + h
-
-    def row(own, other):
-        x_self = 1.0 + 9.0 * own * other / (4.0 * d * d)
-        x_cross = -1.5 * other / d + (0.5 * other * (own**2 + other**2) - 27.0 / 8.0 * own * other**2) / d**3
-        return x_self, x_cross
-
-    x11, x12 = row(a1, a2)
-    x22, x21 = row(a2, a1)
-    return np.array([[x11, x12], [x21, x22]])
+    return np.array(_far_field_slopes(a1, a2, h)[0]).reshape(2, 2)
 
 
 def _far_field_slopes(a1: float, a2: float, h: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
@@ -320,9 +316,7 @@ class PairResistance:
         """Below the table: the singular terms +-(a*/a_i) L(h) (`lubrication`) plus the table's O(1)
         remainder, and their derivatives, L' = -a*/h^2 - g/h."""
         a1, a2, a_star = self.a1, self.a2, self.a_star
-        k = a2 / a1
-        log_weight = (1.0 + 7.0 * k + k * k) / (5.0 * (1.0 + k) ** 2)
-        singular, slope = lubrication(a1, a2, h), -a_star / (h * h) - log_weight / h
+        singular, slope = lubrication(a1, a2, h), -a_star / (h * h) - _log_weight(a1, a2) / h
         r11, r12, r21, r22 = self._remainders
         own1, own2 = a_star / a1, a_star / a2
         return ((own1 * singular + r11, -own1 * singular + r12, -own2 * singular + r21, own2 * singular + r22),
