@@ -109,12 +109,6 @@ def test_a_hold_that_lets_the_indicators_overlap_is_refused():
         FictitiousDomainModel(sc, MPI.COMM_WORLD)
 
 
-def test_a_pair_with_the_brinkman_constraint_is_refused():
-    sc = pair_scene("li2011-case3", {**TOY, "numerics.fd.constraint": "brinkman"}, gap=0.0095, velocity=-0.1)
-    with pytest.raises(scene.SceneError, match="a pair needs \"penalty\""):
-        FictitiousDomainModel(sc, MPI.COMM_WORLD)
-
-
 # -- a held pair's steady Stokes drag ---------------------------------------------------------------
 def steady_force(sc):
     fd = FictitiousDomainModel(sc, MPI.COMM_WORLD)
@@ -126,15 +120,19 @@ def steady_force(sc):
 
 
 @pytest.mark.mpi
-def test_held_pair_drag_follows_stimson_and_jeffery():
+@pytest.mark.parametrize("constraint", ["penalty", "implicit"])
+def test_held_pair_drag_follows_stimson_and_jeffery(constraint):
     """Two equal spheres 2 D apart (centres) moving together at Re = 0.01, 6 cells/D, no wall, slip
     sides 20 D away: each sphere's drag over the same mesh's isolated sphere is Stimson & Jeffery's
     lambda = 0.7423 within 4 % (measured +2.5 %; benchmarks/pair_stokes.py gives +1.2 % at 8 cells/D,
     far field 50 D; without the interaction it would be +35 %), equal on both spheres within 1 %
     (measured 0.2 %, the domain is not symmetric about the pair).  The isolated sphere's own drag is
-    6 pi mu a U within 5 % (measured +2.0 %, mostly the slip sides 20 D away)."""
-    changes = {"numerics.fd.cells_per_diameter": 6, "numerics.fd.far_field": 20.0, "numerics.fd.steady_stokes": True,
-               "wall.present": False, "initial_gap": 0.2}
+    6 pi mu a U within 5 % (measured +2.0 %, mostly the slip sides 20 D away).  The implicit penalty's
+    sharper surface depends more on where the cells cut it: 12 cells/D (+2.7 % on lambda, 0.8 % between
+    the spheres, +4.4 % on the isolated drag; at 6 and 8 cells/D the spheres differ by 1.7 and 1.5 %)."""
+    changes = {"numerics.fd.cells_per_diameter": 6 if constraint == "penalty" else 12, "numerics.fd.far_field": 20.0, "numerics.fd.steady_stokes": True,
+               "wall.present": False, "initial_gap": 0.2, "numerics.fd.constraint": constraint,
+               "numerics.fd.radius_offset": 0.5 if constraint == "penalty" else 0.0}
     single = scene.load("brenner-approach", changes)
     pair = pair_scene("brenner-approach", changes, gap=0.01, velocity=single.motion.velocity, mode="fixed")
     alone = steady_force(single)

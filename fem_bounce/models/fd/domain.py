@@ -53,7 +53,7 @@ def time_step(scene: Scene) -> float:
     force rho c phi (U - u~), c ~ 1/dt, stronger than viscous diffusion across the
     indicator's band; it binds at low Re, where it sets how rigid the interior is
     (Brenner's drag at delta = 1 comes out 1.4 % low at 0.025, 3.4 % at 0.05, 16 cells per D).
-    The brinkman constraint holds the interior whatever dt, so it has only the first bound."""
+    The implicit constraint holds the interior whatever dt, so it has only the first bound."""
     fd = scene.numerics.fd
     fine = scene.sphere.diameter / fd.cells_per_diameter
     convective = fd.cfl * fine / (PEAK_SPEED_FACTOR * speed_scale(scene, "fd"))
@@ -62,10 +62,11 @@ def time_step(scene: Scene) -> float:
     return min(convective, fd.forcing_number * fine**2 / scene.liquid.kinematic_viscosity)
 
 
-def brinkman_rate(scene: Scene) -> float:
-    """c_B = penalty_strength * max(nu / h^2, U / h) [1/s] of numerics.fd.constraint = "brinkman": the
-    friction rho c_B phi (U - u) then beats viscous diffusion and convection across a fine cell h by
-    that factor (the interior slips by about 1 / penalty_strength of the speed); dt does not enter."""
+def penalty_rate(scene: Scene) -> float:
+    """c_B = penalty_strength * max(nu / h^2, U / h, c) [1/s] of numerics.fd.constraint = "implicit"
+    (penalised.PenalisedFlow), c = 3 / (2 dt), h the fine size, U the speed scale: the friction beats viscous
+    diffusion and convection across a fine cell, and the step's own inertia, by that factor."""
     fd = scene.numerics.fd
     fine = scene.sphere.diameter / fd.cells_per_diameter
-    return fd.penalty_strength * max(scene.liquid.kinematic_viscosity / fine**2, speed_scale(scene, "fd") / fine)
+    rates = (scene.liquid.kinematic_viscosity / fine**2, speed_scale(scene, "fd") / fine, 1.5 / time_step(scene))
+    return fd.penalty_strength * max(rates)

@@ -52,18 +52,15 @@ class FlowSolver:
         self.inflow_speed = inflow_speed
         self.bcs = self._boundary_conditions(facet_tags, sides)
 
-        r = forms.radial_coordinate(mesh)
-        self.r = r
+        self.r = forms.radial_coordinate(mesh)
         self.dx = ufl.Measure("dx", domain=mesh)
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         self.test_velocity = v
-        rho, mu, c = density, viscosity, self.c
-        self.a = fem.form(forms.stokes_operator(u, p, v, q, rho * c, mu, r, self.dx))
         past = [ufl.split(state)[0] for state in self.states]
         extrapolated = sum(beta * u_j for beta, u_j in zip(self.ext, past))
-        history = -rho / dt * sum(alpha * u_j for alpha, u_j in zip(self.bdf[1:], past))
-        self.L_history = fem.form(forms.source(history, v, r, self.dx)
-                                  - rho * forms.convection(extrapolated, extrapolated, v, r, self.dx))
+        history = -density / dt * sum(alpha * u_j for alpha, u_j in zip(self.bdf[1:], past))
+        a, L = self.step_forms(u, p, v, q, extrapolated, history)
+        self.a, self.L_history = fem.form(a), fem.form(L)
         A = assemble_matrix(self.a, bcs=self.bcs)
         A.assemble()
         self.matrix = A
@@ -85,6 +82,12 @@ class FlowSolver:
         dofs = dofs.astype(np.int32)
         owned = np.sort(dofs[dofs < index_map.size_local])
         return PETSc.IS().createGeneral(owned + index_map.local_range[0], comm=self.mesh.comm)
+
+    def step_forms(self, u, p, v, q, extrapolated, history):
+        """The step's bilinear and linear forms (UFL): convection extrapolated, so the matrix is fixed."""
+        r, dx, rho = self.r, self.dx, self.density
+        return (forms.stokes_operator(u, p, v, q, rho * self.c, self.viscosity, r, dx),
+                forms.source(history, v, r, dx) - rho * forms.convection(extrapolated, extrapolated, v, r, dx))
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides):

@@ -40,7 +40,7 @@ from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ...fem.compat import geometry_cells
+from ...fem.compat import collapse, geometry_cells
 from ...scene import SceneError
 from .coupling import InteriorIntegrals
 from .fluid import FlowSolver
@@ -101,7 +101,7 @@ class BandAssembler:
         self.dofs_r = flow.W.sub(0).sub(0).dofmap.list[:owned]
         self.dofs_z = flow.W.sub(0).sub(1).dofmap.list[:owned]
         self.cells = np.zeros(0, dtype=np.int64)
-        self.phi_weights = np.zeros((0, len(weights)))
+        self.phi = self.phi_weights = np.zeros((0, len(weights)))
 
     def place(self, center: float) -> None:
         """Select the cells that meet the ball and tabulate phi * r * dx at their quadrature points."""
@@ -109,7 +109,8 @@ class BandAssembler:
         self.cells = np.flatnonzero(distance - self.reach < self.radius)
         p = self.points[self.cells]
         depth = (self.radius - np.hypot(p[:, :, 0], p[:, :, 1] - center)) / self.width
-        self.phi_weights = smooth_step(depth) * self.weights[self.cells]  # (c, q)
+        self.phi = smooth_step(depth)  # (c, q)
+        self.phi_weights = self.phi * self.weights[self.cells]
 
     def indicator(self, local: np.ndarray) -> float:
         """Add the cells' part of b_phi into a W-vector's local array; return their part of V_phi / (2 pi)."""
@@ -251,3 +252,17 @@ class ImmersedBodies:
         self._force.destroy()
         for sphere in self.spheres:
             sphere.destroy()
+
+
+def interior_slip(flow: FlowSolver, velocity_field: fem.Function, center: float, velocity: float,
+                  depth: float) -> float:
+    """max |u - U e_z| [m/s] over the velocity dofs within `depth` [m] of a sphere's centre z = center [m] moving
+    at U = velocity [m/s] (all ranks): how rigid the constraint holds its interior."""
+    worst = 0.0
+    for component, target in ((0, 0.0), (1, velocity)):
+        space, dofs = collapse(flow.W.sub(0).sub(component))
+        x = space.tabulate_dof_coordinates()
+        inside = np.hypot(x[:, 0], x[:, 1] - center) <= depth
+        if inside.any():
+            worst = max(worst, float(np.abs(velocity_field.x.array[dofs[inside]] - target).max()))
+    return flow.mesh.comm.allreduce(worst, op=MPI.MAX)

@@ -12,9 +12,9 @@ controller (fem_bounce.run.Controller), which owns the loop, the observers and t
    f_sim with f_thr below delta_sl exactly as every model does;
 5. read back U and set the step's field u = u~ + y0 + sum_j s_j(U) y1_j.
 
-Every per-sphere value is an array over the spheres on the axis (one sphere is N = 1; the registry
-allows two).  numerics.fd.constraint = "brinkman" (constraint.RigidConstraint) replaces steps 3-5 by an
-implicit penalty for one sphere.
+Every per-sphere value is an array over the spheres on the axis (one sphere is N = 1).
+numerics.fd.constraint = "implicit" (penalised.PenalisedFlow) replaces steps 2-5 by one solve with the
+spheres' friction in the step's matrix, factorised every step: no viscous step bound.
 
 A checkpoint holds the flow's BDF history by dof coordinates (fem.functions), so a run checkpointed
 on two ranks can restart on one.
@@ -39,12 +39,12 @@ from ...output import CheckpointError, body_array, per_body, segment_path
 from ...scene import SceneError, pair_diameter
 from ...integrator import FluidForce
 from . import coupling
-from .domain import Domain, brinkman_rate, domain_for, time_step
+from .domain import Domain, domain_for, penalty_rate, time_step
 from .fields import FieldWriter
 from .fluid import FlowSolver
-from .immersed import ImmersedBodies, check_hold
-from .constraint import RigidConstraint
-from .steady import SteadyBrinkmanStokes, SteadyStokes
+from .immersed import ImmersedBodies, check_hold, interior_slip
+from .penalised import PenalisedFlow
+from .steady import SteadyStokes
 
 
 @dataclass
@@ -96,12 +96,12 @@ class FictitiousDomainModel(FlowModel):
         self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
         self.flow: FlowSolver | None = None
         self.immersed: ImmersedBodies | None = None
-        self.constraint: RigidConstraint | None = None
         self.fields: FieldWriter | None = None
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
         self.steady_iterations: int | None = None
         self.last_force: coupling.Linearised | None = None
         self.steady = self.settings.steady_stokes
+        self.implicit = self.settings.constraint == "implicit"
         if self.steady and (not self.held.all() or is_stream(scene)):
             raise SceneError("numerics.fd.steady_stokes = true needs every sphere's mode = \"fixed\" (motion.mode, "
                              "second_sphere.mode) without a stream")
@@ -110,9 +110,6 @@ class FictitiousDomainModel(FlowModel):
 
     def _check_spheres(self, scene) -> None:
         """What more than one sphere needs, refused here, before the run writes anything."""
-        if self.settings.constraint != "penalty":
-            raise SceneError(f"numerics.fd.constraint = \"{self.settings.constraint}\" holds one sphere only: "
-                             "a pair needs \"penalty\"")
         if is_stream(scene):
             raise SceneError("a pair in a stream (motion.stream_velocity) is not modelled: give stream_velocity = 0")
         min_gap = 2.0 * max(self.settings.radius_offset * self.domain.fine_size, 0.0)  # ImmersedBodies.min_gaps
@@ -132,25 +129,26 @@ class FictitiousDomainModel(FlowModel):
         self.hold_gaps = tuple(integrator.hold_gaps)  # (above the wall, each pair's) [m]
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
-        self.flow = FlowSolver(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
-                               inflow_speed=domain.inflow_speed, order=fd.time_order, solver=fd.solver)
+        options = dict(inflow_speed=domain.inflow_speed, order=fd.time_order, solver=fd.solver)
+        liquid = scene.liquid
+        if self.implicit:
+            self.flow = PenalisedFlow(mesh, facet_tags, domain.sides, liquid.density, liquid.viscosity, self.dt,
+                                      penalty_rate(scene), **options)
+        else:
+            self.flow = FlowSolver(mesh, facet_tags, domain.sides, liquid.density, liquid.viscosity, self.dt,
+                                   **options)
         self.flow.set_uniform((0.0, domain.inflow_speed))
         radii = [body.sphere.radius for body in self.bodies]
+        centers = [body.initial_gap + a for body, a in zip(self.bodies, radii)]
         self.immersed = ImmersedBodies(self.flow, [a + fd.radius_offset * domain.fine_size for a in radii], radii,
-                                     fd.interface_width * domain.fine_size,
-                                     [body.initial_gap + a for body, a in zip(self.bodies, radii)])
-        if fd.constraint != "penalty":
-            self.constraint = RigidConstraint(self.flow, self.immersed.spheres[0], self.regularisation(),
-                                              fd.constraint_tolerance, fd.unit_steps)
+                                       fd.interface_width * domain.fine_size, centers)
+        if self.implicit:
+            self.flow.place(self.immersed, centers)
         velocities = np.array([body.start_velocity for body in self.bodies])
         interiors = self.immersed.interiors(self.flow.now.x.petsc_vec)
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocities] * order, [interiors] * order)
         self.timings["setup"] = time.perf_counter() - start
-
-    def regularisation(self) -> float:
-        """eps = 1 / (rho c_B) of numerics.fd.constraint = "brinkman" [m^3 s/kg] (domain.brinkman_rate)."""
-        return 1.0 / (self.scene.liquid.density * brinkman_rate(self.scene))
 
     def initial_velocities(self) -> list[np.ndarray]:
         return list(self.history.velocities)
@@ -167,8 +165,13 @@ class FictitiousDomainModel(FlowModel):
                 + np.array([body.sphere.radius for body in bodies]))
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
-        self.immersed.place(self.predicted_centers(prediction))
-        linear = self._linearise_brinkman() if self.constraint is not None else self._linearise_penalty()
+        centers = self.predicted_centers(prediction)
+        if self.implicit:
+            self.flow.place(self.immersed, centers)
+            linear = self.flow.linearise(self.history.momentum_history, self.history.reference_velocity)
+        else:
+            self.immersed.place(centers)
+            linear = self._linearise_penalty()
         if not (np.all(np.isfinite(linear.explicit)) and np.all(np.isfinite(linear.added_mass))):
             raise FloatingPointError(f"the fluid force became {linear.explicit} N at "
                                      f"t = {(self.step + 1) * self.dt:.6g} s")
@@ -190,37 +193,13 @@ class FictitiousDomainModel(FlowModel):
         return coupling.linearise(integrals, self.scene.liquid.density, flow.c, h.momentum_history,
                                   h.reference_velocity)
 
-    def _linearise_brinkman(self) -> coupling.Linearised:
-        """The implicit Brinkman penalty (constraint.RigidConstraint, one sphere): the predictor and the
-        response to the last force density share one pass over the factors, CG corrects it for the
-        extrapolated velocity U_e, and lambda_1 carries the force's dependence on U."""
-        flow, sphere, h, constraint = self.flow, self.immersed.spheres[0], self.history, self.constraint
-        predicted = flow.predicted
-        vectors, functions = constraint.first_pass()
-        flow.solve([flow.predictor_rhs(), *vectors], [predicted, *functions])
-        v = [float(velocity[0]) for velocity in h.velocities]
-        self._extrapolated = extrapolated = 2.0 * v[0] - v[1] if len(v) > 1 else v[0]
-        constraint.solve(predicted, extrapolated, responses_ready=True)
-        rho, c = self.scene.liquid.density, flow.c
-        volume = sphere.volume
-        # F(U) = I(lambda) + rho d/dt int phi u (Uhlmann 2005) with the interior's momentum
-        # int phi u = U V_phi + eps I(lambda) (the penalty law u = U + eps lambda integrated over the band):
-        # F(U) = g I(lambda(U)) + rho c (U V_phi - J), g = 1 + rho c eps, lambda(U) = lambda(U_e) + (U - U_e) lambda_1
-        reference, g = float(h.reference_velocity[0]), 1.0 + rho * c * constraint.regularisation
-        explicit = (g * (constraint.hold_force() + (reference - extrapolated) * constraint.unit_force())
-                    + rho * c * (reference * volume - float(h.momentum_history[0])))
-        added_mass = -(g * constraint.unit_force() + rho * c * volume) / c
-        return coupling.Linearised(np.array([explicit]), np.array([[added_mass]]), np.array([reference]))
-
     def complete(self, velocities: np.ndarray, time_now: float) -> None:
         self.timings["integrator"] += time.perf_counter() - self._integrator_start
         flow = self.flow
         velocities = np.array(velocities, dtype=float)
-        if self.constraint is not None:
-            constraint = self.constraint
-            new = constraint.field(flow.predicted, float(velocities[0]) - self._extrapolated, flow.work)
-            # the interior's momentum / rho, int phi u = U V_phi + eps I(lambda) (_linearise_brinkman)
-            interiors = velocities * self.immersed.volumes + constraint.regularisation * constraint.hold_force()
+        if self.implicit:
+            new = flow.field(velocities, flow.work)
+            interiors = self.immersed.interiors(new)
         else:
             new = self.immersed.field(flow.predicted, coupling.rigid_amplitudes(self.integrals, velocities), flow.work)
             interiors = velocities * self.integrals.volume
@@ -248,18 +227,18 @@ class FictitiousDomainModel(FlowModel):
         approach or of a pair moving together, benchmarks/pair_stokes.py); the flow's states are left at
         that steady state."""
         velocities = np.array([body.start_velocity for body in self.bodies])
-        if self.constraint is not None:
-            steady = SteadyBrinkmanStokes(self.flow, self.immersed.spheres[0], self.regularisation(), tolerance=1e-6)
-        else:
-            steady = SteadyStokes(self.flow, self.immersed.spheres)
+        if self.implicit:
+            forces = self.flow.steady(velocities)
+            self.last_force = coupling.Linearised(forces, np.zeros((len(forces), len(forces))), velocities)
+            return forces
+        steady = SteadyStokes(self.flow, self.immersed.spheres)
         try:
             forces, integrals = steady.solve(velocities)
         finally:
             steady.destroy()
         self.steady_iterations = steady.iterations
         self.integrals = integrals
-        added_mass = coupling.added_mass(integrals, self.scene.liquid.density) if self.constraint is None \
-            else np.zeros((1, 1))
+        added_mass = coupling.added_mass(integrals, self.scene.liquid.density)
         self.last_force = coupling.Linearised(forces, added_mass, velocities)
         return forces
 
@@ -335,21 +314,20 @@ class FictitiousDomainModel(FlowModel):
                 [body.sphere.volume for body in self.bodies])),
             "pair_min_flow_gap_m": min(self.immersed.min_gaps, default=None),
             "steady_gmres_iterations": self.steady_iterations,
-            **(self.constraint_report() if self.constraint is not None else {}),
+            **(self.constraint_report() if self.implicit else {}),
         }
 
     def constraint_report(self) -> dict:
-        """The Brinkman constraint's cost and how rigid the interior is at the end (max |u - U e_z| where
-        phi = 1)."""
-        constraint, band = self.constraint, self.immersed.spheres[0].band
-        slip = constraint.interior_slip(self.flow.now, float(self.history.velocity[0]), band.radius - band.width)
-        return {"constraint": self.settings.constraint, "constraint_cg_iterations": constraint.iterations,
-                "constraint_cg_iterations_per_step": constraint.iterations / max(self.steps_this_run, 1),
-                "constraint_unit_cg_iterations": constraint.unit_iterations,
-                "constraint_unconverged": constraint.unconverged, "interior_slip_m_s": slip}
+        """The implicit penalty's factorisations and how rigid the interiors are at the end (max |u - U_i e_z|
+        deeper than the band, over the spheres) [m/s]."""
+        slips = [interior_slip(self.flow, self.flow.now, sphere.center, velocity,
+                               sphere.band.radius - sphere.band.width)
+                 for sphere, velocity in zip(self.immersed.spheres, self.history.velocity)]
+        return {"constraint": self.settings.constraint, "factorisations": self.flow.factorisations,
+                "penalty_rate_per_s": self.flow.penalty_rate, "interior_slip_m_s": max(slips)}
 
     def destroy(self) -> None:
         """Free the PETSc objects (the mesh and the report's numbers stay)."""
-        for owner in (self.constraint, self.immersed, self.flow):
+        for owner in (self.immersed, self.flow):
             if owner is not None:
                 owner.destroy()

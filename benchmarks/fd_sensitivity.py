@@ -1,0 +1,96 @@
+"""Which numerical parameter the fd model's error on case 3 follows (issue 41, item 1).
+
+    python benchmarks/fd_sensitivity.py                       # the default sweep at 12 cells/D (~3 minutes)
+    python benchmarks/fd_sensitivity.py --cells 16 --only forcing_number,interface_width
+    python benchmarks/fd_sensitivity.py --variant "numerics.fd.constraint=implicit"   # one extra row
+
+Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
+default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
+(benchmarks/near_wall.py reference, with the tension limit: docs/validation.md section 1, read from
+history/near_wall.json).  A parameter whose change moves the error by as much as the error itself is
+where the error lives.  Results are merged into history/fd_sensitivity.json with the date, machine,
+commit and the 1-minute load average (wall times are only comparable within one run).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+import warnings
+from pathlib import Path
+
+import fem_bounce as fb
+from provenance import stamp
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "history" / "fd_sensitivity.json"
+REFERENCE_ROW = "case3-ale16s3-cfl0.125"  # near_wall.py reference: ALE, 16 cells/D, surface 3x finer, cfl 0.125
+
+# one parameter at a time: name -> the --set values tried (the fd default is the first row, "default")
+SWEEPS = {
+    "forcing_number": ["numerics.fd.forcing_number=0.0125", "numerics.fd.forcing_number=0.00625"],
+    "cfl": ["numerics.fd.cfl=0.1"],
+    "interface_width": ["numerics.fd.interface_width=1", "numerics.fd.interface_width=4"],
+    "radius_offset": ["numerics.fd.radius_offset=0", "numerics.fd.radius_offset=1"],
+    "delta_sl": ["contact.delta_sl=0.1", "contact.delta_sl=0.3"],
+    "far_field": ["numerics.fd.far_field=20"],
+    "wall_cells": ["numerics.fd.wall_cells_per_diameter=48"],
+}
+
+
+def reference() -> dict:
+    """The latest reference row of history/near_wall.json (the tension-limited one is the last)."""
+    rows = [row for record in json.loads((HERE / "history" / "near_wall.json").read_text())
+            for row in record.get("rows", []) if row.get("name") == REFERENCE_ROW]
+    row = rows[-1]
+    return {"V_i": row["V_i"], "Re_II": row["Re_II"], "e_1": row["e_1"], "apex_1": row["apex_1"]}
+
+
+def measure(cells: float, settings: list[str]) -> dict:
+    overrides = ["run.bounces=2", f"numerics.fd.cells_per_diameter={cells:g}", *settings]  # as --set takes them
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = fb.simulate(fb.load("li2011-case3", overrides), "fd")
+    impacts, rebounds = result.impacts, result.rebounds
+    row = {"set": settings, "status": result.status, "wall_time_s": result.wall_time,
+           "steps": result.summary["steps"]}
+    if len(impacts) >= 2 and rebounds:
+        row.update(V_i=impacts[0].impact_speed, Re_II=impacts[1].Re, e_1=rebounds[0].restitution,
+                   apex_1=rebounds[0].apex_gap)
+    return row
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--cells", type=float, default=12.0, help="numerics.fd.cells_per_diameter (default 12)")
+    parser.add_argument("--only", help="comma-separated sweeps (default: all): " + ", ".join(SWEEPS))
+    parser.add_argument("--variant", action="append", default=[],
+                        help="an extra row: comma-separated key=value settings (repeatable)")
+    parser.add_argument("--no-default", action="store_true", help="skip the default row")
+    args = parser.parse_args()
+    names = args.only.split(",") if args.only else ([] if args.variant else list(SWEEPS))
+    rows = [] if args.no_default else [("default", [])]
+    rows += [(name, [setting]) for name in names for setting in SWEEPS[name]]
+    rows += [("variant", variant.split(",")) for variant in args.variant]
+    ref = reference()
+    record = {**stamp(), "load_1min": os.getloadavg()[0], "cells_per_diameter": args.cells, "reference": ref,
+              "rows": []}
+    print(f"reference (ALE {REFERENCE_ROW}): " + ", ".join(f"{k} {v:.4g}" for k, v in ref.items()))
+    print(f"{'sweep':16s} {'setting':48s} " + " ".join(f"{k:>7s}" for k in ("V_i", "Re_II", "e_1", "apex", "steps"))
+          + f" {'wall':>7s}")
+    for name, settings in rows:
+        start = time.perf_counter()
+        row = measure(args.cells, settings)
+        row["sweep"] = name
+        record["rows"].append(row)
+        errors = [100.0 * (row[k] / ref[k] - 1.0) if k in row else float("nan") for k in ref]
+        print(f"{name:16s} {','.join(settings) or '(fd default)':48s} "
+              + " ".join(f"{e:+6.2f}%" for e in errors)
+              + f" {row['steps']:6d} {time.perf_counter() - start:6.1f}s", flush=True)
+    history = json.loads(RESULTS.read_text()) if RESULTS.exists() else []
+    RESULTS.write_text(json.dumps(history + [record], indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()

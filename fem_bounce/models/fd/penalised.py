@@ -1,0 +1,156 @@
+"""The rigid-body constraint as an implicit volume penalisation in the step's own matrix (the fd default).
+
+    rho (3 u^{n+1} - 4 u^n + u^{n-1}) / (2 dt) + rho (u* . grad) u^{n+1} - mu Lap u^{n+1} + grad p^{n+1}
+        + rho c_B phi (u^{n+1} - U e_z) = 0,      div u^{n+1} = 0,      u* = 2 u^n - u^{n-1},
+
+with phi = sum_i phi_i the spheres' smoothed indicators at their predicted positions (immersed.py) and
+U the sphere's velocity at t_{n+1} (U_i in sphere i's band).  This is the penalisation of Angot, Bruneau &
+Fabrie (1999, Numer. Math. 81, 497), implicit in the velocity: the friction rho c_B phi acts on the new
+field, so the interior follows the sphere within the step however fast it decelerates, and its strength
+c_B (domain.penalty_rate: a large multiple of nu / h^2, U / h and 1 / dt) is set by the mesh, not bounded
+by dt.  The interior slips by about 1 / numerics.fd.penalty_strength of the speed; the effective surface sits
+where c_B phi first beats the viscous rate, a few hundredths of a cell inside the indicator's outer edge,
+so that edge is put on the sphere's surface (radius_offset 0 with this constraint).
+
+The matrix changes every step (the indicator moves, and convection is linearised about u*, implicit as in
+the ale model: no convective step bound either), so it is assembled and factorised every step (MUMPS; a
+factorisation costs about 10 back-solves on this stack).  The flow is affine in the spheres' velocities,
+u(U) = x_0 + sum_j U_j x_j with x_0 = A^-1 b(u^n, u^{n-1}) and x_j = A^-1 (rho c_B b_j), b_j the
+assembled int phi_j e_z . v r dx: one pass over the factors per step for all of them.
+
+The force of the liquid on sphere i is the reaction to its penalty plus the rate of change of the
+phi-weighted momentum of the liquid inside it (Uhlmann 2005, J. Comput. Phys. 209, 448, eq. 12), with
+I_i = 2 pi int phi_i u_z r dx and the BDF rate c (I_i - J_i) (J_i: the BDF history of I_i):
+
+    F_i(U) = rho c_B (I_i(u) - U_i V_i) + rho c (I_i(u) - J_i),
+
+affine in U, so the body integrator solves for U implicitly with the numerical added mass
+M = -dF/dU / c (stable for any density ratio, coupling.py).
+
+The indicator enters the matrix through a quadrature function: phi at the same quadrature points where
+immersed.BandAssembler evaluates it exactly, zero in every cell the bands do not meet.
+"""
+from __future__ import annotations
+
+import basix
+import basix.ufl
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem.petsc import assemble_matrix
+
+from ...fem import forms
+from ...fem.solver import FactorizedOperator
+from .coupling import Linearised
+from .fluid import FlowSolver
+from .immersed import QUADRATURE_DEGREE
+
+
+class PenalisedFlow(FlowSolver):
+    """BDF steps with the spheres' Brinkman friction rho c_B phi and implicit convection in the matrix.
+
+    As fluid.FlowSolver, plus penalty_rate c_B [1/s]; `place` puts the spheres (an immersed.ImmersedBodies
+    built on this flow), `linearise` solves the step, `field` gives u for the spheres' new velocities."""
+
+    def __init__(self, mesh, facet_tags, sides, density, viscosity, dt, penalty_rate: float, **options):
+        points, weights = basix.make_quadrature(basix.CellType.triangle, QUADRATURE_DEGREE)
+        element = basix.ufl.quadrature_element(mesh.basix_cell(), points=points, weights=weights)
+        self.indicator = fem.Function(fem.functionspace(mesh, element))  # phi at the band's quadrature points
+        self.penalty_rate = penalty_rate
+        self.dx_indicator = ufl.Measure("dx", domain=mesh, metadata={"quadrature_rule": "custom",
+                                                                     "quadrature_points": points,
+                                                                     "quadrature_weights": weights})
+        super().__init__(mesh, facet_tags, sides, density, viscosity, dt, **options)
+        self.x0 = fem.Function(self.W)
+        self.bodies = None
+        self.factorisations = 0
+
+    def step_forms(self, u, p, v, q, extrapolated, history):
+        """Convection linearised about u* and the friction rho c_B phi u . v in the matrix."""
+        r, dx, rho = self.r, self.dx, self.density
+        a = (forms.stokes_operator(u, p, v, q, rho * self.c, self.viscosity, r, dx)
+             + rho * forms.convection(extrapolated, u, v, r, dx)
+             + rho * self.penalty_rate * self.indicator * ufl.inner(u, v) * r * self.dx_indicator)
+        return a, forms.source(history, v, r, dx)
+
+    def place(self, bodies, centers) -> None:
+        """Put the spheres (immersed.ImmersedBodies) at z = centers [m] and phi into the matrix's indicator."""
+        self.bodies = bodies
+        bodies.place(centers)
+        values = self.indicator.x.array
+        values[:] = 0.0
+        dofs = self.indicator.function_space.dofmap.list
+        for sphere in bodies.spheres:
+            band = sphere.band
+            values[dofs[band.cells]] += band.phi
+        self.indicator.x.scatter_forward()
+
+    def _responses(self, operator, history) -> tuple[np.ndarray, np.ndarray]:
+        """x_0 (from the step's history; 0 without it) and each x_j through `operator`; return the spheres'
+        interior integrals I_i(x_0) [m^4/s] and slopes I_i(x_j) [m^3]."""
+        spheres = self.bodies.spheres
+        units = []
+        for sphere in spheres:
+            sphere.b_phi.copy(sphere.force)
+            sphere.force.scale(self.density * self.penalty_rate)
+            with sphere.force.localForm() as local:  # b_phi is accumulated; force_rhs accumulates ghosts again
+                local.array[sphere.force.getLocalSize():] = 0.0
+            units.append(self.force_rhs(sphere.force))
+        if history:
+            operator.solve_many([self.predictor_rhs(), *units], [self.x0.x.petsc_vec,
+                                                                 *(sphere.unit.x.petsc_vec for sphere in spheres)])
+        else:
+            self.x0.x.array[:] = 0.0
+            operator.solve_many(units, [sphere.unit.x.petsc_vec for sphere in spheres])
+        for function in (self.x0, *(sphere.unit for sphere in spheres)):
+            function.x.scatter_forward()
+        interiors = self.bodies.interiors(self.x0.x.petsc_vec)
+        slopes = np.array([[sphere.interior(other.unit.x.petsc_vec) for other in spheres] for sphere in spheres])
+        return interiors, slopes
+
+    def linearise(self, momentum_history: np.ndarray, reference: np.ndarray) -> Linearised:
+        """Assemble and factorise the step's matrix, solve for x_0 and each x_j; F(U) as
+        explicit - M c (U - reference) (coupling.Linearised) [N, kg, m/s]."""
+        A = self.matrix
+        A.zeroEntries()
+        assemble_matrix(A, self.a, bcs=self.bcs)
+        A.assemble()
+        self.operator.refactor()
+        self.factorisations += 1
+        interiors, slopes = self._responses(self.operator, history=True)
+        rho, c, c_b = self.density, self.c, self.penalty_rate
+        # F(U) = rho (c_B + c) I(u(U)) - rho c_B U V - rho c J, I(u(U)) = I(x_0) + slopes U
+        derivative = rho * (c_b + c) * slopes - rho * c_b * np.diag(self.bodies.volumes)
+        reference = np.asarray(reference, dtype=float)
+        explicit = rho * (c_b + c) * interiors + derivative @ reference - rho * c * momentum_history
+        return Linearised(explicit=explicit, added_mass=-derivative / c, reference=reference)
+
+    def steady(self, velocities) -> np.ndarray:
+        """The steady Stokes state of held spheres whose interiors move at `velocities` [m/s] (no time
+        derivative, no convection: mu K + rho c_B Phi, one factorisation); every history level is set to it.
+        Returns the forces F_i = rho c_B (I_i(u) - U_i V_i) [N]."""
+        (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
+        r, dx = self.r, self.dx
+        form = fem.form(forms.stokes_operator(u, p, v, q, 0.0, self.viscosity, r, dx)
+                        + self.density * self.penalty_rate * self.indicator * ufl.inner(u, v) * r * self.dx_indicator)
+        A = assemble_matrix(form, bcs=self.bcs)
+        A.assemble()
+        operator = FactorizedOperator(A, "fd_steady_")
+        try:
+            interiors, slopes = self._responses(operator, history=False)
+        finally:
+            operator.destroy()
+            A.destroy()
+        velocities = np.asarray(velocities, dtype=float)
+        state = self.field(velocities, self.work)
+        for level in self.states:
+            state.copy(level.x.petsc_vec)
+            level.x.scatter_forward()
+        return self.density * self.penalty_rate * (slopes @ velocities - velocities * self.bodies.volumes)
+
+    def field(self, velocities, out):
+        """u = x_0 + sum_j U_j x_j [a W-vector] for the spheres' velocities U [m/s]."""
+        self.x0.x.petsc_vec.copy(out)
+        for sphere, velocity in zip(self.bodies.spheres, velocities):
+            out.axpy(float(velocity), sphere.unit.x.petsc_vec)
+        return out
