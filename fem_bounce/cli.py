@@ -229,9 +229,13 @@ def _print_records(summary: dict) -> None:
     if "collisions" in summary:  # a pair
         _print_collisions(summary)
         return
-    if not summary["impacts"]:
-        print(f"no impact: the sphere ended {summary['final']['gap'] / diameter:.4g} D above the wall "
-              f"at t = {summary['final']['time']:.4g} s")
+    final = summary["final"]
+    if not summary["impacts"] and final.get("in_contact"):
+        print(f"impact in progress: the run ended at t = {final['time']:.4g} s in the contact, before the minimum "
+              f"gap (gap {final['gap'] / diameter:.4g} D, {-final['velocity']:.4g} m/s toward the wall)")
+    elif not summary["impacts"]:
+        print(f"no impact: the sphere ended {final['gap'] / diameter:.4g} D above the wall at t = "
+              f"{final['time']:.4g} s")
     for k, (impact, rebound) in enumerate(zip(summary["impacts"], summary["rebounds"] + [None] * 99), 1):
         line = (f"impact {k}: t = {impact['time']:.4f} s  V_i = {impact['impact_speed']:.4f} m/s  "
                 f"Re = {_number(impact['Re'])}  St = {_number(impact['St'])}  min gap/D = "

@@ -492,7 +492,9 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     if run_dir is not None:
         def write_outputs() -> str:
             with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
-                losses.annotate(data, output.read_trajectory(out_dir))
+                unbalanced = losses.annotate(data, output.read_trajectory(out_dir))
+                if unbalanced:
+                    warnings.warn(unbalanced, stacklevel=2)
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
