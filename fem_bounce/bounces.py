@@ -96,10 +96,12 @@ class BounceRecord:
             self._rebound_speed = max(self._rebound_speed, v)
 
     # -- events -------------------------------------------------------------------------------------
-    def contact_crossing(self, h: float, v: float) -> None:
+    def contact_crossing(self, h: float, v: float, landing: bool = False) -> None:
+        """The gap crossing the contact gap; `landing`: the sphere settles into the contact rather than strikes
+        it (contact.ContactLaw.landing), which makes no impact."""
         if not self.in_contact and v < 0.0:
             self.in_contact = True
-            self._entered_contact = True
+            self._entered_contact = self._entered_contact or not landing
             self._contact_speed = -v
             self.engaged = self.contact.law.engage(-v)
         elif self.in_contact and v > 0.0:

@@ -57,6 +57,10 @@ VISCOSITY_NOTE = ("pitch is ~1e8 Pa s; above it the sphere's viscous relaxation 
 # takes over from the lubrication.  Softer solids start their contact a sizeable part of a diameter away (Young's
 # modulus 1e-10 Pa: 1.6 D above the wall).
 FILM_GAP_FRACTION = 0.1
+# ... and no thinner than a continuum film: a few molecular diameters (water 0.28 nm, glycerol ~0.5 nm), below which
+# a confined liquid is molecular layers, not Reynolds' film (Israelachvili 2011, Intermolecular and Surface Forces,
+# 3rd ed., ch. 15), nor than the surfaces' combined roughness, where their asperities already touch.
+MOLECULAR_GAP = 1e-9
 # A run's end time, in time units (sqrt(D/g), or D over the launch speed without gravity), when nothing ends it earlier
 # (free spheres over a wall come to rest on it, or stall in its film: integrator.py; a pair without a wall drifts on,
 # a held or prescribed sphere goes on): the ode model's largest step is 0.02 of them, so 1e5 is 5e6 steps (~40 min).
@@ -636,7 +640,8 @@ class Scene:
         """contact.model = "lubricated-hertz": each contact's gap h_c = contact_gap_factor x max(roughness, x_d), x_d
         the elastohydrodynamic gap at the estimated impact speed, thin against the two surfaces (FILM_GAP_FRACTION
         a*, and below delta_sl times the gap scale): else the solids are too soft for a contact that starts at a
-        gap, and the lubrication before it, to mean anything."""
+        gap, and the lubrication before it, to mean anything; and no thinner than a continuum film or the
+        roughness (MOLECULAR_GAP)."""
         c = self.contact
         if c.model != "lubricated-hertz":
             return
@@ -657,6 +662,14 @@ class Scene:
             a_star = 0.5 * scale
             film = elastohydrodynamic_gap(a_star, e_star, self.liquid.viscosity, speed)
             gap = c.contact_gap_factor * max(roughness, film)
+            thinnest = max(MOLECULAR_GAP, roughness)
+            if gap < thinnest:
+                source = ("the surfaces' combined roughness, where their asperities touch" if roughness > MOLECULAR_GAP
+                          else "a few molecular diameters, below which the film is no continuum (Israelachvili 2011)")
+                raise SceneError(
+                    f"contact.contact_gap_factor = {c.contact_gap_factor:g} is out of range: the "
+                    f"{'wall' if second is None else 'pair'} contact would begin {gap:.3g} m apart, below "
+                    f"{thinnest:.3g} m ({source}); allowed >= {thinnest / max(roughness, film):.3g} for this scene")
             allowed = min(FILM_GAP_FRACTION * a_star, c.delta_sl * scale)
             if gap >= allowed:
                 raise SceneError(

@@ -8,6 +8,7 @@ import pytest
 
 from fem_bounce import cli
 from test_bad_input import ODE, assert_one_line, messages
+from test_bad_input_3 import refused
 
 
 def ode_run(capsys, tmp_path, *settings: str) -> tuple[dict, list[str], list[str]]:
@@ -48,3 +49,26 @@ def test_the_loss_audit_is_right_or_says_why(setting, tmp_path, capsys):
     else:
         assert "losses" not in impacts[0] and "inside delta_sl D" in impacts[0]["losses_skipped"]
         assert err == []
+
+
+# -- 2. the contact gap and the creep ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("settings,message", [
+    (["contact.contact_gap_factor=1e-10"], "factor = 1e-10 is out of range: the wall contact would begin 4.68e-17 m "
+                                           "apart, below 4e-08 m (the surfaces' combined roughness"),
+    (["contact.contact_gap_factor=1e-3", "sphere.roughness=0", "wall.roughness=0"],
+     "factor = 0.001 is out of range: the wall contact would begin 4.68e-10 m apart, below 1e-09 m (a few molecular"),
+    (["run.bounces=0"], None),
+])
+def test_no_contact_below_a_continuum_film_and_no_impact_from_a_creep(settings, message, tmp_path, monkeypatch,
+                                                                        capsys):
+    """A contact gap of 4e-17 m was accepted, and the run recorded a third "impact" at 1.1e-9 m/s while the sphere
+    crept on the wall; with the default gap a last "impact" at St 0.1 (0.06 mm/s into the contact) as it settled."""
+    if message is not None:
+        refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", "r",
+                *[f"--set={s}" for s in settings], message=message)
+        return
+    summary, _, _ = ode_run(capsys, tmp_path, *settings)
+    assert summary["stop_reason"].startswith("the sphere came to rest on the wall")
+    assert len(summary["impacts"]) == 4 and min(i["contact_speed"] for i in summary["impacts"]) > 1e-2
