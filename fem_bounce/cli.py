@@ -290,8 +290,9 @@ def _cmd_restitution(args) -> int:
             stuck, first = found_there["critical_St"]
             critical = (f"; no rebound up to St {stuck:.3g}" if stuck else "") + (
                 f", first rebound at St {first:.3g}" if first else "")
-            print(f"e {station} against the Legendre et al. (2006) fit over St {found['compared_St'][0]:g}-"
-                  f"{found['compared_St'][1]:g}: rms {found_there['rms_to_fit']:.3f}, largest "
+            covered = found_there["covered_St"]
+            print(f"e {station} against the Legendre et al. (2006) fit over St {covered[0]:.3g}-"
+                  f"{covered[1]:.3g}: rms {found_there['rms_to_fit']:.3f}, largest "
                   f"{found_there['max_abs_to_fit']:.3f} ({found_there['compared_runs']} runs){critical}; e = "
                   f"{found_there['e_at_largest_St']:.3f} at St {found_there['largest_St']:.4g}")
     if found["failed"]:

@@ -7,6 +7,8 @@ import json
 import pytest
 
 from fem_bounce import cli
+from fem_bounce import scene as scenes
+from fem_bounce.studies import restitution, restitution_planning
 from test_bad_input import ODE, assert_one_line, messages
 from test_bad_input_3 import refused
 
@@ -72,3 +74,38 @@ def test_no_contact_below_a_continuum_film_and_no_impact_from_a_creep(settings, 
     summary, _, _ = ode_run(capsys, tmp_path, *settings)
     assert summary["stop_reason"].startswith("the sphere came to rest on the wall")
     assert len(summary["impacts"]) == 4 and min(i["contact_speed"] for i in summary["impacts"]) > 1e-2
+
+
+# -- 3. the restitution sweep's plan ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("case", ["bogus key", "bad value", "launched light sphere", "unreachable St", "light sets"])
+def test_the_restitution_sweep_plans_what_it_runs(case, tmp_path, monkeypatch, capsys):
+    """--points 3 dropped St 1000 silently and still said "St 10-1000"; a light sphere launched at the wall
+    without gravity was said to rise; the sweep with sphere.density = 500 labelled its runs St 1-24 (planned with
+    the shipped presets) where they measured St 0.015-0.09; a bad --set was refused after ~49 s of planning."""
+    if case in ("bogus key", "bad value"):
+        def planning(*args, **kwargs):
+            raise AssertionError("the sweep planned before checking its --set values")
+        monkeypatch.setattr(restitution_planning, "first_bounce", planning)
+        setting, message = {"bogus key": ("bogus.key=1", "unknown key bogus"),
+                            "bad value": ("contact.cavitation_pressure=abc", "cavitation_pressure = 'abc'")}[case]
+        refused(capsys, tmp_path, monkeypatch, "restitution", "--set", setting, "--out", "r", message=message)
+    elif case == "launched light sphere":
+        summary, _, err = ode_run(capsys, tmp_path, "gravity=0", "initial_velocity=-0.3", "sphere.density=500")
+        assert err == [] and summary["stop_reason"].startswith("the sphere stalled in the lubrication film")
+    elif case == "unreachable St":
+        reach = r"no Table 3 set reaches St 1000 \(.* they reach St 0.1[0-9]*-12[0-9]\): 1 of"
+        with pytest.warns(UserWarning, match=reach):
+            planned = restitution_planning.plan(3, sets=["li2011-table3-steel-78"])
+        assert [round(st) for _, st, _ in planned][-1] == 32
+        rows = [{"scene": "li2011-table3-steel-78", "St": st, "restitution": 0.5} for st in (12.0, 31.6)]
+        assert restitution.compare(rows)["covered_St"] == [12.0, 31.6]
+    else:
+        light = {"sphere.density": 500.0}
+        with pytest.warns(UserWarning, match="no Table 3 set reaches St 11.14"):  # lighter: slower in St
+            planned = restitution_planning.plan(3, sets=["li2011-table3-steel-65"], overrides=light)
+        assert planned
+        for name, target, launch in planned:
+            measured = restitution_planning.first_bounce(scenes.load(name, light), launch)["St"]
+            assert measured == pytest.approx(target, rel=0.02)
