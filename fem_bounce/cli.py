@@ -160,7 +160,7 @@ def _cmd_run(args) -> int:
         scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
         model = args.model if args.model is not None else models.default()
         if args.accuracy is not None:
-            scene, model = _scene_for_accuracy(scene, args.accuracy, args.model)
+            scene, model = _scene_for_accuracy(scene, args.accuracy, args.model, args.overrides)
         models.get(model)  # fail early on an unknown or missing model
         out = output.out_path(args.out) or _unused_directory(comm, Path("runs") / f"{scene.name}-{model}")
     _route_warnings()
@@ -195,26 +195,28 @@ def _cmd_compare(args) -> int:
     return 0 if all(r["status"] == "completed" for r in rows if r["model"] != "measured") else 1
 
 
-def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | None):
+def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | None, overrides: list[str]):
+    """The scene with the recorded setting that reaches `accuracy` on it (speed_accuracy.pick_for), and its
+    model; a --set of a key the record sets is refused (the recorded error would not hold)."""
     from .studies import speed_accuracy
 
-    level = accuracy.strip().rstrip("%")
-    recorded = speed_accuracy.recorded()
-    if scene.name not in recorded:
-        known = ", ".join(sorted(recorded)) or "none yet"
-        raise scenes.SceneError(f"--accuracy: no recorded speed-accuracy study for {scene.name!r} (recorded: {known})")
-    choices = recorded[scene.name]
-    key = f"{level}%"
-    if key not in choices:
-        raise scenes.SceneError(f"--accuracy {accuracy}: choose one of {', '.join(choices)}")
-    pick = choices[key]
-    if pick is None:
-        raise scenes.SceneError(f"--accuracy {accuracy}: no recorded setting reaches it for {scene.name}")
+    key = f"{accuracy.strip().rstrip('%')}%"
+    pick = speed_accuracy.pick_for(scene, key)
     if requested and requested != pick["model"]:
         raise models.ModelError(f"--accuracy {accuracy} picks the {pick['model']} model, not {requested}")
+    given = dict(scenes.parse_override(text) for text in overrides)
+    for name, value in pick["setting"].items():
+        if name in given:
+            raise scenes.SceneError(f"--set {name}={given[name]} and --accuracy {key} (which sets {name} = {value}, "
+                                    f"from {pick['record']}) disagree: give one of them")
+    try:
+        chosen = scene.replace(**pick["setting"])
+    except scenes.SceneError as err:
+        raise scenes.SceneError(f"{pick['record']}: the {key} pick for {scene.name!r}: {err}; fix or delete it") \
+            from None
     say(f"--accuracy {key}: {pick['model']} with {pick['setting']} "
         f"(recorded error {pick['error']:.2%} on {', '.join(pick['quantities'])})")
-    return scene.replace(**pick["setting"]), pick["model"]
+    return chosen, pick["model"]
 
 
 def _number(value: float, decimals: int = 1) -> str:

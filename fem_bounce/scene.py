@@ -15,6 +15,8 @@ from __future__ import annotations
 import csv
 import dataclasses
 import difflib
+import hashlib
+import json
 import math
 import numbers
 import os
@@ -773,6 +775,18 @@ def from_dict(data: dict, name: str | None = None) -> Scene:
 def to_dict(scene: Scene) -> dict:
     """Nested dicts with None values left out; the inverse of from_dict."""
     return dataclasses.asdict(scene, dict_factory=lambda items: {k: v for k, v in items if v is not None})
+
+
+# what a scene holds beside its physics: its names, how long a run goes on, the measurement it is compared with
+# and the models' numerical settings
+NOT_PHYSICS = ("name", "description", "run", "reference", "numerics")
+
+
+def physics_digest(scene: Scene) -> str:
+    """A hash of what the scene simulates (to_dict without NOT_PHYSICS): equal for two scenes that differ only
+    in name, run length or numerics (a speed-accuracy record applies to the scene it was measured on)."""
+    physics = {key: value for key, value in to_dict(scene).items() if key not in NOT_PHYSICS}
+    return hashlib.sha256(json.dumps(physics, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def dumps(scene: Scene) -> str:

@@ -109,3 +109,32 @@ def test_the_restitution_sweep_plans_what_it_runs(case, tmp_path, monkeypatch, c
         for name, target, launch in planned:
             measured = restitution_planning.first_bounce(scenes.load(name, light), launch)["St"]
             assert measured == pytest.approx(target, rel=0.02)
+
+
+# -- 4. --accuracy's records -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("case,argv,setting,message", [
+    ("other density", ["li2011-case3", "--set", "sphere.density=2000"], None,
+     "the record of 'li2011-case3' was measured on other values"),
+    ("renamed", ["li2011-case1", "--set", "name=li2011-case3"], None,
+     "the record of 'li2011-case3' was measured on other values"),
+    ("own --set", ["li2011-case3", "--set", "numerics.ode.rtol=1e-7"], None,
+     "--set numerics.ode.rtol=1e-07 and --accuracy 10% (which sets numerics.ode.rtol = 0.001, from "),
+    ("physical key", ["li2011-case3"], {"sphere.density": 2000.0},
+     "results/accuracy_recommendations.json: the 10% pick of 'li2011-case3' sets sphere.density, not a numerical"),
+    ("bad value", ["li2011-case3"], {"numerics.ode.rtol": -1.0},
+     "results/accuracy_recommendations.json: the 10% pick for 'li2011-case3': numerics.ode.rtol = -1.0 is out"),
+])
+def test_an_accuracy_record_applies_to_its_own_scene_and_numerics(case, argv, setting, message, tmp_path, monkeypatch,
+                                                                   capsys):
+    """Case 3's record was applied to case 3 at St 2.9 (sphere.density = 2000) and to case 1 renamed li2011-case3
+    (looked up by name); a record setting sphere.density was applied; the user's --set numerics.ode.rtol was
+    replaced silently; a bad entry was reported without naming the record file."""
+    if setting is not None:  # the user's own record, measured on case 3 as shipped
+        digest = scenes.physics_digest(scenes.load("li2011-case3"))
+        pick = {"model": "ode", "setting": setting, "error": 0.05, "quantities": ["impact_speed"],
+                "scene_digest": digest, "wall_time_s": 1.0}
+        (tmp_path / "results").mkdir()
+        (tmp_path / "results" / "accuracy_recommendations.json").write_text(json.dumps({"li2011-case3": {"10%": pick}}))
+    refused(capsys, tmp_path, monkeypatch, "run", *argv, "--accuracy", "10%", "--quiet", "--out", "r", message=message)
