@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
-from . import losses, models, output
+from . import bounces, losses, models, output
 from . import scene as scenes
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
@@ -361,6 +361,9 @@ def check_checkpoint(checkpoint: output.Checkpoint, integrator: BodyIntegrator) 
     records, names = saved.get("records"), {contact.name for contact in integrator.contacts}
     if not (isinstance(records, dict) and set(records) == names and all(isinstance(r, dict) for r in records.values())):
         raise bad("integrator.records", f"is not a table of the contacts {', '.join(sorted(names))}")
+    for name, record in records.items():
+        if (wrong := bounces.state_error(record)) is not None:
+            raise bad(f"integrator.records.{name}.{wrong[0]}", wrong[1])
     return checkpoint
 
 

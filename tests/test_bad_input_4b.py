@@ -9,7 +9,7 @@ import pytest
 from fem_bounce import cli
 from fem_bounce import scene as scenes
 from fem_bounce.studies import restitution, restitution_planning
-from test_bad_input import ODE, assert_one_line, messages
+from test_bad_input import ODE, assert_one_line, fd_copy, fd_run, messages, run_cli, tree  # noqa: F401
 from test_bad_input_3 import refused
 
 
@@ -138,3 +138,25 @@ def test_an_accuracy_record_applies_to_its_own_scene_and_numerics(case, argv, se
         (tmp_path / "results").mkdir()
         (tmp_path / "results" / "accuracy_recommendations.json").write_text(json.dumps({"li2011-case3": {"10%": pick}}))
     refused(capsys, tmp_path, monkeypatch, "run", *argv, "--accuracy", "10%", "--quiet", "--out", "r", message=message)
+
+
+# -- 5. hand-edited checkpoints ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("field,value,message", [
+    ("_phase", "flying", "machine._phase = 'flying' is not one of approach, rebound"),
+    ("in_contact", "yes", "machine.in_contact = 'yes' is not true or false"),
+    ("_peak_speed", "fast", "machine._peak_speed = 'fast' is not a finite number"),
+])
+def test_a_hand_edited_record_in_a_checkpoint_is_refused(field, value, message, fd_copy, capsys):  # noqa: F811
+    """state.json with machine._phase = "flying" or in_contact = "yes" was accepted (then "no impact", or an impact
+    at 0.1168 s instead of 0.0701 s)."""
+    path = fd_copy / "checkpoint" / "state.json"
+    state = json.loads(path.read_text())
+    state["integrator"]["records"]["wall"]["machine"][field] = value
+    path.write_text(json.dumps(state))
+    before = tree(fd_copy)
+    status, lines = run_cli(capsys, "run", "--restart", str(fd_copy), "--quiet")
+    assert status == 2
+    assert_one_line(lines, "error: the checkpoint in", "checkpoint/state.json: integrator.records.wall." + message)
+    assert tree(fd_copy) == before
