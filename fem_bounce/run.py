@@ -532,17 +532,21 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     raise RunFailed(f"{message}{kept}{unwritten}")
 
 
-def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **options) -> dict:
+def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, *, on_start=None, **options) -> dict:
     """A serial model under mpiexec: rank 0 runs it on COMM_SELF while the other ranks wait without
     spinning, then every rank gets rank 0's summary, or its exception (progress.on_root_watching), so that no
-    rank repeats the same serial solve and every rank ends the same way."""
+    rank repeats the same serial solve and every rank ends the same way.  It says so once nothing can refuse
+    the run any more (a refusal is its one line alone)."""
     from mpi4py import MPI
 
-    if comm.rank == 0:
+    def started() -> None:
         warnings.warn(f"the {model_name} model is serial: under mpiexec it runs on rank 0 alone and the other "
                       f"{comm.size - 1} rank(s) wait (no speed-up); run it without mpiexec, or spread a study's "
-                      "runs with --jobs N or --executor mpi", stacklevel=3)
-    return on_root_watching(comm, lambda: simulate(scene, model_name, MPI.COMM_SELF, out_dir, **options))
+                      "runs with --jobs N or --executor mpi", stacklevel=2)
+        if on_start is not None:
+            on_start()
+    return on_root_watching(comm, lambda: simulate(scene, model_name, MPI.COMM_SELF, out_dir, on_start=started,
+                                                   **options))
 
 
 def _draw(out_dir: Path) -> None:

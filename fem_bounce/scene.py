@@ -75,6 +75,9 @@ EHD_HANDOVER_NOTE = ("the film collision's handover gap h0: thin against the sph
 # the most tension a liquid film has been reported to hold is of the order of -30 MPa (water in
 # Briggs' (1950) spinning tube); the bound only keeps the number physical
 CAVITATION_PRESSURE_MIN = -1e8
+CAVITATION_WORDS = ("auto", "liquid", "off")
+CAVITATION_ALLOWED = (f"{', '.join(repr(w) for w in CAVITATION_WORDS)} or a number in [{CAVITATION_PRESSURE_MIN:g}, 0] "
+                      "Pa")
 ONE_ATMOSPHERE = 101325.0  # Pa, the standard atmosphere
 # water's vapour pressure at 20 C (Wagner & Pruss 2002, J. Phys. Chem. Ref. Data 31, 387: IAPWS-95), the
 # largest an aqueous liquid has at room temperature; the presets give their liquid's own (docs/physics.md 3.5)
@@ -285,7 +288,7 @@ class Contact:
                                  "exponential fit (theory.history_modes) is built and checked for 0.1-100")
     history_c2: float = _between(0.0, 10.0, 0.105)
     ehd_handover: float = _positive(EHD_HANDOVER, unit="m", note=EHD_HANDOVER_NOTE)
-    cavitation_pressure: str | float = "auto"
+    cavitation_pressure: str | float = field(default="auto", metadata={"allowed": CAVITATION_ALLOWED})
 
     @property
     def paper(self) -> bool:
@@ -601,10 +604,9 @@ class Scene:
     def _check_cavitation(self) -> None:
         """contact.cavitation_pressure is one of its words or a tension; the liquid does not boil."""
         cav = self.contact.cavitation_pressure
-        words = ("auto", "liquid", "off")
-        allowed = f"allowed {', '.join(repr(w) for w in words)} or a number in [{CAVITATION_PRESSURE_MIN:g}, 0] Pa"
+        allowed = f"allowed {CAVITATION_ALLOWED}"
         if isinstance(cav, str):
-            if cav not in words:
+            if cav not in CAVITATION_WORDS:
                 raise SceneError(f"contact.cavitation_pressure = {cav!r} is not a choice nor a pressure: {allowed} "
                                  "(gauge: the film's most negative pressure)")
         elif isinstance(cav, bool) or not (math.isfinite(cav) and CAVITATION_PRESSURE_MIN <= cav <= 0.0):
@@ -728,7 +730,7 @@ def _build(cls, data: dict, prefix: str):
         elif table is not None:
             kwargs[key] = _build(table, value, f"{prefix}{key}.")
         else:
-            kwargs[key] = _coerce(value, hints[key], prefix + key)
+            kwargs[key] = _coerce(value, hints[key], prefix + key, fields[key].metadata.get("allowed"))
     for name, f in fields.items():
         if name not in kwargs and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             raise SceneError(f"missing key {prefix}{name}")
@@ -743,9 +745,10 @@ def _table_type(hint: Any):
     return tables[0] if tables else None
 
 
-def _coerce(value: Any, expected: Any, key: str) -> Any:
+def _coerce(value: Any, expected: Any, key: str, allowed_text: str | None = None) -> Any:
     """TOML writes 1 for 1.0 and users write 8000 for 8000.0: accept both, reject the rest.  NumPy's numbers
-    (np.float32(8000.0), np.int64(2): numbers.Real and numbers.Integral) are numbers too."""
+    (np.float32(8000.0), np.int64(2): numbers.Real and numbers.Integral) are numbers too.  `allowed_text`: what
+    a refusal says is allowed, for a field whose type alone does not say it (a number or some words)."""
     allowed = typing.get_args(expected) or (expected,)
     if isinstance(value, numbers.Integral) and not isinstance(value, (bool, int)):
         value = int(value)
@@ -756,8 +759,8 @@ def _coerce(value: Any, expected: Any, key: str) -> Any:
             return float(value)
         if int in allowed and isinstance(value, float) and value.is_integer():
             return int(value)
-        kind = ("a string" if str in allowed else "true or false" if bool in allowed
-                else "an integer" if float not in allowed else "a number")
+        kind = allowed_text or ("a string" if str in allowed else "true or false" if bool in allowed
+                                else "an integer" if float not in allowed else "a number")
         raise SceneError(f"{key} = {value!r} must be {kind}")
     return value
 

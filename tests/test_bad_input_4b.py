@@ -3,6 +3,8 @@ and the creep, the restitution sweep's plan, --accuracy's records, hand-edited c
 Each record (impacts, the audit) is right or absent with the reason in the summary; a refusal is one line, exit 2,
 nothing written.  The ODE model in this process wherever the finding is not model-specific."""
 import json
+import subprocess
+import sys
 
 import pytest
 
@@ -160,3 +162,29 @@ def test_a_hand_edited_record_in_a_checkpoint_is_refused(field, value, message, 
     assert status == 2
     assert_one_line(lines, "error: the checkpoint in", "checkpoint/state.json: integrator.records.wall." + message)
     assert tree(fd_copy) == before
+
+
+# -- 6. minor ------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("case", ["pause with ale", "cavitation true", "serial warning under mpiexec"])
+def test_minor_settings_say_what_they_do(case, tmp_path, monkeypatch, capsys, mpiexec):
+    """history_across_contact = "pause" had no effect with ale, silently; cavitation_pressure = true said "must be
+    a string" though numbers are allowed; under mpiexec the "serial model" warning came before a refusal."""
+    if case == "pause with ale":
+        status, lines = run_cli(capsys, "run", "li2011-case3", "--model", "ale", "--quiet", "--out",
+                                str(tmp_path / "r"), "--set", "contact.history_across_contact=pause",
+                                "--set", "run.end_time=0.005", "--set", "numerics.ale.cells_per_diameter=4")
+        assert status == 0
+        assert_one_line(lines, 'warning: contact.history_across_contact = "pause" has no effect with the ale model')
+    elif case == "cavitation true":
+        refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", "r", "--set",
+                "contact.cavitation_pressure=true", message="contact.cavitation_pressure = True must be 'auto', "
+                "'liquid', 'off' or a number in [-1e+08, 0] Pa")
+    else:
+        (tmp_path / "notes").mkdir()
+        (tmp_path / "notes" / "keep.txt").write_text("keep")
+        ended = subprocess.run([mpiexec, "-n", "2", sys.executable, "-m", "fem_bounce", "run", "li2011-case3", *ODE,
+                                "--out", "notes", "--force"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert ended.returncode == 2
+        assert_one_line(ended.stderr.splitlines(), "error: notes is not a fem-bounce run directory")
