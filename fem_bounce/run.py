@@ -129,7 +129,7 @@ class _Safeguards:
         launch = 0.5 * (self.masses + displaced) @ v0**2
         self.release_energy = self.weights @ h0 + launch
         self.tolerance = ENERGY_TOLERANCE * (np.abs(self.weights) @ h0 + launch)
-        # buoyancy lifts them (with gravity: no weight, no rise); launched at the wall they may still reach it
+        # buoyancy lifts them (without gravity nothing does); launched at the wall they may still reach it
         self.light = self.free and all(self.weights < 0.0)
         self.launched_down = bool(v0[0] < 0.0)
         d = bodies[0].diameter
@@ -398,10 +398,10 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     guards = _Safeguards(scene, integrator, info, flow_model.resolved_top())
     if root:
         if guards.light:
-            fate = ("buoyancy slows the launched sphere, which may turn back before the wall" if guards.launched_down
-                    else "the sphere rises and never reaches the wall")
+            fate = ("buoyancy slows the launched sphere, which may turn back before the wall; if it does, the run"
+                    if guards.launched_down else "the sphere rises and never reaches the wall; the run")
             warnings.warn(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
-                          f"{scene.liquid.density:g} kg/m3: {fate}; if it rises, the run "
+                          f"{scene.liquid.density:g} kg/m3: {fate} "
                           f"stops when it has {guards.where} (gap {guards.ceiling / scene.sphere.diameter:.3g} D)",
                           stacklevel=2)
         for message in info.scene_warnings(scene):
