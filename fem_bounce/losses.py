@@ -164,7 +164,7 @@ def collision_losses(trajectory: dict, impacts: list[dict], mass: float, net_wei
 def annotate(summary: dict, trajectory: dict) -> str:
     """Add each wall impact's audit to summary.json's record of it (`losses`, or the reason it is absent as
     `losses_skipped`), from the run's trajectory columns; a free single sphere's runs only (a pair's collisions
-    are not audited).  Returns a warning when audits were left out because their sums do not add up, else ""."""
+    are not audited).  Returns a warning when audits were left out, but for a release inside delta_sl D, else ""."""
     scene = summary["scene"]
     impacts = summary.get("impacts") or []
     if "second_sphere" in scene or not impacts or "f_elastic" not in trajectory:

@@ -499,9 +499,9 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     if run_dir is not None:
         def write_outputs() -> str:
             with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
-                unbalanced = losses.annotate(data, output.read_trajectory(out_dir))
-                if unbalanced:
-                    warnings.warn(unbalanced, stacklevel=2)
+                unaudited = losses.annotate(data, output.read_trajectory(out_dir))
+                if unaudited and status == "completed":  # (an unfinished run's rows may end before an impact's)
+                    warnings.warn(unaudited, stacklevel=2)
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
