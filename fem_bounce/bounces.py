@@ -96,10 +96,12 @@ class BounceRecord:
             self._rebound_speed = max(self._rebound_speed, v)
 
     # -- events -------------------------------------------------------------------------------------
-    def contact_crossing(self, h: float, v: float) -> None:
+    def contact_crossing(self, h: float, v: float, landing: bool = False) -> None:
+        """The gap crossing the contact gap; `landing`: the sphere settles into the contact rather than strikes
+        it (contact.ContactLaw.landing), which makes no impact."""
         if not self.in_contact and v < 0.0:
             self.in_contact = True
-            self._entered_contact = True
+            self._entered_contact = self._entered_contact or not landing
             self._contact_speed = -v
             self.engaged = self.contact.law.engage(-v)
         elif self.in_contact and v > 0.0:
@@ -256,3 +258,56 @@ def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> flo
     s = (t - t0) / dt
     h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
     return h00 * hs[k] + h10 * dt * vs[k] + h01 * hs[k + 1] + h11 * dt * vs[k + 1]
+
+
+# -- a checkpoint's record, checked before a restart loads it ------------------------------------------
+
+
+def _kind_error(value, kind: str) -> str | None:
+    """What is wrong with a saved value of the annotated `kind` ("float", "float | None", "bool", "str | None",
+    or the allowed words joined by "|" in quotes), or None."""
+    if value is None and kind.endswith("| None"):
+        return None
+    if kind == "bool":
+        return None if isinstance(value, bool) else "is not true or false"
+    if kind.startswith("str"):
+        return None if isinstance(value, str) else "is not a text"
+    if kind.startswith('"'):
+        words = [word.strip(' "') for word in kind.split("|")]
+        return None if value in words else f"is not one of {', '.join(words)}"
+    number = isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value)
+    return None if number and (math.isfinite(value) or kind == "time") else "is not a finite number"
+
+
+# BounceRecord.STATE's kinds, as saved under "machine" (stop_at: a time, or infinity while nothing stops the run)
+_MACHINE = {"in_contact": "bool", "engaged": "float", "_contact_speed": "float", "_phase": '"approach" | "rebound"',
+            "_entered_contact": "bool", "_left_contact": "bool", "_peak_speed": "float", "_rebound_speed": "float",
+            "_stop_at": "time"}
+_CROSSING = {"time": "float", "direction": '"in" | "out"', "speed": "float"}
+
+
+def state_error(state: dict) -> tuple[str, str] | None:
+    """What is wrong with a checkpoint's record of one contact (BounceRecord.save's state), as (entry, what), or
+    None: every field's type and allowed values, checked before a restart loads it."""
+    machine, log = state.get("machine"), state.get("log")
+    if not isinstance(machine, dict):
+        return "machine", "is not a table"
+    for key, kind in _MACHINE.items():
+        if (wrong := _kind_error(machine.get(key), kind)) is not None:
+            return f"machine.{key}", f"= {machine.get(key)!r} {wrong}"
+    if not (isinstance(log, list) and len(log) == 3 and all(isinstance(column, list) for column in log)
+            and len({len(column) for column in log}) == 1
+            and all(_kind_error(value, "float") is None for column in log for value in column)):
+        return "log", "is not three columns of finite numbers (times, gaps, rates)"
+    outcomes = '"rebound" | "stopped" | "held" | None'  # fem_bounce.ehd.FilmResult.outcome
+    tables = {"impacts": {**{f.name: f.type for f in dataclasses.fields(Impact)}, "film_outcome": outcomes},
+              "rebounds": {f.name: f.type for f in dataclasses.fields(Rebound)}, "blend_crossings": _CROSSING}
+    for entry, kinds in tables.items():
+        rows = state.get(entry)
+        if not (isinstance(rows, list) and all(isinstance(row, dict) and set(row) == set(kinds) for row in rows)):
+            return entry, f"is not a list of tables of {', '.join(kinds)}"
+        for k, row in enumerate(rows):
+            for key, kind in kinds.items():
+                if (wrong := _kind_error(row[key], kind)) is not None:
+                    return f"{entry}[{k}].{key}", f"= {row[key]!r} {wrong}"
+    return None

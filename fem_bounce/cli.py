@@ -160,7 +160,7 @@ def _cmd_run(args) -> int:
         scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
         model = args.model if args.model is not None else models.default()
         if args.accuracy is not None:
-            scene, model = _scene_for_accuracy(scene, args.accuracy, args.model)
+            scene, model = _scene_for_accuracy(scene, args.accuracy, args.model, args.overrides)
         models.get(model)  # fail early on an unknown or missing model
         out = output.out_path(args.out) or _unused_directory(comm, Path("runs") / f"{scene.name}-{model}")
     _route_warnings()
@@ -195,26 +195,28 @@ def _cmd_compare(args) -> int:
     return 0 if all(r["status"] == "completed" for r in rows if r["model"] != "measured") else 1
 
 
-def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | None):
+def _scene_for_accuracy(scene: scenes.Scene, accuracy: str, requested: str | None, overrides: list[str]):
+    """The scene with the recorded setting that reaches `accuracy` on it (speed_accuracy.pick_for), and its
+    model; a --set of a key the record sets is refused (the recorded error would not hold)."""
     from .studies import speed_accuracy
 
-    level = accuracy.strip().rstrip("%")
-    recorded = speed_accuracy.recorded()
-    if scene.name not in recorded:
-        known = ", ".join(sorted(recorded)) or "none yet"
-        raise scenes.SceneError(f"--accuracy: no recorded speed-accuracy study for {scene.name!r} (recorded: {known})")
-    choices = recorded[scene.name]
-    key = f"{level}%"
-    if key not in choices:
-        raise scenes.SceneError(f"--accuracy {accuracy}: choose one of {', '.join(choices)}")
-    pick = choices[key]
-    if pick is None:
-        raise scenes.SceneError(f"--accuracy {accuracy}: no recorded setting reaches it for {scene.name}")
+    key = f"{accuracy.strip().rstrip('%')}%"
+    pick = speed_accuracy.pick_for(scene, key)
     if requested and requested != pick["model"]:
         raise models.ModelError(f"--accuracy {accuracy} picks the {pick['model']} model, not {requested}")
+    given = dict(scenes.parse_override(text) for text in overrides)
+    for name, value in pick["setting"].items():
+        if name in given:
+            raise scenes.SceneError(f"--set {name}={given[name]} and --accuracy {key} (which sets {name} = {value}, "
+                                    f"from {pick['record']}) disagree: give one of them")
+    try:
+        chosen = scene.replace(**pick["setting"])
+    except scenes.SceneError as err:
+        raise scenes.SceneError(f"{pick['record']}: the {key} pick for {scene.name!r}: {err}; fix or delete it") \
+            from None
     say(f"--accuracy {key}: {pick['model']} with {pick['setting']} "
         f"(recorded error {pick['error']:.2%} on {', '.join(pick['quantities'])})")
-    return scene.replace(**pick["setting"]), pick["model"]
+    return chosen, pick["model"]
 
 
 def _number(value: float, decimals: int = 1) -> str:
@@ -229,9 +231,13 @@ def _print_records(summary: dict) -> None:
     if "collisions" in summary:  # a pair
         _print_collisions(summary)
         return
-    if not summary["impacts"]:
-        print(f"no impact: the sphere ended {summary['final']['gap'] / diameter:.4g} D above the wall "
-              f"at t = {summary['final']['time']:.4g} s")
+    final = summary["final"]
+    if not summary["impacts"] and final.get("in_contact"):
+        print(f"impact in progress: the run ended at t = {final['time']:.4g} s in the contact, before the minimum "
+              f"gap (gap {final['gap'] / diameter:.4g} D, {-final['velocity']:.4g} m/s toward the wall)")
+    elif not summary["impacts"]:
+        print(f"no impact: the sphere ended {final['gap'] / diameter:.4g} D above the wall at t = "
+              f"{final['time']:.4g} s")
     for k, (impact, rebound) in enumerate(zip(summary["impacts"], summary["rebounds"] + [None] * 99), 1):
         line = (f"impact {k}: t = {impact['time']:.4f} s  V_i = {impact['impact_speed']:.4f} m/s  "
                 f"Re = {_number(impact['Re'])}  St = {_number(impact['St'])}  min gap/D = "
@@ -286,8 +292,9 @@ def _cmd_restitution(args) -> int:
             stuck, first = found_there["critical_St"]
             critical = (f"; no rebound up to St {stuck:.3g}" if stuck else "") + (
                 f", first rebound at St {first:.3g}" if first else "")
-            print(f"e {station} against the Legendre et al. (2006) fit over St {found['compared_St'][0]:g}-"
-                  f"{found['compared_St'][1]:g}: rms {found_there['rms_to_fit']:.3f}, largest "
+            covered = found_there["covered_St"]
+            print(f"e {station} against the Legendre et al. (2006) fit over St {covered[0]:.3g}-"
+                  f"{covered[1]:.3g}: rms {found_there['rms_to_fit']:.3f}, largest "
                   f"{found_there['max_abs_to_fit']:.3f} ({found_there['compared_runs']} runs){critical}; e = "
                   f"{found_there['e_at_largest_St']:.3f} at St {found_there['largest_St']:.4g}")
     if found["failed"]:

@@ -239,6 +239,20 @@ class ContactLaw:
         energy = 0.5 * mass * rate**2 + potential(overlap) - potential(static)
         return energy < 0.6 * weight * static
 
+    def landing(self, speed: float, mass: float, weight: float) -> bool:
+        """Whether a contact entered at `speed` [m/s] by a sphere of `mass` [kg] pressed by the net `weight`
+        [N] is the sphere settling onto the wall, not an impact: its kinetic energy 1/2 m V^2 below the
+        elastic energy (2/5) k x_s^(5/2) = 0.4 W x_s its weight alone stores in the static overlap
+        x_s = (W / k)^(2/3), so that the contact's compression is the weight's, not the approach's.  The
+        creep scale is V = (0.8 W x_s / m)^(1/2): 0.43 mm/s for Li et al.'s case 3, where a sphere settling
+        through its own film under its weight reaches the contact gap at W h_c / (6 pi mu a^2) = 0.05 mm/s
+        (Reynolds' film force balancing the weight) and the slowest impact before it came at 21 mm/s.
+        Without weight (a pendulum's collision) every approach is an impact."""
+        if not self.hertz or weight <= 0.0:
+            return False
+        static = (weight / self.stiffness) ** (2.0 / 3.0)
+        return 0.5 * mass * speed**2 < 0.4 * weight * static
+
 
 class ContactGaps:
     """The resolved flow's gaps for a length `diameter` (D at the wall, 2a* for a pair) [m]; the class

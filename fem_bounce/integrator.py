@@ -619,7 +619,7 @@ class BodyIntegrator:
                 if rate < 0.0 and record.phase == "approach":
                     self._film_pending = (t, rate)
             elif kind == "contact":
-                record.contact_crossing(gap, rate)
+                record.contact_crossing(gap, rate, landing=rate < 0.0 and self._landing(contact, y, -rate))
             elif kind == "turn":
                 record.turning_point(t, gap)
             elif kind == "blend":
@@ -732,7 +732,7 @@ class BodyIntegrator:
             return
         rates, contacts = self._rates(y), self.contacts
         if all(c.record.in_contact for c in contacts):
-            inertia = self.masses + np.array([th.added_mass(h)[0] for th, h in zip(self.theories, self._heights(y))])
+            inertia = self._inertia(y)
             if not all(c.law.resting(y[c.gap_index], c.rate(rates), c.record.engaged, inertia[c.upper:].sum(),
                                      self.weights[c.upper:].sum()) for c in contacts):
                 return
@@ -749,6 +749,17 @@ class BodyIntegrator:
         for c in contacts:
             c.record.rest(t, y[c.gap_index])
         self.stop_reason = reason
+
+    def _inertia(self, y) -> np.ndarray:
+        """Each sphere's mass and added mass at the state y [kg]."""
+        return self.masses + np.array([th.added_mass(h)[0] for th, h in zip(self.theories, self._heights(y))])
+
+    def _landing(self, contact: Contact, y, speed: float) -> bool:
+        """Whether the wall contact entered at `speed` [m/s] is the free column settling onto the wall
+        (ContactLaw.landing, with what moves on the contact and its net weight): no impact."""
+        if contact is not self.wall or not self.free.all():
+            return False
+        return contact.law.landing(speed, self._inertia(y)[contact.upper:].sum(), self.weights[contact.upper:].sum())
 
     def row(self, t: float, y) -> dict:
         """Every sphere's gap, velocity, acceleration and force terms at one instant [SI], named as the

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
-from . import losses, models, output
+from . import bounces, losses, models, output
 from . import scene as scenes
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
@@ -129,7 +129,9 @@ class _Safeguards:
         launch = 0.5 * (self.masses + displaced) @ v0**2
         self.release_energy = self.weights @ h0 + launch
         self.tolerance = ENERGY_TOLERANCE * (np.abs(self.weights) @ h0 + launch)
-        self.light = self.free and all(body.mass < body.displaced_mass for body in bodies)
+        # buoyancy lifts them (without gravity nothing does); launched at the wall they may still reach it
+        self.light = self.free and all(self.weights < 0.0)
+        self.launched_down = bool(v0[0] < 0.0)
         d = bodies[0].diameter
         limits = [(h0[0] + RISE_LIMIT * d, f"risen {RISE_LIMIT:g} D above its release")]
         if not scene.container.unbounded:
@@ -359,6 +361,9 @@ def check_checkpoint(checkpoint: output.Checkpoint, integrator: BodyIntegrator) 
     records, names = saved.get("records"), {contact.name for contact in integrator.contacts}
     if not (isinstance(records, dict) and set(records) == names and all(isinstance(r, dict) for r in records.values())):
         raise bad("integrator.records", f"is not a table of the contacts {', '.join(sorted(names))}")
+    for name, record in records.items():
+        if (wrong := bounces.state_error(record)) is not None:
+            raise bad(f"integrator.records.{name}.{wrong[0]}", wrong[1])
     return checkpoint
 
 
@@ -393,8 +398,10 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     guards = _Safeguards(scene, integrator, info, flow_model.resolved_top())
     if root:
         if guards.light:
+            fate = ("buoyancy slows the launched sphere, which may turn back before the wall; if it does, the run"
+                    if guards.launched_down else "the sphere rises and never reaches the wall; the run")
             warnings.warn(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
-                          f"{scene.liquid.density:g} kg/m3: the sphere rises and never reaches the wall; the run "
+                          f"{scene.liquid.density:g} kg/m3: {fate} "
                           f"stops when it has {guards.where} (gap {guards.ceiling / scene.sphere.diameter:.3g} D)",
                           stacklevel=2)
         for message in info.scene_warnings(scene):
@@ -492,7 +499,9 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     if run_dir is not None:
         def write_outputs() -> str:
             with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
-                losses.annotate(data, output.read_trajectory(out_dir))
+                unaudited = losses.annotate(data, output.read_trajectory(out_dir))
+                if unaudited and status == "completed":  # (an unfinished run's rows may end before an impact's)
+                    warnings.warn(unaudited, stacklevel=2)
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
@@ -523,17 +532,21 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     raise RunFailed(f"{message}{kept}{unwritten}")
 
 
-def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **options) -> dict:
+def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, *, on_start=None, **options) -> dict:
     """A serial model under mpiexec: rank 0 runs it on COMM_SELF while the other ranks wait without
     spinning, then every rank gets rank 0's summary, or its exception (progress.on_root_watching), so that no
-    rank repeats the same serial solve and every rank ends the same way."""
+    rank repeats the same serial solve and every rank ends the same way.  It says so once nothing can refuse
+    the run any more (a refusal is its one line alone)."""
     from mpi4py import MPI
 
-    if comm.rank == 0:
+    def started() -> None:
         warnings.warn(f"the {model_name} model is serial: under mpiexec it runs on rank 0 alone and the other "
                       f"{comm.size - 1} rank(s) wait (no speed-up); run it without mpiexec, or spread a study's "
-                      "runs with --jobs N or --executor mpi", stacklevel=3)
-    return on_root_watching(comm, lambda: simulate(scene, model_name, MPI.COMM_SELF, out_dir, **options))
+                      "runs with --jobs N or --executor mpi", stacklevel=2)
+        if on_start is not None:
+            on_start()
+    return on_root_watching(comm, lambda: simulate(scene, model_name, MPI.COMM_SELF, out_dir, on_start=started,
+                                                   **options))
 
 
 def _draw(out_dir: Path) -> None:

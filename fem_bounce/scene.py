@@ -15,6 +15,8 @@ from __future__ import annotations
 import csv
 import dataclasses
 import difflib
+import hashlib
+import json
 import math
 import numbers
 import os
@@ -57,6 +59,10 @@ VISCOSITY_NOTE = ("pitch is ~1e8 Pa s; above it the sphere's viscous relaxation 
 # takes over from the lubrication.  Softer solids start their contact a sizeable part of a diameter away (Young's
 # modulus 1e-10 Pa: 1.6 D above the wall).
 FILM_GAP_FRACTION = 0.1
+# ... and no thinner than a continuum film: a few molecular diameters (water 0.28 nm, glycerol ~0.5 nm), below which
+# a confined liquid is molecular layers, not Reynolds' film (Israelachvili 2011, Intermolecular and Surface Forces,
+# 3rd ed., ch. 15), nor than the surfaces' combined roughness, where their asperities already touch.
+MOLECULAR_GAP = 1e-9
 # A run's end time, in time units (sqrt(D/g), or D over the launch speed without gravity), when nothing ends it earlier
 # (free spheres over a wall come to rest on it, or stall in its film: integrator.py; a pair without a wall drifts on,
 # a held or prescribed sphere goes on): the ode model's largest step is 0.02 of them, so 1e5 is 5e6 steps (~40 min).
@@ -69,6 +75,9 @@ EHD_HANDOVER_NOTE = ("the film collision's handover gap h0: thin against the sph
 # the most tension a liquid film has been reported to hold is of the order of -30 MPa (water in
 # Briggs' (1950) spinning tube); the bound only keeps the number physical
 CAVITATION_PRESSURE_MIN = -1e8
+CAVITATION_WORDS = ("auto", "liquid", "off")
+CAVITATION_ALLOWED = (f"{', '.join(repr(w) for w in CAVITATION_WORDS)} or a number in [{CAVITATION_PRESSURE_MIN:g}, 0] "
+                      "Pa")
 ONE_ATMOSPHERE = 101325.0  # Pa, the standard atmosphere
 # water's vapour pressure at 20 C (Wagner & Pruss 2002, J. Phys. Chem. Ref. Data 31, 387: IAPWS-95), the
 # largest an aqueous liquid has at room temperature; the presets give their liquid's own (docs/physics.md 3.5)
@@ -279,7 +288,7 @@ class Contact:
                                  "exponential fit (theory.history_modes) is built and checked for 0.1-100")
     history_c2: float = _between(0.0, 10.0, 0.105)
     ehd_handover: float = _positive(EHD_HANDOVER, unit="m", note=EHD_HANDOVER_NOTE)
-    cavitation_pressure: str | float = "auto"
+    cavitation_pressure: str | float = field(default="auto", metadata={"allowed": CAVITATION_ALLOWED})
 
     @property
     def paper(self) -> bool:
@@ -595,10 +604,9 @@ class Scene:
     def _check_cavitation(self) -> None:
         """contact.cavitation_pressure is one of its words or a tension; the liquid does not boil."""
         cav = self.contact.cavitation_pressure
-        words = ("auto", "liquid", "off")
-        allowed = f"allowed {', '.join(repr(w) for w in words)} or a number in [{CAVITATION_PRESSURE_MIN:g}, 0] Pa"
+        allowed = f"allowed {CAVITATION_ALLOWED}"
         if isinstance(cav, str):
-            if cav not in words:
+            if cav not in CAVITATION_WORDS:
                 raise SceneError(f"contact.cavitation_pressure = {cav!r} is not a choice nor a pressure: {allowed} "
                                  "(gauge: the film's most negative pressure)")
         elif isinstance(cav, bool) or not (math.isfinite(cav) and CAVITATION_PRESSURE_MIN <= cav <= 0.0):
@@ -636,7 +644,8 @@ class Scene:
         """contact.model = "lubricated-hertz": each contact's gap h_c = contact_gap_factor x max(roughness, x_d), x_d
         the elastohydrodynamic gap at the estimated impact speed, thin against the two surfaces (FILM_GAP_FRACTION
         a*, and below delta_sl times the gap scale): else the solids are too soft for a contact that starts at a
-        gap, and the lubrication before it, to mean anything."""
+        gap, and the lubrication before it, to mean anything; and no thinner than a continuum film or the
+        roughness (MOLECULAR_GAP)."""
         c = self.contact
         if c.model != "lubricated-hertz":
             return
@@ -657,6 +666,14 @@ class Scene:
             a_star = 0.5 * scale
             film = elastohydrodynamic_gap(a_star, e_star, self.liquid.viscosity, speed)
             gap = c.contact_gap_factor * max(roughness, film)
+            thinnest = max(MOLECULAR_GAP, roughness)
+            if gap < thinnest:
+                source = ("the surfaces' combined roughness, where their asperities touch" if roughness > MOLECULAR_GAP
+                          else "a few molecular diameters, below which the film is no continuum (Israelachvili 2011)")
+                raise SceneError(
+                    f"contact.contact_gap_factor = {c.contact_gap_factor:g} is out of range: the "
+                    f"{'wall' if second is None else 'pair'} contact would begin {gap:.3g} m apart, below "
+                    f"{thinnest:.3g} m ({source}); allowed >= {thinnest / max(roughness, film):.3g} for this scene")
             allowed = min(FILM_GAP_FRACTION * a_star, c.delta_sl * scale)
             if gap >= allowed:
                 raise SceneError(
@@ -713,7 +730,7 @@ def _build(cls, data: dict, prefix: str):
         elif table is not None:
             kwargs[key] = _build(table, value, f"{prefix}{key}.")
         else:
-            kwargs[key] = _coerce(value, hints[key], prefix + key)
+            kwargs[key] = _coerce(value, hints[key], prefix + key, fields[key].metadata.get("allowed"))
     for name, f in fields.items():
         if name not in kwargs and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             raise SceneError(f"missing key {prefix}{name}")
@@ -728,9 +745,10 @@ def _table_type(hint: Any):
     return tables[0] if tables else None
 
 
-def _coerce(value: Any, expected: Any, key: str) -> Any:
+def _coerce(value: Any, expected: Any, key: str, allowed_text: str | None = None) -> Any:
     """TOML writes 1 for 1.0 and users write 8000 for 8000.0: accept both, reject the rest.  NumPy's numbers
-    (np.float32(8000.0), np.int64(2): numbers.Real and numbers.Integral) are numbers too."""
+    (np.float32(8000.0), np.int64(2): numbers.Real and numbers.Integral) are numbers too.  `allowed_text`: what
+    a refusal says is allowed, for a field whose type alone does not say it (a number or some words)."""
     allowed = typing.get_args(expected) or (expected,)
     if isinstance(value, numbers.Integral) and not isinstance(value, (bool, int)):
         value = int(value)
@@ -741,8 +759,8 @@ def _coerce(value: Any, expected: Any, key: str) -> Any:
             return float(value)
         if int in allowed and isinstance(value, float) and value.is_integer():
             return int(value)
-        kind = ("a string" if str in allowed else "true or false" if bool in allowed
-                else "an integer" if float not in allowed else "a number")
+        kind = allowed_text or ("a string" if str in allowed else "true or false" if bool in allowed
+                                else "an integer" if float not in allowed else "a number")
         raise SceneError(f"{key} = {value!r} must be {kind}")
     return value
 
@@ -760,6 +778,18 @@ def from_dict(data: dict, name: str | None = None) -> Scene:
 def to_dict(scene: Scene) -> dict:
     """Nested dicts with None values left out; the inverse of from_dict."""
     return dataclasses.asdict(scene, dict_factory=lambda items: {k: v for k, v in items if v is not None})
+
+
+# what a scene holds beside its physics: its names, how long a run goes on, the measurement it is compared with
+# and the models' numerical settings
+NOT_PHYSICS = ("name", "description", "run", "reference", "numerics")
+
+
+def physics_digest(scene: Scene) -> str:
+    """A hash of what the scene simulates (to_dict without NOT_PHYSICS): equal for two scenes that differ only
+    in name, run length or numerics (a speed-accuracy record applies to the scene it was measured on)."""
+    physics = {key: value for key, value in to_dict(scene).items() if key not in NOT_PHYSICS}
+    return hashlib.sha256(json.dumps(physics, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def dumps(scene: Scene) -> str:

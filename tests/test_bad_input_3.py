@@ -122,10 +122,11 @@ def test_restart_from_inside_the_run_directory(fd_run, fd_copy, monkeypatch, cap
 
 
 def test_a_tiny_contact_gap_factor_ends_with_a_summary(tmp_path, capsys):
-    """contact_gap_factor = 1e-10 ended in ZeroDivisionError after the run, without summary.json."""
+    """contact_gap_factor = 1e-10 ended in ZeroDivisionError after the run, without summary.json (refused since
+    issue 43: the smallest gap allowed, a few nm on smooth surfaces, runs)."""
     out = tmp_path / "run"
-    status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--set", "contact.contact_gap_factor=1e-10",
-                            "--out", str(out))
+    status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--set", "contact.contact_gap_factor=3e-3",
+                            "--set", "sphere.roughness=0", "--set", "wall.roughness=0", "--out", str(out))
     assert status == 0 and lines == []
     assert json.loads((out / "summary.json").read_text())["status"] == "completed"
 

@@ -75,8 +75,12 @@ class ModelInfo:
 
     def scene_warnings(self, scene) -> list[str]:
         """What this model does not do well for the scene: an unbounded liquid's forces in a container, too
-        few cells across the blend gap."""
+        few cells across the blend gap, a history setting its flow overrides."""
         found = []
+        if self.resolved and scene.near_wall_law != "blend" and scene.contact.history_across_contact == "pause":
+            found.append(f'contact.history_across_contact = "pause" has no effect with the {self.name} model: its '
+                         "resolved flow carries the history force (the setting applies to the theory force: the ode "
+                         'model, or contact.near_wall = "blend")')
         if not self.resolved and not scene.container.unbounded:
             found.append(f"the {self.name} model's forces are those of an unbounded liquid: it ignores [container] "
                          f"(radius {scene.container.radius:g} m, height {scene.container.height:g} m); a resolved "

@@ -57,18 +57,19 @@ def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), o
         raise scenes.SceneError(f"--points {points}: allowed 2 to {MAX_POINTS} Stokes numbers per sweep")
     study = StudyDirectory(out, comm)
     runner = runner or Runner(comm)
-    restitution.tabulate_bands(restitution.MATERIAL_SETS, runner.map)
-    planned = restitution.plan(points, st_range)
+    restitution.tabulate_bands(restitution.MATERIAL_SETS, runner.map, overrides)
+    planned = restitution.plan(points, st_range, overrides=overrides)
     if not planned:
-        bands = [restitution.stokes_band(name)[1] for name in restitution.MATERIAL_SETS]
+        bands = [restitution.stokes_band(name, overrides)[1] for name in restitution.MATERIAL_SETS]
         low, high = min(band[0] for band in bands), max(band[-1] for band in bands)
-        raise scenes.SceneError(f"--st-min {st_range[0]:g} --st-max {st_range[1]:g}: no Table 3 set reaches a Stokes "
-                                f"number there (launched at {restitution.LAUNCH_SPEEDS[0]:g}-"
+        given = "".join(f" --set {key}" for key in overrides or {})
+        raise scenes.SceneError(f"--st-min {st_range[0]:g} --st-max {st_range[1]:g}{given}: no Table 3 set reaches a "
+                                f"Stokes number there (launched at {restitution.LAUNCH_SPEEDS[0]:g}-"
                                 f"{restitution.LAUNCH_SPEEDS[1]:g} m/s they reach St {low:.3g} to {high:.3g})")
     if scenes.load(restitution.DSS_PLUS_5, overrides).contact.paper:  # the paper's runs 30-35
-        restitution.tabulate_bands([restitution.DSS_PLUS_5], runner.map)
-        lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5)[1][[0, -1]]
-        planned += [(restitution.DSS_PLUS_5, st, restitution.launch_for_stokes(restitution.DSS_PLUS_5, st))
+        restitution.tabulate_bands([restitution.DSS_PLUS_5], runner.map, overrides)
+        lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5, overrides)[1][[0, -1]]
+        planned += [(restitution.DSS_PLUS_5, st, restitution.launch_for_stokes(restitution.DSS_PLUS_5, st, overrides))
                     for name, st, _ in planned if name == "li2011-table3-steel-85" and lo <= st <= hi]
     trials = [restitution.bounce_scene(scenes.load(name, overrides), launch) for name, _, launch in planned]
     measured = measure_all([(trial, model, f"{name} St ~ {target:.3g}")
@@ -110,13 +111,14 @@ def compare(rows: list[dict]) -> dict:
     return {
         "runs": len(rows), "failed": [r["scene"] + f" St ~ {r['target_St']:.3g}: {r['status']}"
                                       for r in rows if r.get("failed")],
-        "compared_St": list(COMPARED_ST), **_against_fit(done, "St", "restitution"),
+        "compared_St": list(COMPARED_ST), **_against_fit(done, "St", "restitution"),  # the range compared over
         "two_ms": _against_fit([r for r in done if r.get("St_2ms")], "St_2ms", "restitution_2ms"),
     }
 
 
 def _against_fit(done: list[dict], stokes: str, restitution: str) -> dict:
-    """The fit comparison of the runs `done` with St and e read from the columns `stokes` and `restitution`."""
+    """The fit comparison of the runs `done` with St and e read from the columns `stokes` and `restitution`
+    (`covered_St`: the St range of the runs compared, inside COMPARED_ST)."""
     compared = [r for r in done if COMPARED_ST[0] <= r[stokes] <= COMPARED_ST[1]]
     differences = np.array([r[restitution] - legendre_fit(r[stokes], *_fit_inputs(r["scene"])) for r in compared])
     bouncing = sorted(r[stokes] for r in done if r[restitution] > 0.0)
@@ -124,6 +126,7 @@ def _against_fit(done: list[dict], stokes: str, restitution: str) -> dict:
     top = max(done, key=lambda r: r[stokes]) if done else None
     return {
         "compared_runs": len(compared),
+        "covered_St": [min(r[stokes] for r in compared), max(r[stokes] for r in compared)] if compared else None,
         "rms_to_fit": float(np.sqrt(np.mean(differences**2))) if compared else None,
         "max_abs_to_fit": float(np.max(np.abs(differences))) if compared else None,
         "critical_St": [stuck[-1] if stuck else None, bouncing[0] if bouncing else None],

@@ -8,7 +8,10 @@ inside it) at an initial speed; the liquid slows it on the way, as on the pendul
 LAUNCH_SPEEDS = 0.02-10 m/s give each set a band of impact Stokes numbers, cut where the impact Re
 passes the axisymmetric limit (section 2.1).  `plan` puts a point every factor LOW_ST_RATIO = 1.3
 between St 3 and 30, where e rises from 0, spreads the sweep's other points evenly in log St, and
-assigns each to the set whose band holds it most centrally; the ODE model finds its launch speed.
+assigns each to the set whose band holds it most centrally; the ODE model finds its launch speed.  The
+bands are those of the scenes the sweep runs: the presets with the sweep's --set values (all but other
+models' numerics), so that a run's target St is the one the ODE model measures on it; a target no set reaches
+is dropped with a warning that names the reachable range.
 
 The speeds that define e and St are taken where the gap passes delta_sl = 0.2 D, on the way in and on
 the way out (`crossing_speeds`): just before the wall's film slows the sphere and just after it has let
@@ -63,18 +66,34 @@ def bounce_scene(scene: scenes.Scene, launch: float) -> scenes.Scene:
 
 
 def check_overrides(overrides: dict | None) -> None:
-    """A sweep plans where each run starts and when it ends: a --set of those would defeat the plan."""
+    """A sweep plans where each run starts and when it ends: a --set of those would defeat the plan.  Every
+    set's scene with the --set values is checked here, before the planning's runs (a bad key or value: one
+    line at once)."""
     for key in overrides or {}:
         if key in PLANNED_KEYS:
             raise scenes.SceneError(f"--set {key}: the restitution sweep sets {key} for each run itself (a launch "
                                     "speed per Stokes number); run one scene with `fem-bounce run` instead")
+    for name in (*MATERIAL_SETS, DSS_PLUS_5):
+        bounce_scene(scenes.load(name, overrides), LAUNCH_SPEEDS[0])
+
+
+def planning(overrides: dict | None) -> dict:
+    """The --set values that change what the ODE model plans with: all but other models' numerics."""
+    return {key: value for key, value in (overrides or {}).items()
+            if not key.startswith("numerics.") or key.startswith("numerics.ode.")}
 
 
 def first_bounce(scene: scenes.Scene, launch: float, rebound: bool = True) -> dict:
-    """ODE model launched at `launch` [m/s] to the end of the first rebound (or to the impact only)."""
+    """ODE model launched at `launch` [m/s] to the end of the first rebound (or, rebound=False, until the gap
+    passes delta_sl inward, where St is measured: the planning's runs, whatever the contact does after)."""
     trial = bounce_scene(scene, launch)
     integrator = BodyIntegrator(trial, stop_after_impacts=0 if rebound else 1)
-    integrator.observers.append(lambda row: stop_requested())  # a signal stops the planning within a step
+
+    def observe(row: dict) -> None:
+        stop_requested()  # a signal stops the planning within a step
+        if not rebound and integrator.blend_crossings:
+            integrator.done = True
+    integrator.observers.append(observe)
     try:
         integrator.advance(trial.run.end_time)
     finally:
@@ -96,21 +115,28 @@ def crossing_speeds(crossings: list[dict]) -> tuple[float, float]:
     return inward["speed"], outward["speed"] if outward else 0.0
 
 
-_BANDS: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # stokes_band's tables, by preset
+_BANDS: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}  # stokes_band's tables, by preset and --set
 
 
-def stokes_band(name: str) -> tuple[np.ndarray, np.ndarray]:
-    """(launch speeds [m/s], impact St) of a preset over LAUNCH_SPEEDS with the ODE model, cut where the
-    impact Re passes the axisymmetric limit; St grows with the speed.  Tabulated once per process."""
-    if name not in _BANDS:
-        _BANDS[name] = _tabulate_band(name)
-    return _BANDS[name]
+def _band_key(name: str, overrides: dict | None) -> tuple[str, str]:
+    return name, repr(sorted(planning(overrides).items()))
 
 
-def tabulate_bands(names, mapper=map) -> None:
+def stokes_band(name: str, overrides: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(launch speeds [m/s], impact St) of a preset (with `overrides`) over LAUNCH_SPEEDS with the ODE model,
+    cut where the impact Re passes the axisymmetric limit; St grows with the speed.  Tabulated once per
+    process."""
+    key = _band_key(name, overrides)
+    if key not in _BANDS:
+        _BANDS[key] = _tabulate_band(name, planning(overrides))
+    return _BANDS[key]
+
+
+def tabulate_bands(names, mapper=map, overrides: dict | None = None) -> None:
     """Tabulate the bands of several presets at once: `mapper` (map-like) may spread them over processes."""
-    missing = [name for name in dict.fromkeys(names) if name not in _BANDS]
-    _BANDS.update(zip(missing, mapper(_tabulate_band, missing)))
+    missing = [name for name in dict.fromkeys(names) if _band_key(name, overrides) not in _BANDS]
+    found = mapper(_tabulate_band, missing, [planning(overrides)] * len(missing))
+    _BANDS.update(zip((_band_key(name, overrides) for name in missing), found))
 
 
 def forget_bands() -> None:
@@ -118,8 +144,8 @@ def forget_bands() -> None:
     _BANDS.clear()
 
 
-def _tabulate_band(name: str) -> tuple[np.ndarray, np.ndarray]:
-    scene = scenes.load(name)
+def _tabulate_band(name: str, overrides: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    scene = scenes.load(name, overrides)
     speeds = np.geomspace(*LAUNCH_SPEEDS, BAND_SAMPLES)
     found = [first_bounce(scene, speed, rebound=False) for speed in speeds]
     keep = [0.0 < r["St"] and r["Re"] <= scenes.AXISYMMETRIC_RE_LIMIT for r in found]  # 0: stopped before 0.2 D
@@ -131,12 +157,12 @@ def _tabulate_band(name: str) -> tuple[np.ndarray, np.ndarray]:
     return speeds[first:n], np.array([r["St"] for r in found[first:n]])
 
 
-def launch_for_stokes(name: str, stokes: float) -> float:
-    """The launch speed [m/s] at which the ODE model's first impact of the preset has Stokes number
-    `stokes` (monotone cubic interpolation of the tabulated band in log-log)."""
+def launch_for_stokes(name: str, stokes: float, overrides: dict | None = None) -> float:
+    """The launch speed [m/s] at which the ODE model's first impact of the preset (with `overrides`) has
+    Stokes number `stokes` (monotone cubic interpolation of the tabulated band in log-log)."""
     from scipy.interpolate import PchipInterpolator
 
-    speeds, band = stokes_band(name)
+    speeds, band = stokes_band(name, overrides)
     if not band[0] * (1 - 1e-9) <= stokes <= band[-1] * (1 + 1e-9):
         raise scenes.SceneError(f"St = {stokes:g} is out of reach for {name}: launched from {LAUNCH_GAP:g} D at "
                                 f"{LAUNCH_SPEEDS[0]:g}-{LAUNCH_SPEEDS[1]:g} m/s its first impact has St in "
@@ -160,27 +186,35 @@ def targets(points: int, st_range=(1.0, 1000.0)) -> list[float]:
     return merged
 
 
-def plan(points: int, st_range=(1.0, 1000.0), sets=MATERIAL_SETS) -> list[tuple[str, float, float]]:
-    """(preset, target St, launch speed [m/s]) for each of `targets` that a set reaches, by the set whose
-    band holds it furthest from its ends."""
-    bands = {name: stokes_band(name)[1] for name in sets}
-    chosen = []
+def plan(points: int, st_range=(1.0, 1000.0), sets=MATERIAL_SETS,
+         overrides: dict | None = None) -> list[tuple[str, float, float]]:
+    """(preset, target St, launch speed [m/s]) for each of `targets` that a set (with `overrides`) reaches, by
+    the set whose band holds it furthest from its ends; the targets none reaches are dropped with a warning."""
+    bands = {name: stokes_band(name, overrides)[1] for name in sets}
+    chosen, dropped = [], []
     for stokes in targets(points, st_range):
         reaching = [n for n in sets if bands[n][0] * (1 - 1e-9) <= stokes <= bands[n][-1] * (1 + 1e-9)]
         if reaching:  # the set that reaches it most centrally: the curve then spans liquids and materials
             name = max(reaching, key=lambda n: min(stokes / bands[n][0], bands[n][-1] / stokes))
-            chosen.append((name, stokes, launch_for_stokes(name, stokes)))
+            chosen.append((name, stokes, launch_for_stokes(name, stokes, overrides)))
+        else:
+            dropped.append(f"{stokes:.4g}")
+    if dropped and chosen:
+        low, high = min(band[0] for band in bands.values()), max(band[-1] for band in bands.values())
+        warnings.warn(f"restitution: no Table 3 set reaches St {', '.join(dropped)} (launched at "
+                      f"{LAUNCH_SPEEDS[0]:g}-{LAUNCH_SPEEDS[1]:g} m/s below Re {scenes.AXISYMMETRIC_RE_LIMIT:g} they "
+                      f"reach St {low:.3g}-{high:.3g}): {len(dropped)} of the planned points dropped", stacklevel=2)
     return chosen
 
 
 def sweep(points: int, st_range=(1.0, 1000.0), mapper=map, overrides: dict | None = None) -> list[dict]:
     """The ODE model at each planned launch, to the end of its first rebound (a fraction of a second each),
-    with `overrides` applied to every scene (the plan itself is made with the presets as shipped).  The
-    runs are independent: `mapper` (map-like, e.g. fem_bounce.studies.runner.Runner.map) may spread the
-    band tabulation and the sweep's runs over processes; the builtin map runs them one after another."""
+    with `overrides` applied to every scene (and to the plan).  The runs are independent: `mapper` (map-like,
+    e.g. fem_bounce.studies.runner.Runner.map) may spread the band tabulation and the sweep's runs over
+    processes; the builtin map runs them one after another."""
     check_overrides(overrides)
-    tabulate_bands(MATERIAL_SETS, mapper)
-    planned = plan(points, st_range)
+    tabulate_bands(MATERIAL_SETS, mapper, overrides)
+    planned = plan(points, st_range, overrides=overrides)
     found = mapper(_first_bounce_of, [name for name, _, _ in planned], [launch for _, _, launch in planned],
                    [overrides or {}] * len(planned))
     return [{"scene": name, "target_St": st, **result} for (name, st, _), result in zip(planned, found)]

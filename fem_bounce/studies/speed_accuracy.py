@@ -100,8 +100,8 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
         r["error"] = _worst(r, "error_", names)
         r["experiment_error"] = _worst(r, "experiment_error_", judged) if judged else None
     recommendations = recommend(rows, names, reference)
-    result = {"scene": scene.name, "quantities": names, "secondary_quantities": secondary,
-              "experiment_quantities": judged,
+    result = {"scene": scene.name, "scene_digest": scenes.physics_digest(scene), "quantities": names,
+              "secondary_quantities": secondary, "experiment_quantities": judged,
               "reference": {"model": reference_model, "setting": reference["setting"],
                             "step_factor": reference_level.step_factor, "run_dir": reference["run_dir"],
                             "text": reference_text},
@@ -192,15 +192,48 @@ RECORD_DIRECTORY = Path("results")  # where `study speed-accuracy --record` writ
 
 
 def recorded(directory: Path = RECORD_DIRECTORY) -> dict:
-    """{scene name: {"5%": {"model": ..., "setting": {...}, ...}}}: the record shipped with the package
-    (a deliberate, committed file), overlaid by the user's own in `directory`/accuracy_recommendations.json (as
-    `--record` wrote it; SceneError naming the file if it is not such a record)."""
+    """{scene name: {"5%": {"model": ..., "setting": {...}, "scene_digest": ..., ...}}}: the record shipped with
+    the package (a deliberate, committed file), overlaid by the user's own in `directory`/accuracy_recommendations
+    .json (as `--record` wrote it; SceneError naming the file if it is not such a record).  Each pick also holds
+    `record`, the file it was read from."""
     shipped = resources.files("fem_bounce") / "data" / RECORD
-    data = json.loads(shipped.read_text()) if shipped.is_file() else {}
+    data = _with_source(json.loads(shipped.read_text()), f"fem_bounce/data/{RECORD}") if shipped.is_file() else {}
     own = Path(directory) / RECORD
     if own.is_file():
-        data.update(_read_record(own))
+        data.update(_with_source(_read_record(own), str(own)))
     return data
+
+
+def _with_source(data: dict, path: str) -> dict:
+    return {name: {level: pick and {**pick, "record": path} for level, pick in levels.items()}
+            for name, levels in data.items()}
+
+
+def pick_for(scene: scenes.Scene, level: str, directory: Path = RECORD_DIRECTORY) -> dict:
+    """The recorded pick of accuracy `level` ("5%") measured on this scene: the record whose scene_digest is the
+    scene's physics_digest (its content, numerics aside, not its name), which sets numerical keys only.
+    SceneError naming the scene, the level or the record file otherwise."""
+    data = recorded(directory)
+    digest = scenes.physics_digest(scene)
+    found = {name: levels for name, levels in data.items()
+             if any(pick and pick.get("scene_digest") == digest for pick in levels.values())}
+    if not found:
+        known = ", ".join(sorted(data)) or "none yet"
+        other = (f"; the record of {scene.name!r} was measured on other values (a record applies to the scene it "
+                 "was measured on, numerics aside)") if scene.name in data else ""
+        raise scenes.SceneError(f"--accuracy: no recorded speed-accuracy study for {scene.name!r} as given "
+                                f"(recorded: {known}){other}")
+    name, choices = next(iter(found.items()))
+    if level not in choices:
+        raise scenes.SceneError(f"--accuracy {level}: choose one of {', '.join(choices)}")
+    pick = choices[level]
+    if pick is None:
+        raise scenes.SceneError(f"--accuracy {level}: no recorded setting reaches it for {name}")
+    physical = [key for key in pick["setting"] if not str(key).startswith("numerics.")]
+    if physical:
+        raise scenes.SceneError(f"{pick['record']}: the {level} pick of {name!r} sets {physical[0]}, not a numerical "
+                                "setting (a record sets numerics.* only); fix or delete it")
+    return pick
 
 
 def _read_record(path: Path) -> dict:
@@ -229,7 +262,8 @@ def record(result: dict, directory: Path = RECORD_DIRECTORY) -> Path:
     package: to ship a record, copy the file into fem_bounce/data/ and commit it)."""
     path = Path(directory) / RECORD
     data = _read_record(path) if path.exists() else {}
-    data[result["scene"]] = result["recommendations"]
+    data[result["scene"]] = {level: pick and {**pick, "scene_digest": result["scene_digest"]}
+                             for level, pick in result["recommendations"].items()}
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
     return path
