@@ -51,7 +51,16 @@ class FdNumerics:
     # ranks (docs/performance.md)
     solver: str = field(default="direct", metadata={"choices": ("direct", "fieldsplit")})
     interface_width: float = _setting(2.0, 0.25, 10.0)  # band inside the surface where phi falls to 0, in fine cells
-    radius_offset: float = _setting(0.5, -3.0, 3.0)  # the indicator's outer edge at a + this * fine size
+    # the indicator's outer edge at a + this * fine size; unset: the constraint's own, 0.5 for "penalty" (its
+    # effective surface half a cell inside the edge at its default step), 0 for "implicit" (the edge holds)
+    radius_offset: float | None = field(default=None, metadata={"range": (-3.0, 3.0, False, False), "unit": ""})
+
+    @property
+    def indicator_offset(self) -> float:
+        """radius_offset, or the constraint's own when unset [fine cells]."""
+        if self.radius_offset is not None:
+            return self.radius_offset
+        return 0.5 if self.constraint == "penalty" else 0.0
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
     steady_stokes: bool = False  # held sphere at Re -> 0: solve for the step's steady state, no marching

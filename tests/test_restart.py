@@ -26,7 +26,7 @@ CASES = {  # a toy run of each model that writes checkpoints, alone and in a pai
     # the pair with the implicit penalisation (the single sphere has the penalty): its factorised-every-step
     # flow restarts from the same history; 8 cells/D (its indicators end on the surfaces)
     "fd-pair": ["yang-hunt2006-pair", "--model", "fd", "--set", "numerics.fd.cells_per_diameter=8",
-                "--set", "numerics.fd.constraint=implicit", "--set", "numerics.fd.radius_offset=0",
+                "--set", "numerics.fd.constraint=implicit",
                 "--set", "run.end_time=0.03", "--set", "numerics.fd.checkpoint_every=20"],
     "ale-pair": FREE_PAIR,  # through the collision; its checkpoint after the remesh (tests/test_ale_pair.py)
 }

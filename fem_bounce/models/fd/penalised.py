@@ -10,7 +10,7 @@ field, so the interior follows the sphere within the step however fast it decele
 c_B (domain.penalty_rate: a large multiple of nu / h^2, U / h and 1 / dt) is set by the mesh, not bounded
 by dt.  The interior slips by about 1 / numerics.fd.penalty_strength of the speed; the effective surface sits
 where c_B phi first beats the viscous rate, a few hundredths of a cell inside the indicator's outer edge,
-so that edge is put on the sphere's surface (radius_offset 0 with this constraint).
+so that edge is put on the sphere's surface (numerics.fd.radius_offset unset: 0 with this constraint).
 
 The matrix changes every step (the indicator moves, and convection is linearised about u*, implicit as in
 the ale model: no convective step bound either), so it is assembled and factorised every step (MUMPS; a
