@@ -35,7 +35,9 @@ class FdNumerics:
     wall_cells_per_diameter: float = _setting(0.0, 0.0, 800.0)
     wall_layer: float = _setting(0.25, 0.01, 5.0)
     wall_radius: float = _setting(0.6, 0.05, 10.0)
-    cfl: float = _setting(0.2, 0.01, 50.0)  # dt <= cfl * fine size / (1.5 speed scale): explicit convection
+    # dt <= cfl * fine size / (1.5 speed scale); unset: the constraint's own, 0.2 for "penalty" (its convection is
+    # explicit: stable at Re 200, not at 0.3), 0.4 for "implicit" (an accuracy choice: docs/validation.md section 12)
+    cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
     forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
     # "penalty": the one-shot forcing rho c phi (U - u~), c = 3 / (2 dt), on a matrix factorised once, rigid only
     # under forcing_number; its effective surface moves with dt (docs/validation.md section 12): calibrated
@@ -55,12 +57,13 @@ class FdNumerics:
     # effective surface half a cell inside the edge at its default step), 0 for "implicit" (the edge holds)
     radius_offset: float | None = field(default=None, metadata={"range": (-3.0, 3.0, False, False), "unit": ""})
 
-    @property
-    def indicator_offset(self) -> float:
-        """radius_offset, or the constraint's own when unset [fine cells]."""
-        if self.radius_offset is not None:
-            return self.radius_offset
-        return 0.5 if self.constraint == "penalty" else 0.0
+    def resolved(self, name: str) -> float:
+        """A setting's value, the constraint's own when it is unset (cfl, radius_offset)."""
+        value = getattr(self, name)
+        if value is not None:
+            return value
+        penalty = self.constraint == "penalty"
+        return {"cfl": 0.2 if penalty else 0.4, "radius_offset": 0.5 if penalty else 0.0}[name]
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
     steady_stokes: bool = False  # held sphere at Re -> 0: solve for the step's steady state, no marching

@@ -54,10 +54,13 @@ class Ladder:
 
 
 def _setting(scene: scenes.Scene, key: str) -> float:
-    value = scene
-    for part in key.split("."):
-        value = getattr(value, part)
-    return value
+    """The value of a dotted key; an unset one as its table resolves it (numerics.FdNumerics.resolved)."""
+    *path, name = key.split(".")
+    table = scene
+    for part in path:
+        table = getattr(table, part)
+    value = getattr(table, name)
+    return table.resolved(name) if value is None else value
 
 
 # each model's ladder, from the registry of models

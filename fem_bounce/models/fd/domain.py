@@ -56,7 +56,7 @@ def time_step(scene: Scene) -> float:
     The implicit constraint holds the interior whatever dt, so it has only the first bound."""
     fd = scene.numerics.fd
     fine = scene.sphere.diameter / fd.cells_per_diameter
-    convective = fd.cfl * fine / (PEAK_SPEED_FACTOR * speed_scale(scene, "fd"))
+    convective = fd.resolved("cfl") * fine / (PEAK_SPEED_FACTOR * speed_scale(scene, "fd"))
     if fd.constraint != "penalty":
         return convective
     return min(convective, fd.forcing_number * fine**2 / scene.liquid.kinematic_viscosity)
