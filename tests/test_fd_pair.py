@@ -130,8 +130,9 @@ def test_held_pair_drag_follows_stimson_and_jeffery(constraint):
     6 pi mu a U within 5 % (measured +2.0 %, mostly the slip sides 20 D away).  The implicit penalty's
     sharper surface depends more on where the cells cut it: 12 cells/D (+2.7 % on lambda, 0.8 % between
     the spheres, +4.4 % on the isolated drag; at 6 and 8 cells/D the spheres differ by 1.7 and 1.5 %)."""
-    changes = {"numerics.fd.cells_per_diameter": 6 if constraint == "penalty" else 12, "numerics.fd.far_field": 20.0, "numerics.fd.steady_stokes": True,
-               "wall.present": False, "initial_gap": 0.2, "numerics.fd.constraint": constraint}
+    changes = {"numerics.fd.cells_per_diameter": 6 if constraint == "penalty" else 12, "numerics.fd.far_field": 20.0,
+               "numerics.fd.steady_stokes": True, "wall.present": False, "initial_gap": 0.2,
+               "numerics.fd.constraint": constraint}
     single = scene.load("brenner-approach", changes)
     pair = pair_scene("brenner-approach", changes, gap=0.01, velocity=single.motion.velocity, mode="fixed")
     alone = steady_force(single)

@@ -112,7 +112,8 @@ class FictitiousDomainModel(FlowModel):
         """What more than one sphere needs, refused here, before the run writes anything."""
         if is_stream(scene):
             raise SceneError("a pair in a stream (motion.stream_velocity) is not modelled: give stream_velocity = 0")
-        min_gap = 2.0 * max(self.settings.resolved("radius_offset") * self.domain.fine_size, 0.0)  # ImmersedBodies.min_gaps
+        offset = self.settings.resolved("radius_offset")
+        min_gap = 2.0 * max(offset * self.domain.fine_size, 0.0)  # ImmersedBodies.min_gaps
         spheres = scene.spheres
         for k in np.flatnonzero(~(self.held[:-1] & self.held[1:])):  # a neighbouring pair that can close
             check_hold(min_gap, scene.contact.delta_sl * pair_diameter(spheres[k], spheres[k + 1]),
@@ -140,8 +141,9 @@ class FictitiousDomainModel(FlowModel):
         self.flow.set_uniform((0.0, domain.inflow_speed))
         radii = [body.sphere.radius for body in self.bodies]
         centers = [body.initial_gap + a for body, a in zip(self.bodies, radii)]
-        self.immersed = ImmersedBodies(self.flow, [a + fd.resolved("radius_offset") * domain.fine_size for a in radii], radii,
-                                       fd.interface_width * domain.fine_size, centers)
+        edge = fd.resolved("radius_offset") * domain.fine_size
+        self.immersed = ImmersedBodies(self.flow, [a + edge for a in radii], radii, fd.interface_width * domain.fine_size,
+                                       centers)
         if self.implicit:
             self.flow.place(self.immersed, centers)
         velocities = np.array([body.start_velocity for body in self.bodies])
