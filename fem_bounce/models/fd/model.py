@@ -142,8 +142,8 @@ class FictitiousDomainModel(FlowModel):
         radii = [body.sphere.radius for body in self.bodies]
         centers = [body.initial_gap + a for body, a in zip(self.bodies, radii)]
         edge = fd.resolved("radius_offset") * domain.fine_size
-        self.immersed = ImmersedBodies(self.flow, [a + edge for a in radii], radii, fd.interface_width * domain.fine_size,
-                                       centers)
+        self.immersed = ImmersedBodies(self.flow, [a + edge for a in radii], radii,
+                                       fd.interface_width * domain.fine_size, centers)
         if self.implicit:
             self.flow.place(self.immersed, centers)
         velocities = np.array([body.start_velocity for body in self.bodies])
