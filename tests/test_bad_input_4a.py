@@ -3,11 +3,17 @@ culprit, nothing written or left behind by a refusal, and no Python, C++ or PETS
 this process wherever the finding is not about a process; real processes where a pipe, a signal, a kill, a
 deleted working directory or a locale is the point."""
 import json
+import os
+import signal
+import time
+from pathlib import Path
 
 import pytest
+from mpi4py import MPI
 
 import fem_bounce as fb
-from test_bad_input import ODE
+from fem_bounce.fem import mesh as halfplane
+from test_bad_input import ODE, children_of, spawn, wait_for
 from test_bad_input_3 import refused
 
 ODE_ONE = ["li2011-case3", *ODE, "--set", "run.bounces=1"]
@@ -38,3 +44,41 @@ def test_an_accuracy_record_of_wrong_types_names_its_file(entry, tmp_path, monke
     (tmp_path / "results" / "accuracy_recommendations.json").write_text(json.dumps({"li2011-case3": {"10%": pick}}))
     refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", "--accuracy", "10%", "--quiet",
             message="results/accuracy_recommendations.json (the accuracy record `--accuracy` reads")
+
+
+# -- signals ----------------------------------------------------------------------------------------------------
+
+
+def gone(pid: int) -> bool:
+    """No such process, or a zombie waiting for whoever adopted it."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except OSError:
+        return True
+
+
+def test_a_killed_run_takes_its_mesher_along_and_a_later_run_clears_its_leftovers(tmp_path, monkeypatch):
+    """SIGKILL while gmsh meshed a large ale mesh in its child left the child meshing on as an orphan (it asked to
+    die with its parent only after its imports) and its .partial.msh in the cache for ever."""
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "cache"))
+    process = spawn(["run", "li2011-case3", "--model", "ale", "--quiet", "--set", "numerics.ale.cells_per_diameter=100",
+                     "--out", "run"], tmp_path)
+    wait_for(lambda: bool(children_of(process.pid)), process)
+    mesher = children_of(process.pid)[0]
+    process.kill()
+    process.communicate()
+    try:
+        deadline = time.monotonic() + 5.0
+        while not gone(mesher) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert gone(mesher)
+    finally:
+        if not gone(mesher):
+            os.kill(mesher, signal.SIGKILL)
+    meshes = tmp_path / "cache" / "meshes"
+    dead, alive = meshes / f".halfplane-0.{process.pid}.partial.msh", meshes / f".halfplane-1.{os.getpid()}.partial.msh"
+    for path in (dead, dead.with_name(dead.name + ".sha256"), alive):
+        path.write_text("half a mesh")  # the killed run's (its process id is free now) and a live one's
+    halfplane.create_mesh(MPI.COMM_SELF, halfplane.HalfPlane(radius=0.05, height=0.1, fine_size=0.01,
+                                                              coarse_size=0.02, grading=0.2))
+    assert sorted(p.name for p in meshes.glob(".*")) == [alive.name]
