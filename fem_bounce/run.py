@@ -41,7 +41,7 @@ from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
 from .integrator import BodyIntegrator, PenetrationError
 from .library_log import LIBRARY_LOG, library_output
-from .progress import Interrupts, Monitor, ProgressBar, on_root_watching, signal_name
+from .progress import Interrupts, Monitor, ProgressBar, StopNow, on_root_watching, signal_name
 from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
@@ -497,7 +497,9 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
             if plots and (status == "completed" or status.startswith("diverged")):
                 try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
                     _draw(out_dir)
-                except KeyboardInterrupt as err:  # Ctrl-C while drawing, with no Interrupts installed (the API)
+                    if interrupts is not None and interrupts.signum:  # a signal while drawing only set its flag
+                        raise StopNow(interrupts.signum)
+                except KeyboardInterrupt as err:  # Ctrl-C with no Interrupts installed (the API), or the above
                     stopped = getattr(err, "signum", signal.SIGINT)
                     reason = f"interrupted by {signal_name(stopped)} while drawing the figures"
                     run_dir.commit_summary({**data, "status": "interrupted", "stop_reason": reason})

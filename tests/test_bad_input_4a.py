@@ -13,7 +13,7 @@ from mpi4py import MPI
 
 import fem_bounce as fb
 from fem_bounce.fem import mesh as halfplane
-from test_bad_input import ODE, children_of, spawn, wait_for
+from test_bad_input import ODE, assert_one_line, children_of, run_cli, spawn, wait_for
 from test_bad_input_3 import refused
 
 ODE_ONE = ["li2011-case3", *ODE, "--set", "run.bounces=1"]
@@ -82,3 +82,22 @@ def test_a_killed_run_takes_its_mesher_along_and_a_later_run_clears_its_leftover
     halfplane.create_mesh(MPI.COMM_SELF, halfplane.HalfPlane(radius=0.05, height=0.1, fine_size=0.01,
                                                               coarse_size=0.02, grading=0.2))
     assert sorted(p.name for p in meshes.glob(".*")) == [alive.name]
+
+
+def test_a_signal_while_the_figures_are_drawn_counts(tmp_path, monkeypatch, capsys):
+    """One SIGTERM (or SIGINT) while `fem-bounce run` drew its figures only set the stop flag, which nothing read
+    any more: exit 0, status completed."""
+    from fem_bounce import plots
+
+    draw_run = plots.draw_run
+
+    def signalled(run_dir):
+        os.kill(os.getpid(), signal.SIGTERM)  # Interrupts (cli.main) takes it: a flag, and the drawing goes on
+        return draw_run(run_dir)
+
+    monkeypatch.setattr(plots, "draw_run", signalled)
+    out = tmp_path / "run"
+    status, lines = run_cli(capsys, "run", *ODE_ONE, "--out", str(out))
+    assert status == 128 + signal.SIGTERM
+    assert_one_line(lines, "interrupted by SIGTERM while drawing the figures")
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
