@@ -4,7 +4,10 @@ this process wherever the finding is not about a process; real processes where a
 deleted working directory or a locale is the point."""
 import json
 import os
+import shlex
 import signal
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -45,6 +48,45 @@ def test_an_accuracy_record_of_wrong_types_names_its_file(entry, tmp_path, monke
     refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", "--accuracy", "10%", "--quiet",
             message="results/accuracy_recommendations.json (the accuracy record `--accuracy` reads")
 
+
+
+def test_scenes_show_writes_utf8_whatever_the_locale(tmp_path):
+    """`LC_ALL=C ... fem-bounce scenes show FILE > out.toml` with an em dash in the description: UnicodeEncodeError
+    (stdout took the C locale's ASCII)."""
+    fb.save(fb.load("li2011-case3").replace(description="steel \u2014 glass"), tmp_path / "dash.toml")
+    env = {**os.environ, "LC_ALL": "C", "LANG": "C", "PYTHONUTF8": "0", "PYTHONCOERCECLOCALE": "0"}
+    with open(tmp_path / "out.toml", "wb") as out:
+        done = subprocess.run([sys.executable, "-m", "fem_bounce", "scenes", "show", "dash.toml"], cwd=tmp_path,
+                              env=env, stdout=out, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert done.returncode == 0 and done.stderr == ""
+    assert fb.load(tmp_path / "out.toml").description == "steel \u2014 glass"
+
+
+@pytest.mark.parametrize("argv", [["scenes"], ["run", *ODE_ONE, "--out", "run"]])
+def test_a_closed_pipe_ends_quietly(argv, tmp_path):
+    """`fem-bounce scenes | head -1`, `fem-bounce run ... 2>&1 | head -1`: PETSc's handler caught SIGPIPE, printed
+    7 PETSC ERROR lines and aborted (exit 15).  The reader here goes before (scenes) or after (run) the first line."""
+    process = subprocess.Popen([sys.executable, "-m", "fem_bounce", *argv], cwd=tmp_path, stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT if argv[0] == "run" else subprocess.PIPE)
+    if argv[0] == "run":
+        assert process.stdout.readline().startswith(b"fem-bounce: li2011-case3 with the ode model")
+    process.stdout.close()
+    err = process.stderr.read().decode() if process.stderr else ""
+    assert process.wait(timeout=120) == 0 and err == ""
+    if argv[0] == "run":
+        assert json.loads((tmp_path / "run" / "summary.json").read_text())["status"] == "completed"
+
+
+def test_a_deleted_working_directory_is_refused_in_one_line(tmp_path):
+    """Run from a working directory that was deleted: PETSC ERROR lines ("Error in getcwd()") and a petsc4py
+    traceback."""
+    (tmp_path / "gone").mkdir()
+    command = shlex.join([sys.executable, "-m", "fem_bounce", "run", *ODE_ONE])
+    process = subprocess.Popen(["sh", "-c", f"cd gone && rmdir ../gone && exec {command}"], cwd=tmp_path,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 2 and out == ""
+    assert_one_line(err.splitlines(), "error: the working directory cannot be used (No such file or directory")
 
 # -- signals ----------------------------------------------------------------------------------------------------
 
