@@ -75,7 +75,7 @@ def trajectory_columns(spheres: int) -> tuple:
     return ("t", *gaps, *(f"{name}_{k}" for k in range(1, spheres + 1) for name in EACH_SPHERE_COLUMNS))
 
 
-MARKER = ".fem-bounce-run"
+MARKER = cachedir.RUN_MARKER  # defined there, as the cache refuses to lie in a run directory
 MARKER_TEXT = "fem-bounce run directory: `fem-bounce run --force` may replace everything in it.\n"
 
 

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
-from . import losses, models, output
+from . import cachedir, losses, models, output
 from . import scene as scenes
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
@@ -378,6 +378,7 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
                                progress=progress, plots=plots, interrupts=interrupts, on_start=on_start)
     # Everything that can refuse the run comes before anything is written.
     models.check_scene(info, scene)
+    cachedir.checked_root()  # where the resolved models' meshes go
     model_cls = models.flow_model_class(info)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active

@@ -15,8 +15,9 @@ import pytest
 from mpi4py import MPI
 
 import fem_bounce as fb
+from fem_bounce import cachedir, cli
 from fem_bounce.fem import mesh as halfplane
-from test_bad_input import ODE, assert_one_line, children_of, run_cli, spawn, wait_for
+from test_bad_input import ODE, assert_one_line, children_of, run_cli, spawn, tree, wait_for
 from test_bad_input_3 import refused
 
 ODE_ONE = ["li2011-case3", *ODE, "--set", "run.bounces=1"]
@@ -143,3 +144,31 @@ def test_a_signal_while_the_figures_are_drawn_counts(tmp_path, monkeypatch, caps
     assert status == 128 + signal.SIGTERM
     assert_one_line(lines, "interrupted by SIGTERM while drawing the figures")
     assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+
+
+
+# -- caches and environment -------------------------------------------------------------------------------------
+
+
+def test_a_cache_inside_a_run_directory_is_refused(tmp_path, monkeypatch, capsys):
+    """FEM_BOUNCE_CACHE=<a run directory> fem-bounce compare ...: blamed --out and left a lock file in the run."""
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["run", *ODE_ONE, "--out", "r"]) == 0
+    capsys.readouterr()
+    before = tree(tmp_path)
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "r"))
+    status, lines = run_cli(capsys, "compare", "li2011-case3", "--models", "ode", "--quiet", "--out", "c")
+    assert status == 2
+    assert_one_line(lines, f"error: fem_bounce's cache {tmp_path / 'r'} is inside the run directory",
+                    "set FEM_BOUNCE_CACHE")
+    assert tree(tmp_path) == before
+
+
+def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
+    """XDG_CACHE_HOME=rel put the cache in the working directory; the XDG rule: a relative path is invalid."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("FEM_BOUNCE_CACHE", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.setenv("XDG_CACHE_HOME", "rel")
+    assert cachedir.folder("runs") == tmp_path / "home" / ".cache" / "fem_bounce" / "runs"
+    assert not (tmp_path / "rel").exists()
