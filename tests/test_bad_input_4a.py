@@ -17,8 +17,8 @@ from mpi4py import MPI
 import fem_bounce as fb
 from fem_bounce import cachedir, cli
 from fem_bounce.fem import mesh as halfplane
-from test_bad_input import ODE, assert_one_line, children_of, run_cli, spawn, tree, wait_for
-from test_bad_input_3 import refused
+from test_bad_input import ODE, assert_one_line, children_of, messages, run_cli, spawn, tree, wait_for
+from test_bad_input_3 import limited, refused
 
 ODE_ONE = ["li2011-case3", *ODE, "--set", "run.bounces=1"]
 
@@ -172,3 +172,21 @@ def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", "rel")
     assert cachedir.folder("runs") == tmp_path / "home" / ".cache" / "fem_bounce" / "runs"
     assert not (tmp_path / "rel").exists()
+
+
+@pytest.mark.parametrize("argv,limit,status,message", [
+    (["run", *ODE_ONE, "--out", "r"], 1000, 2, "error: cannot write r/scene.toml: File too large"),
+    (["compare", "li2011-case3", "--models", "ode", "--quiet", "--out", "c"], 100_000, 1,
+     "error: cannot make the study cache's run of li2011-case3 with the ode model in "),
+])
+def test_a_full_disk_leaves_nothing_and_names_no_removed_folder(argv, limit, status, message, tmp_path, monkeypatch):
+    """On a full disk a refused run left .fem-bounce-run (and compare its --out with it), and a study-cache run's
+    message said "outputs kept in .../.KEY.partial", a folder removed right after."""
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "cache"))
+    work = tmp_path / "work"
+    work.mkdir()
+    done = limited(argv, work, limit)
+    assert done.returncode == status
+    assert_one_line(messages(done.stderr), message, "File too large")
+    assert ".partial" not in done.stderr
+    assert list(work.iterdir()) == [] and list((tmp_path / "cache" / "runs").glob(".*.partial")) == []

@@ -39,10 +39,17 @@ def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = Fa
         models.get(name)  # an unknown or missing model fails before anything runs
     out_dir = Path(out_dir)
     cache = on_root(comm, default_root)  # a cache that cannot be made refuses the comparison before out_dir
-    on_root(comm, lambda: output.RunDirectory(out_dir).prepare(force))  # a refusal stops every rank
+    directory = output.RunDirectory(out_dir)
+    on_root(comm, lambda: directory.prepare(force))  # a refusal stops every rank
     runs = []
     for name in names:
-        finished = cached_run(scene, name, comm, root=comm.bcast(cache, root=0), progress=progress, command=command)
+        try:
+            finished = cached_run(scene, name, comm, root=comm.bcast(cache, root=0), progress=progress,
+                                  command=command)
+        except Exception:
+            if not runs:  # nothing in out_dir yet but its marker: out_dir goes (if this comparison made it)
+                on_root(comm, directory.abandon)
+            raise
         run_dir = out_dir / name
         if comm.rank == 0:
             # a copy inside the comparison, not a run directory of its own (no marker: --force replaces it)
