@@ -57,6 +57,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--restart", type=Path, default=None, metavar="DIR",
                      help="continue the killed run in DIR from its last checkpoint")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    run.add_argument("--no-plots", action="store_true",
+                     help="draw no figures (about 1 s less; `python -m fem_bounce.plots DIR` draws them later)")
     run.add_argument("--verbose", action="store_true",
                      help="show what the libraries say (the form compiler's log, their warnings) on the terminal "
                           "too, not only in the run directory's run.log")
@@ -72,6 +74,7 @@ def _parser() -> argparse.ArgumentParser:
     cmp_.add_argument("--out", default=None, help="output directory (default runs/compare-SCENE[-N])")
     cmp_.add_argument("--force", action="store_true", help="replace an existing output directory")
     cmp_.add_argument("--quiet", action="store_true", help="no progress lines")
+    cmp_.add_argument("--no-plots", action="store_true", help="draw no figures: comparison.csv and the runs only")
 
     show = sub.add_parser("scenes", help="list the shipped scenes, or show one as TOML")
     show.add_argument("action", nargs="?", choices=["list", "show"], default="list")
@@ -171,7 +174,8 @@ def _cmd_run(args) -> int:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
 
     summary = run.run_logged(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                             command=command, progress=not args.quiet, on_start=start_line)
+                             command=command, progress=not args.quiet, plots=not args.no_plots,
+                             on_start=start_line)
     if comm.rank == 0:
         _print_records(summary)
     return 0
@@ -188,10 +192,11 @@ def _cmd_compare(args) -> int:
     scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
     out = output.out_path(args.out) or _unused_directory(comm, Path("runs") / f"compare-{scene.name}")
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
-    rows = api.compare(scene, names, out, force=args.force, progress=not args.quiet, comm=comm, command=command)
+    rows = api.compare(scene, names, out, force=args.force, progress=not args.quiet, plots=not args.no_plots,
+                       comm=comm, command=command)
     if comm.rank == 0:
         print(compare.format_table(rows))
-        print(f"-> {out}/comparison.csv, {out}/comparison.png")
+        print(f"-> {out}/comparison.csv" + ("" if args.no_plots else f", {out}/comparison.png"))
     return 0 if all(r["status"] == "completed" for r in rows if r["model"] != "measured") else 1
 
 

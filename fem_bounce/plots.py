@@ -223,7 +223,12 @@ def pair_figure(traj: dict, summary: dict, path: Path) -> Path:
 
 
 def main(argv: list[str]) -> int:
-    """python -m fem_bounce.plots RUN_DIR...: redraw run directories' figures; one line for each that cannot be."""
+    """python -m fem_bounce.plots RUN_DIR...: redraw run directories' figures; one line for each that cannot be.
+    Under mpiexec rank 0 alone draws and speaks (the others would write the same files at once)."""
+    from mpi4py import MPI  # loaded already with the package
+
+    if MPI.COMM_WORLD.rank != 0:
+        return 0
     if not argv or argv[0] in ("-h", "--help"):
         print("usage: python -m fem_bounce.plots RUN_DIR [RUN_DIR ...]  (redraw a run's figures)", file=sys.stderr)
         return 0 if argv else 2

@@ -190,3 +190,42 @@ def test_a_full_disk_leaves_nothing_and_names_no_removed_folder(argv, limit, sta
     assert_one_line(messages(done.stderr), message, "File too large")
     assert ".partial" not in done.stderr
     assert list(work.iterdir()) == [] and list((tmp_path / "cache" / "runs").glob(".*.partial")) == []
+
+
+# -- fast to the prompt -------------------------------------------------------------------------------------------
+
+
+def test_no_plots_draws_nothing(tmp_path, monkeypatch, capsys):
+    """`fem-bounce run` spent ~3 s of its 5.4 s to the prompt drawing three figures, with no way to skip them
+    (compare likewise drew every run's and its own)."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "cache"))
+    status, lines = run_cli(capsys, "run", *ODE_ONE, "--no-plots", "--out", "r")
+    assert status == 0 and lines == []
+    status, lines = run_cli(capsys, "compare", "li2011-case3", "--models", "ode", "--quiet", "--no-plots",
+                            "--set", "run.bounces=1", "--out", "c")
+    assert status == 0 and lines == []
+    assert (tmp_path / "r" / "summary.json").is_file() and (tmp_path / "c" / "comparison.csv").is_file()
+    assert list(tmp_path.rglob("*.png")) == []
+
+
+# -- minor ------------------------------------------------------------------------------------------------------
+
+
+def test_api_flags_and_paths_are_checked(tmp_path, monkeypatch):
+    """fb.simulate(..., plots="no") drew the figures, and fb.resume("") was taken as "." where out="" is refused."""
+    monkeypatch.chdir(tmp_path)
+    scene = fb.load("li2011-case3", {"run.bounces": 1})
+    with pytest.raises(fb.OutputError, match="plots = 'no' must be True or False"):
+        fb.simulate(scene, out="r", plots="no")
+    with pytest.raises(fb.OutputError, match="run_dir is empty"):
+        fb.resume("")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_plots_speaks_once_under_mpiexec(tmp_path, mpiexec):
+    """`mpiexec -n 2 python -m fem_bounce.plots nonexistent` printed its error once per rank."""
+    done = subprocess.run([mpiexec, "-n", "2", sys.executable, "-m", "fem_bounce.plots", "nonexistent"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2
+    assert len(done.stderr.splitlines()) == 1 and "cannot draw nonexistent" in done.stderr

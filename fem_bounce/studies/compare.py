@@ -24,7 +24,6 @@ from pathlib import Path
 
 from .. import models, output, reference
 from ..cache import cached_run, default_root
-from ..plots import draw_run, units
 from ..run import on_root
 from ..scene import SceneError
 
@@ -32,9 +31,9 @@ MAX_IMPACTS = 3  # columns per impact in the table
 
 
 def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = False, progress: bool = True,
-               command: str = "") -> list[Path]:
-    """Each model's run (through the cache) copied to out_dir/NAME; returns those directories,
-    diverged runs included (their summary.json says so and the comparison shows it)."""
+               plots: bool = True, command: str = "") -> list[Path]:
+    """Each model's run (through the cache) copied to out_dir/NAME, with its figures unless `plots` is false;
+    returns those directories, diverged runs included (their summary.json says so and the comparison shows it)."""
     for name in names:
         models.get(name)  # an unknown or missing model fails before anything runs
     out_dir = Path(out_dir)
@@ -54,7 +53,10 @@ def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = Fa
         if comm.rank == 0:
             # a copy inside the comparison, not a run directory of its own (no marker: --force replaces it)
             shutil.copytree(finished, run_dir, ignore=shutil.ignore_patterns(output.MARKER))
-            draw_run(run_dir)
+            if plots:
+                from ..plots import draw_run  # matplotlib only for a comparison that draws
+
+                draw_run(run_dir)
         comm.barrier()
         runs.append(run_dir)
     return runs
@@ -119,9 +121,8 @@ def format_table(rows: list[dict]) -> str:
 
 
 def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
-    import matplotlib
+    from ..plots import units  # first: it selects matplotlib's Agg backend
 
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(2, 3, figsize=(14, 7.5))
@@ -180,16 +181,17 @@ def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
 
 
 def compare(scene, names: list[str], comm, out_dir: Path, *, force: bool = False, progress: bool = True,
-            command: str = "") -> list[dict]:
-    """Run the models, then write DIR/comparison.csv and DIR/comparison.png (rank 0).  A pair scene is
-    refused before anything runs: the table and the figure read one sphere's trajectory."""
+            plots: bool = True, command: str = "") -> list[dict]:
+    """Run the models, then write DIR/comparison.csv and DIR/comparison.png (unless `plots` is false; rank 0).
+    A pair scene is refused before anything runs: the table and the figure read one sphere's trajectory."""
     if scene.pair:
         raise SceneError(f"scene {scene.name!r} has a second sphere: `fem-bounce compare` tabulates one sphere; "
                          "run each model with `fem-bounce run` (each run draws both spheres)")
-    runs = run_models(scene, names, comm, out_dir, force=force, progress=progress, command=command)
+    runs = run_models(scene, names, comm, out_dir, force=force, progress=progress, plots=plots, command=command)
     rows = []
     if comm.rank == 0:
         rows = table_rows(runs)
         write_table(rows, Path(out_dir) / "comparison.csv")
-        draw(runs, rows, Path(out_dir) / "comparison.png")
+        if plots:
+            draw(runs, rows, Path(out_dir) / "comparison.png")
     return comm.bcast(rows, root=0)
