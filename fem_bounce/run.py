@@ -492,12 +492,14 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     unwritten = ""
     if run_dir is not None:
         def write_outputs() -> str:
+            trajectory = None  # read once, for the audit and the figures
             with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
-                losses.annotate(data, output.read_trajectory(out_dir))
+                trajectory = output.read_trajectory(out_dir)
+                losses.annotate(data, trajectory)
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
-                    _draw(out_dir)
+                    _draw(out_dir, trajectory, data)
                     if interrupts is not None and interrupts.signum:  # a signal while drawing only set its flag
                         raise StopNow(interrupts.signum)
                 except KeyboardInterrupt as err:  # Ctrl-C with no Interrupts installed (the API), or the above
@@ -539,11 +541,12 @@ def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, **option
     return on_root_watching(comm, lambda: simulate(scene, model_name, MPI.COMM_SELF, out_dir, **options))
 
 
-def _draw(out_dir: Path) -> None:
+def _draw(out_dir: Path, trajectory: dict | None, summary: dict) -> None:
+    """The run's figures from what it has just written (`trajectory`: None when it could not be read back)."""
     from . import plots as drawing  # matplotlib (and its Agg backend) only for a run that draws
 
     try:
-        drawing.draw_run(out_dir)
+        drawing.draw_run(out_dir, trajectory, summary)
     except OSError as err:
         raise output.OutputError(f"cannot draw the figures in {out_dir}: {err.strerror or err}") from None
 

@@ -134,9 +134,9 @@ def test_a_signal_while_the_figures_are_drawn_counts(tmp_path, monkeypatch, caps
 
     draw_run = plots.draw_run
 
-    def signalled(run_dir):
+    def signalled(*args):
         os.kill(os.getpid(), signal.SIGTERM)  # Interrupts (cli.main) takes it: a flag, and the drawing goes on
-        return draw_run(run_dir)
+        return draw_run(*args)
 
     monkeypatch.setattr(plots, "draw_run", signalled)
     out = tmp_path / "run"
