@@ -465,7 +465,8 @@ def _quiet_on_a_closed_pipe():
     """SIGPIPE ignored again, as Python sets it, over PETSc's handler (which printed PETSC ERROR lines and aborted
     the job when a pipe's reader went away): a write to it then fails with EPIPE, which _UntilClosed absorbs.  And
     stdout never raises UnicodeEncodeError where the locale's encoding is ASCII (LC_ALL=C)."""
-    signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+    with contextlib.suppress(ValueError):  # not the main thread: signals stay as they were
+        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
     streams = sys.stdout, sys.stderr
     sys.stdout, sys.stderr = _UntilClosed(sys.stdout), _UntilClosed(sys.stderr)
     with contextlib.suppress(AttributeError, ValueError):  # a stream that is not a terminal's, a pipe's or a file's
