@@ -106,8 +106,8 @@ def test_a_killed_run_takes_its_mesher_along_and_a_later_run_clears_its_leftover
     monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "cache"))
     process = spawn(["run", "li2011-case3", "--model", "ale", "--quiet", "--set", "numerics.ale.cells_per_diameter=100",
                      "--out", "run"], tmp_path)
-    wait_for(lambda: bool(children_of(process.pid)), process)
-    mesher = children_of(process.pid)[0]
+    wait_for(lambda: bool(children_of(process.pid, "fem_bounce.fem.mesh")), process)
+    mesher = children_of(process.pid, "fem_bounce.fem.mesh")[0]
     process.kill()
     process.communicate()
     try:
