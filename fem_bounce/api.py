@@ -107,7 +107,7 @@ def _path(value, what: str) -> Path:
     if not isinstance(value, (str, PathLike)):
         raise OutputError(f"{what} = {value!r} must be a path (a str or a pathlib.Path)")
     if not str(value).strip():
-        raise OutputError(f"{what} is empty: give a path, e.g. {what}='runs/mine'")
+        raise OutputError(f"{what} is empty: give a path (an empty one is not taken as the current directory)")
     return Path(value)
 
 
