@@ -430,55 +430,6 @@ def _route_warnings() -> None:
     warnings.showwarning = _show_warning
 
 
-class _UntilClosed:
-    """stdout or stderr that, once its reader has gone (`fem-bounce scenes | head -1`: EPIPE), sends the rest to
-    /dev/null at the descriptor (what C libraries write too), so that the command goes on, a run to its summary,
-    and ends quietly, as a command line tool does on a closed pipe."""
-
-    def __init__(self, stream):
-        self.stream = stream
-
-    def write(self, text: str) -> int:
-        try:
-            return self.stream.write(text)
-        except BrokenPipeError:
-            self._discard()
-            return len(text)
-
-    def flush(self) -> None:
-        try:
-            self.stream.flush()
-        except BrokenPipeError:
-            self._discard()
-
-    def _discard(self) -> None:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, self.stream.fileno())  # the buffered rest is flushed into it, without an error
-        os.close(devnull)
-
-    def __getattr__(self, name: str):
-        return getattr(self.stream, name)
-
-
-@contextlib.contextmanager
-def _quiet_on_a_closed_pipe():
-    """SIGPIPE ignored again, as Python sets it, over PETSc's handler (which printed PETSC ERROR lines and aborted
-    the job when a pipe's reader went away): a write to it then fails with EPIPE, which _UntilClosed absorbs.  And
-    stdout never raises UnicodeEncodeError where the locale's encoding is ASCII (LC_ALL=C)."""
-    with contextlib.suppress(ValueError):  # not the main thread: signals stay as they were
-        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
-    streams = sys.stdout, sys.stderr
-    sys.stdout, sys.stderr = _UntilClosed(sys.stdout), _UntilClosed(sys.stderr)
-    with contextlib.suppress(AttributeError, ValueError):  # a stream that is not a terminal's, a pipe's or a file's
-        sys.stdout.reconfigure(errors="backslashreplace")
-    try:
-        yield
-    finally:
-        if isinstance(sys.stdout, _UntilClosed):  # else /dev/null, after the output failed (main)
-            sys.stdout = streams[0]
-        sys.stderr = streams[1]
-
-
 def main(argv: list[str] | None = None) -> int:
     from mpi4py import MPI
 
@@ -500,7 +451,7 @@ def main(argv: list[str] | None = None) -> int:
                "study": _cmd_study, "compare": _cmd_compare}[args.command]
     graceful = args.command != "scenes"  # runs stop between two steps; listing scenes stops at once
     _SHOWN.clear()
-    with warnings.catch_warnings(), library_log.library_output(), _quiet_on_a_closed_pipe(), \
+    with warnings.catch_warnings(), library_log.library_output(), library_log.quiet_on_a_closed_pipe(), \
             (Interrupts(announce=library_log.RANK == 0) if graceful else contextlib.nullcontext()):
         warnings.simplefilter("always")
         _route_warnings()

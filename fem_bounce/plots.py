@@ -17,6 +17,7 @@ import matplotlib.pyplot as plt
 
 from . import reference
 from .contact import REBOUND_MIN_APEX
+from .library_log import quiet_on_a_closed_pipe
 from .losses import PHASES
 from .output import read_summary, read_trajectory
 from .scene import reduced_radius
@@ -238,16 +239,17 @@ def main(argv: list[str]) -> int:
         print("usage: python -m fem_bounce.plots RUN_DIR [RUN_DIR ...]  (redraw a run's figures)", file=sys.stderr)
         return 0 if argv else 2
     status = 0
-    for folder in argv:
-        try:
-            for made in draw_run(Path(folder)):
-                print(made)
-        except (OSError, ValueError, KeyError, IndexError, TypeError) as err:
-            reason = err.strerror if isinstance(err, OSError) and err.strerror else f"{type(err).__name__}: {err}"
-            where = f" ({err.filename})" if isinstance(err, OSError) and err.filename else ""
-            print(f"fem-bounce plots: error: cannot draw {folder}: {reason}{where}; is it a run directory with "
-                  "trajectory.csv and summary.json?", file=sys.stderr)
-            status = 2
+    with quiet_on_a_closed_pipe():  # `... | head -1`: the rest is drawn, not reported as a failure to draw
+        for folder in argv:
+            try:
+                for made in draw_run(Path(folder)):
+                    print(made)
+            except (OSError, ValueError, KeyError, IndexError, TypeError) as err:
+                reason = err.strerror if isinstance(err, OSError) and err.strerror else f"{type(err).__name__}: {err}"
+                where = f" ({err.filename})" if isinstance(err, OSError) and err.filename else ""
+                print(f"fem-bounce plots: error: cannot draw {folder}: {reason}{where}; is it a run directory with "
+                      "trajectory.csv and summary.json?", file=sys.stderr)
+                status = 2
     return status
 
 
