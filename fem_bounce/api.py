@@ -103,9 +103,19 @@ def _scene(scene: Scene | str | Path) -> Scene:
 
 
 def _path(value, what: str) -> Path:
+    """A path as given; an empty one is refused, not read as the current directory (as out="" is)."""
     if not isinstance(value, (str, PathLike)):
         raise OutputError(f"{what} = {value!r} must be a path (a str or a pathlib.Path)")
+    if not str(value).strip():
+        raise OutputError(f"{what} is empty: give a path (an empty one is not taken as the current directory)")
     return Path(value)
+
+
+def _plots(value) -> bool:
+    """plots= as given: True or False (a string such as "no" is refused, not taken as true)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise OutputError(f"plots = {value!r} must be True or False (draw the run's figures or not)")
+    return bool(value)
 
 
 def _model(model) -> str:
@@ -292,7 +302,7 @@ def simulate(scene: Scene | str | Path, model: str = "ode", out: str | Path | No
 
     A run that ends early raises RunDiverged, RunInterrupted or RunFailed (all RunFailed); the exception's
     `result` attribute holds what was computed until then (None when nothing was)."""
-    scene, model = _scene(scene), _model(model)
+    scene, model, plots = _scene(scene), _model(model), _plots(plots)
     _models.info(model)
     if settings:
         scene = scene.replace(**{key if "." in key else f"numerics.{model}.{key}": value
@@ -314,7 +324,7 @@ def resume(run_dir: str | Path, model: str | None = None, *, progress: bool = Fa
     DIR`): the scene is run_dir/scene.toml, the model the checkpoint's (model, if given, must match)."""
     from . import run
 
-    run_dir = _path(run_dir, "run_dir")
+    run_dir, plots = _path(run_dir, "run_dir"), _plots(plots)
     if model is not None:
         _models.info(_model(model))
     scene, model = run.restart_target(run_dir, model)
@@ -392,20 +402,22 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
 
 @_public
 def compare(scene: Scene | str | Path, models: str | Sequence[str] = ("ode", "fd", "ib"), out: str | Path | None = None,
-            *, force: bool = False, progress: bool = False, comm=None, command: str = "") -> Table:
+            *, force: bool = False, progress: bool = False, plots: bool = True, comm=None,
+            command: str = "") -> Table:
     """Several models on one scene, as `fem-bounce compare`: a row per model (status, wall_time_s, steps,
     unknowns, and per impact impact_speed_K, Re_K, restitution_K, apex_gap_over_D_K) and one for the
     scene's measurement when it has one.  Each run goes through the study cache (fem_bounce.cachedir, as
-    the command line).  out=DIR also writes DIR/MODEL run directories,
-    comparison.csv and comparison.png; out=None keeps only the cache."""
+    the command line).  out=DIR also writes DIR/MODEL run directories, comparison.csv and, unless
+    plots=False, comparison.png and each run's figures; out=None keeps only the cache (and draws nothing)."""
     from .studies import compare as study
 
     names = _models.model_list(models)
-    scene = _scene(scene)
+    scene, plots = _scene(scene), _plots(plots)
     comm = _world(comm)
     out = _output.out_path(out)
     command = command or f"fem_bounce.compare({scene.name!r}, {','.join(names)!r})"
     with _Scratch(comm) if out is None else contextlib.nullcontext(out) as where:
-        rows = study.compare(scene, names, comm, where, force=force, progress=progress, command=command)
+        rows = study.compare(scene, names, comm, where, force=force, progress=progress,
+                             plots=plots and out is not None, command=command)
     return Table(rows)
 

@@ -18,6 +18,7 @@ import functools
 import hashlib
 import json
 import os
+import re
 import shutil
 import time
 from importlib import metadata
@@ -25,7 +26,7 @@ from pathlib import Path
 
 from . import cachedir, models
 from . import scene as scenes
-from .errors import OutputError, RunDiverged
+from .errors import OutputError, RunDiverged, RunFailed, RunInterrupted
 from .models.registry import CORE_SOURCES
 from .output import MARKER, atomic_write_text, file_digest, read_summary
 from .progress import on_root_watching, stop_requested
@@ -128,12 +129,25 @@ def cached_run(scene: scenes.Scene, model: str, comm, root: Path | None = None, 
                          command=command or f"cached run of {scene.name} with {model}")
             except RunDiverged:
                 pass  # recorded in summary.json; a study classifies it (an interrupted or failed run is redone)
+            except (RunFailed, OutputError) as err:  # its folder goes (_settle): the message must not name it
+                raise _unkept(err, f"the study cache's run of {scene.name} with the {model} model in "
+                                   f"{run_dir.parent}") from None
             finally:
                 on_root(comm, lambda: _settle(partial, run_dir))
     finally:
         if comm.rank == 0:  # rank 0 alone holds the lock (its number reached every rank)
             os.close(lock)
     return run_dir
+
+
+def _unkept(err: RunFailed | OutputError, what: str) -> RunFailed | OutputError:
+    """`err` (the same kind: the same exit status) for a run whose unfinished folder is removed (_settle), so
+    naming `what` instead of that folder: interrupted at a time, or not made for a reason, the last "...: reason"
+    of the message (the system's word, e.g. "File too large", before any "(...)" or "; ..." that follows)."""
+    if isinstance(err, RunInterrupted):
+        return RunInterrupted(f"{str(err).split(';')[0]}: {what} is not kept; it runs again next time", err.signum)
+    reasons = re.findall(r": ([^:;()]+?)(?= \(|;|$)", str(err))
+    return type(err)(f"cannot make {what}: {reasons[-1] if reasons else err}; nothing of it is kept")
 
 
 def _lock(run_dir: Path) -> int:

@@ -125,6 +125,19 @@ def onset_gap(radius: float, viscosity: float, speed: float, tension: float) -> 
     return math.sqrt(3.0 * viscosity * radius * speed / tension)
 
 
+def _cavitated(gap: float, velocity: float, radius: float, viscosity: float,
+               tension: float) -> tuple[float, float, float, float]:
+    """(dp h_on [N/m], s, G(s), dG/ds) for a film opening at `velocity` > 0 with a `tension` dp > 0 (the
+    uncavitated film's 1/s, -1/s^2 from the onset s = 1 up).  dp h_on is sqrt(3 mu a V dp), not dp times h_on,
+    so that a tension many decades below the film's scale (down to the smallest float) gives the limit of a
+    film that holds none: h_on grows to infinity, s and dp h_on fall to 0, with no inf * 0 on the way."""
+    suction = math.sqrt(3.0 * viscosity * radius * velocity * tension)
+    s = gap / onset_gap(radius, viscosity, velocity, tension) if suction > 0.0 else 0.0
+    if s >= 1.0:
+        return suction, s, 1.0 / s, -1.0 / (s * s)
+    return suction, s, *cavitated_shape(s)
+
+
 def film_force(gap: float, velocity: float, radius: float, viscosity: float, tension: float) -> float:
     """The Reynolds film's force on the sphere [N] (positive away from the plane), `velocity` [m/s] positive
     away from it: -6 pi mu a^2 V / h where the film holds, the cavitated film's below the onset gap."""
@@ -132,31 +145,27 @@ def film_force(gap: float, velocity: float, radius: float, viscosity: float, ten
         return -6.0 * math.pi * viscosity * radius**2 * velocity / gap
     if tension <= 0.0:  # a liquid that holds no tension: the gap fills with vapour or gas at once
         return 0.0
-    h_on = onset_gap(radius, viscosity, velocity, tension)
-    s = gap / h_on
-    shape = 1.0 / s if s >= 1.0 else cavitated_shape(s)[0]
-    return -2.0 * math.pi * radius * tension * h_on * shape
+    suction, _, shape, _ = _cavitated(gap, velocity, radius, viscosity, tension)
+    return -2.0 * math.pi * radius * suction * shape
 
 
 def tension_relief(gap: float, velocity: float, radius: float, viscosity: float,
                    tension: float) -> tuple[float, float, float]:
     """(dF, d(dF)/dh, d(dF)/dV): what the tension limit takes off the Reynolds film's suction [N, N/m,
-    N s/m], dF = F_cavitated - (-6 pi mu a^2 V / h) >= 0; (0, 0, 0) while the film holds."""
+    N s/m], dF = F_cavitated - (-6 pi mu a^2 V / h) >= 0; (0, 0, 0) while the film holds.  The two films'
+    forces side by side, with F_cavitated = -2 pi a dp h_on G(h / h_on) (no 1/s, which overflows for a tiny
+    tension: _cavitated)."""
     if velocity <= 0.0 or tension == math.inf or gap <= 0.0:
         return 0.0, 0.0, 0.0
-    if tension <= 0.0:  # no suction at all: the relief is the whole Reynolds film
-        suction = 6.0 * math.pi * viscosity * radius**2
-        return suction * velocity / gap, -suction * velocity / gap**2, suction / gap
-    h_on = onset_gap(radius, viscosity, velocity, tension)
-    s = gap / h_on
+    reynolds = 6.0 * math.pi * viscosity * radius**2  # the uncavitated film's suction is reynolds V / h
+    suction, s, shape, slope = (0.0, 0.0, 0.0, 0.0) if tension <= 0.0 else _cavitated(
+        gap, velocity, radius, viscosity, tension)  # no tension: the relief is the whole Reynolds film
     if s >= 1.0:
         return 0.0, 0.0, 0.0
-    shape, slope = cavitated_shape(s)
-    scale = -2.0 * math.pi * radius * tension
-    relief = scale * h_on * (shape - 1.0 / s)
-    d_gap = scale * (slope + 1.0 / (s * s))
-    d_velocity = scale * (shape - s * slope - 2.0 / s) * h_on / (2.0 * velocity)
-    return relief, d_gap, d_velocity
+    scale = -2.0 * math.pi * radius
+    return (scale * suction * shape + reynolds * velocity / gap,
+            scale * tension * slope - reynolds * velocity / gap**2,
+            scale * (suction * shape - tension * gap * slope) / (2.0 * velocity) + reynolds / gap)
 
 
 def truncated_film_force(gap: float, velocity: float, radius: float, viscosity: float, tension: float) -> float:

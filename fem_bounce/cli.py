@@ -57,6 +57,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--restart", type=Path, default=None, metavar="DIR",
                      help="continue the killed run in DIR from its last checkpoint")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    run.add_argument("--no-plots", action="store_true",
+                     help="draw no figures (about 1 s less; `python -m fem_bounce.plots DIR` draws them later)")
     run.add_argument("--verbose", action="store_true",
                      help="show what the libraries say (the form compiler's log, their warnings) on the terminal "
                           "too, not only in the run directory's run.log")
@@ -72,6 +74,7 @@ def _parser() -> argparse.ArgumentParser:
     cmp_.add_argument("--out", default=None, help="output directory (default runs/compare-SCENE[-N])")
     cmp_.add_argument("--force", action="store_true", help="replace an existing output directory")
     cmp_.add_argument("--quiet", action="store_true", help="no progress lines")
+    cmp_.add_argument("--no-plots", action="store_true", help="draw no figures: comparison.csv and the runs only")
 
     show = sub.add_parser("scenes", help="list the shipped scenes, or show one as TOML")
     show.add_argument("action", nargs="?", choices=["list", "show"], default="list")
@@ -171,7 +174,8 @@ def _cmd_run(args) -> int:
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
 
     summary = run.run_logged(scene, model, comm, out, force=args.force, restart=args.restart is not None,
-                             command=command, progress=not args.quiet, on_start=start_line)
+                             command=command, progress=not args.quiet, plots=not args.no_plots,
+                             on_start=start_line)
     if comm.rank == 0:
         _print_records(summary)
     return 0
@@ -188,10 +192,11 @@ def _cmd_compare(args) -> int:
     scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
     out = output.out_path(args.out) or _unused_directory(comm, Path("runs") / f"compare-{scene.name}")
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
-    rows = api.compare(scene, names, out, force=args.force, progress=not args.quiet, comm=comm, command=command)
+    rows = api.compare(scene, names, out, force=args.force, progress=not args.quiet, plots=not args.no_plots,
+                       comm=comm, command=command)
     if comm.rank == 0:
         print(compare.format_table(rows))
-        print(f"-> {out}/comparison.csv, {out}/comparison.png")
+        print(f"-> {out}/comparison.csv" + ("" if args.no_plots else f", {out}/comparison.png"))
     return 0 if all(r["status"] == "completed" for r in rows if r["model"] != "measured") else 1
 
 
@@ -268,7 +273,10 @@ def _cmd_scenes(args) -> int:
     if args.action == "show":
         if not args.name:
             raise scenes.SceneError("scenes show needs a NAME (see `fem-bounce scenes`)")
-        print(scenes.dumps(scenes.load(args.name)), end="")
+        text = scenes.dumps(scenes.load(args.name))
+        with contextlib.suppress(AttributeError, ValueError):  # a stream whose encoding cannot be set
+            sys.stdout.reconfigure(encoding="utf-8")  # TOML is UTF-8, whatever the locale says (C: ASCII)
+        print(text, end="")
         return 0
     for name in scenes.preset_names():
         with warnings.catch_warnings():
@@ -432,19 +440,25 @@ def _route_warnings() -> None:
 def main(argv: list[str] | None = None) -> int:
     from mpi4py import MPI
 
+    library_log.RANK = MPI.COMM_WORLD.rank
+    try:
+        os.getcwd()  # PETSc asks for it as it starts, and fails with an error text of its own
+    except OSError as err:
+        say(f"error: the working directory cannot be used ({err.strerror or err}: deleted or moved away?): cd into "
+            "an existing directory and run again")
+        return 2
     if under_mpi_futures():
         petsc_on_self()  # rank 0 of an mpi4py.futures pool: the workers never join PETSc's COMM_WORLD
     # PETSc starts here, after the line above, and before Interrupts installs its handlers (PETSc's own abort on
     # SIGTERM with MPI_Abort)
     from .run import Interrupts, signal_name
 
-    library_log.RANK = MPI.COMM_WORLD.rank
     args = _parser().parse_args(argv)
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
                "study": _cmd_study, "compare": _cmd_compare}[args.command]
     graceful = args.command != "scenes"  # runs stop between two steps; listing scenes stops at once
     _SHOWN.clear()
-    with warnings.catch_warnings(), library_log.library_output(), \
+    with warnings.catch_warnings(), library_log.library_output(), library_log.quiet_on_a_closed_pipe(), \
             (Interrupts(announce=library_log.RANK == 0) if graceful else contextlib.nullcontext()):
         warnings.simplefilter("always")
         _route_warnings()

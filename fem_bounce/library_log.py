@@ -7,12 +7,15 @@ run's own lines; whether that happens depends on the machine's form cache, not o
 `library_output()` the root logger's records go to LIBRARY_LOG alone; run.run_logged (behind `fem-bounce run`
 and fem_bounce.simulate) appends them to the run directory's run.log once the run has begun.  The command line
 sets RANK and LIBRARY_LOG.verbose (`fem-bounce run --verbose`: every line on the terminal as well) and sends
-the libraries' warnings here too.
+the libraries' warnings here too.  `quiet_on_a_closed_pipe()` keeps a command quiet when its reader goes away
+(`fem-bounce scenes | head -1`).
 """
 from __future__ import annotations
 
 import contextlib
 import logging
+import os
+import signal
 import sys
 import warnings
 from pathlib import Path
@@ -87,3 +90,52 @@ def library_output():
         root.removeHandler(LIBRARY_LOG)
         for handler in before:
             root.addHandler(handler)
+
+
+class _UntilClosed:
+    """stdout or stderr that, once its reader has gone (`fem-bounce scenes | head -1`: EPIPE), sends the rest to
+    /dev/null at the descriptor (what C libraries write too), so that the command goes on, a run to its summary,
+    and ends quietly, as a command line tool does on a closed pipe."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self.stream.write(text)
+        except BrokenPipeError:
+            self._discard()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self.stream.flush()
+        except BrokenPipeError:
+            self._discard()
+
+    def _discard(self) -> None:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, self.stream.fileno())  # the buffered rest is flushed into it, without an error
+        os.close(devnull)
+
+    def __getattr__(self, name: str):
+        return getattr(self.stream, name)
+
+
+@contextlib.contextmanager
+def quiet_on_a_closed_pipe():
+    """SIGPIPE ignored again, as Python sets it, over PETSc's handler (which printed PETSC ERROR lines and aborted
+    the job when a pipe's reader went away): a write to it then fails with EPIPE, which _UntilClosed absorbs.  And
+    stdout never raises UnicodeEncodeError where the locale's encoding is ASCII (LC_ALL=C)."""
+    with contextlib.suppress(ValueError):  # not the main thread: signals stay as they were
+        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+    streams = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = _UntilClosed(sys.stdout), _UntilClosed(sys.stderr)
+    with contextlib.suppress(AttributeError, ValueError):  # a stream that is not a terminal's, a pipe's or a file's
+        sys.stdout.reconfigure(errors="backslashreplace")
+    try:
+        yield
+    finally:
+        if isinstance(sys.stdout, _UntilClosed):  # else /dev/null, after the output failed (cli.main)
+            sys.stdout = streams[0]
+        sys.stderr = streams[1]

@@ -75,7 +75,7 @@ def trajectory_columns(spheres: int) -> tuple:
     return ("t", *gaps, *(f"{name}_{k}" for k in range(1, spheres + 1) for name in EACH_SPHERE_COLUMNS))
 
 
-MARKER = ".fem-bounce-run"
+MARKER = cachedir.RUN_MARKER  # defined there, as the cache refuses to lie in a run directory
 MARKER_TEXT = "fem-bounce run directory: `fem-bounce run --force` may replace everything in it.\n"
 
 
@@ -227,9 +227,16 @@ class RunDirectory:
             path.mkdir(parents=True, exist_ok=True)
         except OSError as err:
             raise OutputError(f"cannot use {path} as a run directory: {_reason(err)}") from None
-        self._lock()
-        if scene is not None:
-            write_scene(path / "scene.toml", scene)
+        try:
+            self._lock()
+            if scene is not None:
+                write_scene(path / "scene.toml", scene)
+        except OutputError:  # no room for the marker or the scene: nothing left behind
+            self.abandon()
+            for name in (MARKER, "scene.toml"):  # in an (empty) directory that was there already
+                with contextlib.suppress(OSError):
+                    (path / name).unlink()
+            raise
 
     def resume(self, scene, model_name: str, checkpoint_files: tuple = ()) -> Checkpoint:
         """Lock DIR and check that it can continue `scene` with `model_name`: a whole checkpoint of that
@@ -338,8 +345,11 @@ class RunDirectory:
                               "another --out") from None
         _LOCKS[key] = fd
         if os.fstat(fd).st_size == 0:
-            os.write(fd, MARKER_TEXT.encode())
-            os.fsync(fd)
+            try:
+                _write_all(fd, MARKER_TEXT.encode())
+                os.fsync(fd)
+            except OSError as err:
+                raise OutputError(f"cannot write {self.path / MARKER}: {_reason(err)}") from None
 
     # -- reserve, write, commit, release --
     def reserve(self, size: int = SUMMARY_RESERVE_BYTES) -> None:

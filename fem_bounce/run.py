@@ -35,13 +35,13 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
-from . import bounces, losses, models, output
+from . import bounces, cachedir, losses, models, output
 from . import scene as scenes
 from .errors import RunDiverged, RunFailed, RunInterrupted
 from .flow_model import FlowModel
 from .integrator import BodyIntegrator, PenetrationError
 from .library_log import LIBRARY_LOG, library_output
-from .progress import Interrupts, Monitor, ProgressBar, on_root_watching, signal_name
+from .progress import Interrupts, Monitor, ProgressBar, StopNow, on_root_watching, signal_name
 from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
@@ -383,6 +383,7 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
                                progress=progress, plots=plots, interrupts=interrupts, on_start=on_start)
     # Everything that can refuse the run comes before anything is written.
     models.check_scene(info, scene)
+    cachedir.checked_root()  # where the resolved models' meshes go
     model_cls = models.flow_model_class(info)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active
@@ -498,15 +499,19 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     unwritten = ""
     if run_dir is not None:
         def write_outputs() -> str:
+            trajectory = None  # read once, for the audit and the figures
             with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
-                unaudited = losses.annotate(data, output.read_trajectory(out_dir))
+                trajectory = output.read_trajectory(out_dir)
+                unaudited = losses.annotate(data, trajectory)
                 if unaudited and status == "completed":  # (an unfinished run's rows may end before an impact's)
                     warnings.warn(unaudited, stacklevel=2)
             run_dir.commit_summary(data)
             if plots and (status == "completed" or status.startswith("diverged")):
                 try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
-                    _draw(out_dir)
-                except KeyboardInterrupt as err:  # Ctrl-C while drawing, with no Interrupts installed (the API)
+                    _draw(out_dir, trajectory, data)
+                    if interrupts is not None and interrupts.signum:  # a signal while drawing only set its flag
+                        raise StopNow(interrupts.signum)
+                except KeyboardInterrupt as err:  # Ctrl-C with no Interrupts installed (the API), or the above
                     stopped = getattr(err, "signum", signal.SIGINT)
                     reason = f"interrupted by {signal_name(stopped)} while drawing the figures"
                     run_dir.commit_summary({**data, "status": "interrupted", "stop_reason": reason})
@@ -549,11 +554,12 @@ def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, *, on_st
                                                    **options))
 
 
-def _draw(out_dir: Path) -> None:
+def _draw(out_dir: Path, trajectory: dict | None, summary: dict) -> None:
+    """The run's figures from what it has just written (`trajectory`: None when it could not be read back)."""
     from . import plots as drawing  # matplotlib (and its Agg backend) only for a run that draws
 
     try:
-        drawing.draw_run(out_dir)
+        drawing.draw_run(out_dir, trajectory, summary)
     except OSError as err:
         raise output.OutputError(f"cannot draw the figures in {out_dir}: {err.strerror or err}") from None
 

@@ -30,6 +30,7 @@ import json
 import math
 import os
 import pickle
+import re
 import shutil
 import signal
 import subprocess
@@ -276,6 +277,7 @@ def create_mesh(comm, spec: HalfPlane, cache: bool = True):
             path = scratch / f"halfplane-{spec.key()}.msh" if comm.rank == 0 else None
             on_root_watching(comm, lambda: _generate(spec, path))
         elif comm.rank == 0 and not _verified(path):
+            _remove_stale_partials(path.parent)
             on_root_watching(comm, lambda: _cache(spec, path))
         else:
             on_root_watching(comm, lambda: None)
@@ -349,6 +351,24 @@ def _hash_file(path: Path) -> Path:
     return path.with_name(path.name + ".sha256")
 
 
+_PARTIAL = re.compile(r"\.(\d+)\.partial\.msh(\.sha256)?")  # _cache's files being made, by the maker's process id
+
+
+def _remove_stale_partials(folder: Path) -> None:
+    """Remove the half-made files (_cache) that a run killed outright left in the mesh cache: those whose maker's
+    process is gone, never a live one's (another run meshing the same spec now)."""
+    for partial in folder.glob(".*.partial.msh*"):
+        found = _PARTIAL.search(partial.name)
+        if found is None:
+            continue
+        try:
+            os.kill(int(found[1]), 0)
+        except ProcessLookupError:
+            partial.unlink(missing_ok=True)
+        except OSError:  # alive (another user's process), or the id is out of range: leave it
+            continue
+
+
 def _cache(spec: HalfPlane, path: Path) -> None:
     """Mesh `spec` into the cache entry `path`: the file beside its place, checked and fsynced, renamed over it,
     then its hash (written the same way).  A half-made entry has no matching hash and is made again."""
@@ -387,7 +407,16 @@ def _generate(spec: HalfPlane, target: Path) -> None:
     environment = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_ENVIRONMENT)}
     environment["MPI4PY_RC_INITIALIZE"] = "0"  # the package imports mpi4py.MPI; the child needs no MPI
     package = Path(__file__).resolve().parents[2]
-    code = f"import sys; sys.path.insert(0, {str(package)!r}); from fem_bounce.fem.mesh import _child; _child()"
+    # Linux: the kernel kills the child when this process dies, however it dies (SIGKILL included), asked for
+    # first thing, before the imports (~1 s), and the child ends at once if this process died before it asked
+    code = ("import ctypes, os, signal, sys\n"
+            "if sys.platform.startswith('linux'):\n"
+            "    ctypes.CDLL(None).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG\n"
+            f"if os.getppid() != {os.getpid()}:\n"
+            "    sys.exit('the run that started this mesher has ended')\n"
+            f"sys.path.insert(0, {str(package)!r})\n"
+            "from fem_bounce.fem.mesh import _child\n"
+            "_child()")
     child = subprocess.Popen([sys.executable, "-c", code, str(target)], stdin=subprocess.PIPE,
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=environment)
     try:
@@ -410,10 +439,6 @@ def _generate(spec: HalfPlane, target: Path) -> None:
 
 def _child() -> None:
     """The child process of _generate: the spec (pickled) on stdin, the target file as its argument."""
-    import ctypes
-
-    if sys.platform.startswith("linux"):  # killed with its parent, however that dies (SIGKILL included)
-        ctypes.CDLL(None).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     spec, target = pickle.load(sys.stdin.buffer), sys.argv[1]
     try:
         _mesh_into(spec, target)

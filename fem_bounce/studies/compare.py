@@ -24,7 +24,6 @@ from pathlib import Path
 
 from .. import models, output, reference
 from ..cache import cached_run, default_root
-from ..plots import draw_run, units
 from ..run import on_root
 from ..scene import SceneError
 
@@ -32,22 +31,32 @@ MAX_IMPACTS = 3  # columns per impact in the table
 
 
 def run_models(scene, names: list[str], comm, out_dir: Path, *, force: bool = False, progress: bool = True,
-               command: str = "") -> list[Path]:
-    """Each model's run (through the cache) copied to out_dir/NAME; returns those directories,
-    diverged runs included (their summary.json says so and the comparison shows it)."""
+               plots: bool = True, command: str = "") -> list[Path]:
+    """Each model's run (through the cache) copied to out_dir/NAME, with its figures unless `plots` is false;
+    returns those directories, diverged runs included (their summary.json says so and the comparison shows it)."""
     for name in names:
         models.get(name)  # an unknown or missing model fails before anything runs
     out_dir = Path(out_dir)
     cache = on_root(comm, default_root)  # a cache that cannot be made refuses the comparison before out_dir
-    on_root(comm, lambda: output.RunDirectory(out_dir).prepare(force))  # a refusal stops every rank
+    directory = output.RunDirectory(out_dir)
+    on_root(comm, lambda: directory.prepare(force))  # a refusal stops every rank
     runs = []
     for name in names:
-        finished = cached_run(scene, name, comm, root=comm.bcast(cache, root=0), progress=progress, command=command)
+        try:
+            finished = cached_run(scene, name, comm, root=comm.bcast(cache, root=0), progress=progress,
+                                  command=command)
+        except Exception:
+            if not runs:  # nothing in out_dir yet but its marker: out_dir goes (if this comparison made it)
+                on_root(comm, directory.abandon)
+            raise
         run_dir = out_dir / name
         if comm.rank == 0:
             # a copy inside the comparison, not a run directory of its own (no marker: --force replaces it)
             shutil.copytree(finished, run_dir, ignore=shutil.ignore_patterns(output.MARKER))
-            draw_run(run_dir)
+            if plots:
+                from ..plots import draw_run  # matplotlib only for a comparison that draws
+
+                draw_run(run_dir)
         comm.barrier()
         runs.append(run_dir)
     return runs
@@ -112,9 +121,8 @@ def format_table(rows: list[dict]) -> str:
 
 
 def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
-    import matplotlib
+    from ..plots import units  # first: it selects matplotlib's Agg backend
 
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(2, 3, figsize=(14, 7.5))
@@ -173,16 +181,17 @@ def draw(run_dirs: list[Path], rows: list[dict], path: Path) -> Path:
 
 
 def compare(scene, names: list[str], comm, out_dir: Path, *, force: bool = False, progress: bool = True,
-            command: str = "") -> list[dict]:
-    """Run the models, then write DIR/comparison.csv and DIR/comparison.png (rank 0).  A pair scene is
-    refused before anything runs: the table and the figure read one sphere's trajectory."""
+            plots: bool = True, command: str = "") -> list[dict]:
+    """Run the models, then write DIR/comparison.csv and DIR/comparison.png (unless `plots` is false; rank 0).
+    A pair scene is refused before anything runs: the table and the figure read one sphere's trajectory."""
     if scene.pair:
         raise SceneError(f"scene {scene.name!r} has a second sphere: `fem-bounce compare` tabulates one sphere; "
                          "run each model with `fem-bounce run` (each run draws both spheres)")
-    runs = run_models(scene, names, comm, out_dir, force=force, progress=progress, command=command)
+    runs = run_models(scene, names, comm, out_dir, force=force, progress=progress, plots=plots, command=command)
     rows = []
     if comm.rank == 0:
         rows = table_rows(runs)
         write_table(rows, Path(out_dir) / "comparison.csv")
-        draw(runs, rows, Path(out_dir) / "comparison.png")
+        if plots:
+            draw(runs, rows, Path(out_dir) / "comparison.png")
     return comm.bcast(rows, root=0)

@@ -13,6 +13,7 @@ reaches it on every primary quantity: `fem-bounce run --accuracy 5%` reads these
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import dataclass
 from importlib import resources
@@ -244,17 +245,25 @@ def _read_record(path: Path) -> dict:
     except (OSError, ValueError) as err:
         raise scenes.SceneError(f"{what} cannot be read: {getattr(err, 'strerror', None) or err}; fix or delete "
                                 "it") from None
-    pick_keys = {"model": str, "setting": dict, "error": (int, float), "quantities": list}
     whole = isinstance(data, dict) and all(
-        isinstance(levels, dict) and all(
-            pick is None or (isinstance(pick, dict) and all(isinstance(pick.get(k), t) for k, t in pick_keys.items()))
-            for pick in levels.values())
+        isinstance(levels, dict) and all(pick is None or _whole_pick(pick) for pick in levels.values())
         for levels in data.values())
     if not whole:
         shape = '{scene: {"5%": {model, setting, error, quantities}}}'
         raise scenes.SceneError(f"{what} is not a record of {shape} as `study speed-accuracy --record` writes it; "
                                 "fix or delete it")
     return data
+
+
+def _whole_pick(pick) -> bool:
+    """One recommendation as `--record` writes it: a model's name, a table of settings, the error (a fraction
+    >= 0, not a bool) and the names of the quantities it was judged on (`run --accuracy` prints them)."""
+    if not isinstance(pick, dict):
+        return False
+    error = pick.get("error")
+    return (isinstance(pick.get("model"), str) and isinstance(pick.get("setting"), dict)
+            and isinstance(error, (int, float)) and not isinstance(error, bool) and math.isfinite(error) and error >= 0
+            and isinstance(pick.get("quantities"), list) and all(isinstance(q, str) for q in pick["quantities"]))
 
 
 def record(result: dict, directory: Path = RECORD_DIRECTORY) -> Path:
