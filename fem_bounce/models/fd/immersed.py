@@ -158,11 +158,12 @@ class ImmersedSphere:
         """True when the sphere moved since y1 was computed."""
         return self._unit_at != self.center
 
-    def unit_forcing(self) -> PETSc.Vec:
-        """rho c b_phi, ready for the flow solver; y1 = A^-1 of it must then go to `self.unit`."""
+    def unit_forcing(self, rate: float | None = None) -> PETSc.Vec:
+        """rho rate b_phi (rate [1/s], by default the step's c), ready for the flow solver; y1 = A^-1 of it must
+        then go to `self.unit`."""
         flow, out = self.flow, self.force
         self.b_phi.copy(out)
-        out.scale(flow.density * flow.c)
+        out.scale(flow.density * (flow.c if rate is None else rate))
         with out.localForm() as local:  # b_phi is accumulated; force_rhs() accumulates ghosts again
             local.array[out.getLocalSize():] = 0.0
         self._unit_at = self.center

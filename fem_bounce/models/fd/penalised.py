@@ -89,13 +89,7 @@ class PenalisedFlow(FlowSolver):
         """x_0 (from the step's history; 0 without it) and each x_j through `operator`; return the spheres'
         interior integrals I_i(x_0) [m^4/s] and slopes I_i(x_j) [m^3]."""
         spheres = self.bodies.spheres
-        units = []
-        for sphere in spheres:
-            sphere.b_phi.copy(sphere.force)
-            sphere.force.scale(self.density * self.penalty_rate)
-            with sphere.force.localForm() as local:  # b_phi is accumulated; force_rhs accumulates ghosts again
-                local.array[sphere.force.getLocalSize():] = 0.0
-            units.append(self.force_rhs(sphere.force))
+        units = [sphere.unit_forcing(self.penalty_rate) for sphere in spheres]  # rho c_B b_j
         if history:
             operator.solve_many([self.predictor_rhs(), *units], [self.x0.x.petsc_vec,
                                                                  *(sphere.unit.x.petsc_vec for sphere in spheres)])
