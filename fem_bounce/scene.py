@@ -270,7 +270,7 @@ class Contact:
                                          note="multiplies the computed contact gap h_c (lubricated-hertz): "
                                               "1 is the physical value; others are for sensitivity studies")
     wall_drag: str = _choice("brenner", "simple")
-    inertial_factor: str = _choice("auto", "additive", "schiller-naumann", "none")
+    inertial_factor: str = _choice("auto", "additive", "screened", "schiller-naumann", "none")
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")
