@@ -6,11 +6,12 @@ choice is named by a scene key of `[contact]` so its effect can be measured:
 
 - `wall_drag`: lambda(delta) = Brenner (1961) exact series ("brenner"), or
   1 + 1/(2 delta) ("simple").
-- `inertial_factor`: the Schiller & Naumann (1933) factor phi(Re) = 1 + 0.15 Re^0.687 added to lambda,
-  lambda(delta) + phi(Re) - 1 ("additive", the default: the wall's excess over Stokes drag is
-  lubrication, viscous at gap Reynolds numbers rho V h / mu -> 0, where inertia corrects it only at
-  O(Re_gap) (Cox & Brenner 1967), so only the free-sphere part carries the inertial factor), or
-  multiplying it, lambda phi ("schiller-naumann", the earlier default), or "none".
+- `inertial_factor`: the Schiller & Naumann (1933) factor phi(Re) = 1 + 0.15 Re^0.687 and Brenner's lambda:
+  "screened" (the default since issue 42) lambda + phi - 1 - Delta, where Delta is the part of the inertial
+  excess phi - 1 that the wall takes (`wall_screening`, calibrated on the ALE model's force map);
+  "additive" (the default before) lambda + phi - 1: the wall's excess is lubrication, viscous at gap
+  Reynolds numbers rho V h / mu -> 0, which inertia corrects only at O(Re_gap) (Cox & Brenner 1967);
+  "schiller-naumann" multiplies them, lambda phi (the paper's); or "none".
 - `added_mass`: the wall excess W of C_M = (1 + 3 W) / 2, first image
   W = 1 / (8 (1 + 2 delta)^3), or the exact image sum ("exact").
 - `history`: the Mei & Adrian (1992) kernel, or "off";
@@ -319,9 +320,11 @@ class TheoryForces:
         if self._additive:
             taken, taken_gap, taken_growth = (wall_screening(inertia, inertia_growth, gap / self.diameter)
                                               if self._screened else (0.0, 0.0, 0.0))
-            factor = wall + inertia - 1.0 - taken
-            force, d_gap, d_film = scale * factor, scale * (wall_gap - taken_gap / self.diameter), scale * wall_film
-            d_velocity = -self.stokes_drag * (factor + inertia_growth - taken_growth)
+            # the wall's take fades with its excess inside a Hertz contact (the share `film`)
+            factor = wall + inertia - 1.0 - film * taken
+            force, d_film = scale * factor, scale * (wall_film - taken)
+            d_gap = scale * (wall_gap - film * taken_gap / self.diameter)
+            d_velocity = -self.stokes_drag * (factor + inertia_growth - film * taken_growth)
             weight, weight_slope = 1.0, 0.0
         else:
             force, d_gap, d_film = scale * (wall * inertia), scale * inertia * wall_gap, scale * inertia * wall_film
