@@ -294,7 +294,9 @@ def _cmd_restitution(args) -> int:
     found = rows.summary
     if (MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD).rank == 0:
         print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.json, {out}/restitution.png")
-        for station, found_there in (("at 0.2 D", found), ("at the collision (2 ms means)", found.get("two_ms"))):
+        for station, found_there in (("at 0.2 D", found), ("at the collision (2 ms means)", found.get("two_ms")),
+                                     ("at the camera's frames (0.25 ms)", found.get("frame")),
+                                     ("at the peaks", found.get("peak"))):
             if not found_there or found_there["rms_to_fit"] is None:
                 continue
             stuck, first = found_there["critical_St"]

