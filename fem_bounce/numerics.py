@@ -28,6 +28,11 @@ class FdNumerics:
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
     grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
+    # patch: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
+    # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the
+    # patch's (models/fd/model.py); false: along the whole path
+    patch: bool = False
+    patch_margin: float = _setting(0.75, 0.1, 20.0)
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
     # the gap under the sphere's path: triangles D / wall_cells_per_diameter (0: no wall box) in
@@ -104,6 +109,11 @@ class AleNumerics:
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
     grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
+    # patch: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
+    # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the
+    # patch's (models/fd/model.py); false: along the whole path
+    patch: bool = False
+    patch_margin: float = _setting(0.75, 0.1, 20.0)
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
     cfl: float = _setting(0.5, 0.01, 20.0)  # dt = cfl * fine size / speed scale (convection is implicit)

@@ -17,7 +17,7 @@ from fem_bounce.fem.mesh import OUTER, SPHERE, TOP, WALL, HalfPlane, SphereHole,
 from fem_bounce.models.ale.domain import domain_for
 from fem_bounce.models.ale.flow import SphereFlow
 from fem_bounce.models.ale.motion import MeshMotion
-from fem_bounce.models.ale.transfer import DivergenceFreeProjection, SerialField, interpolate_from
+from fem_bounce.fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 from fem_bounce.run import simulate
 
 D = 0.01

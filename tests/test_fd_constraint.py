@@ -1,5 +1,6 @@
 """The rigid-body constraint as an implicit penalisation in the step's matrix (numerics.fd.constraint =
-"implicit", models/fd/penalised.py), and the field-split flow solver, at toy size."""
+"implicit", models/fd/penalised.py), the refined patch that follows the spheres (numerics.fd.patch), and the
+field-split flow solver, at toy size."""
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ from mpi4py import MPI
 from fem_bounce import output, scene
 from fem_bounce.integrator import BodyIntegrator
 from fem_bounce.models.fd.domain import penalty_rate, time_step
+from fem_bounce.fem.compat import geometry_cells
 from fem_bounce.models.fd.immersed import interior_slip
 from fem_bounce.models.fd.model import FictitiousDomainModel
 from fem_bounce.run import simulate
@@ -95,6 +97,45 @@ def test_an_implicit_run_completes_and_reports_its_cost(tmp_path):
     assert report["constraint"] == "implicit"
     assert report["factorisations"] == summary["steps"]
     assert report["interior_slip_m_s"] < 1e-3 * abs(output.read_trajectory(tmp_path)["velocity"][-1])
+
+
+def largest_cell_near(mesh, center: float, reach: float) -> float:
+    """The longest triangle edge [m] among the cells whose centroid lies within `reach` of (0, center) (all ranks)."""
+    corners = mesh.geometry.x[geometry_cells(mesh)[:mesh.topology.index_map(2).size_local]][:, :, :2]
+    near = np.hypot(corners[:, :, 0].mean(axis=1), corners[:, :, 1].mean(axis=1) - center) < reach
+    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
+    return mesh.comm.allreduce(float(edges[near].max(initial=0.0)), op=MPI.MAX)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("constraint", ["penalty", "implicit"])
+def test_the_refined_patch_follows_the_sphere_to_the_wall(constraint):
+    """The sphere falls from 1.6 D to touching in steps of 0.05 D: the patch moves (a new mesh) whenever the
+    centre strays half the margin from it, never otherwise, and at every position the cells within a quarter
+    diameter of the surface have the fine size (gmsh's edges up to 1.5 of it; a patch left behind grades to
+    coarser cells there), the liquid carried over stays at rest, and a new mesh's indicator is where the sphere
+    is."""
+    sc = scene.load("li2011-case3", {"numerics.fd.cells_per_diameter": 6, "numerics.fd.patch": True,
+                                     "numerics.fd.constraint": constraint})
+    model = FictitiousDomainModel(sc, MPI.COMM_WORLD)
+    model.build(BodyIntegrator(sc, resolved=True))
+    try:
+        a, diameter, fine = sc.sphere.radius, sc.sphere.diameter, model.domain.fine_size
+        half_margin = 0.5 * sc.numerics.fd.patch_margin * diameter
+        centers = np.arange(sc.initial_gap + a, a, -0.05 * diameter)
+        for center in centers:
+            before, patch = model.remeshes, model.patches[0]
+            model.follow([center])
+            moved = abs(center - patch) > half_margin
+            assert model.remeshes == before + moved
+            if moved:  # the new mesh's indicator where the sphere is
+                assert model.immersed.spheres[0].center == pytest.approx(center)
+            assert abs(center - model.patches[0]) <= half_margin
+            assert largest_cell_near(model.mesh, center, a + 0.25 * diameter) < 1.5 * fine
+            assert np.abs(model.flow.now.x.array).max() < 1e-12
+        assert model.remeshes >= 3
+    finally:
+        model.destroy()
 
 
 def test_the_field_split_solver_gives_the_direct_solution(tmp_path):

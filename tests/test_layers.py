@@ -59,6 +59,7 @@ LAYERS = {
     "fem_bounce.fem.mesh": FEM,
     "fem_bounce.fem.solver": FEM,
     "fem_bounce.fem.taylor_hood": FEM,
+    "fem_bounce.fem.transfer": FEM,
     # the registry and the models
     "fem_bounce.models": MODELS,
     "fem_bounce.models.registry": MODELS,
@@ -87,7 +88,6 @@ LAYERS = {
     "fem_bounce.models.ale.flow": MODELS,
     "fem_bounce.models.ale.model": MODELS,
     "fem_bounce.models.ale.motion": MODELS,
-    "fem_bounce.models.ale.transfer": MODELS,
     # one run: the controller, run_logged, restart_target
     "fem_bounce.run": RUN,
     # many runs: the cache of finished runs, the workers, the studies

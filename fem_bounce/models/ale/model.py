@@ -72,7 +72,7 @@ from .domain import AleDomain, domain_for, is_steady, next_time_step, time_step
 from .fields import MovingFieldWriter
 from .flow import SphereFlow
 from .motion import MeshMotion
-from .transfer import DivergenceFreeProjection, SerialField, interpolate_from
+from ...fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 
 
 def force_columns(count: int) -> tuple[str, ...]:

@@ -22,13 +22,15 @@ class Domain:
     fine_size: float  # [m]
 
 
-def domain_for(scene: Scene) -> Domain:
+def domain_for(scene: Scene, patch_centers=None) -> Domain:
+    """The fd model's half-plane: refined along the whole path, or (numerics.fd.patch) only in the patches
+    around the spheres' centres `patch_centers` [m] (patch_boxes)."""
     fd = scene.numerics.fd
     diameter = scene.sphere.diameter
     fine = diameter / fd.cells_per_diameter
     coarse = max(diameter / fd.coarse_cells_per_diameter, fine)
     half_plane = extent(scene, "fd")
-    boxes = (half_plane.refined,)
+    boxes = (half_plane.refined,) if patch_centers is None else patch_boxes(scene, patch_centers, half_plane.height)
     if fd.wall_cells_per_diameter > 0 and not is_stream(scene):  # finer triangles in the gap under the path
         wall_size = diameter / fd.wall_cells_per_diameter
         if wall_size < fine:
@@ -38,6 +40,26 @@ def domain_for(scene: Scene) -> Domain:
                      grading=fd.grading, refined=boxes)
     return Domain(spec=spec, sides=half_plane.sides, inflow_speed=half_plane.inflow_speed, center=half_plane.center,
                   fine_size=fine)
+
+
+def patch_boxes(scene: Scene, centers, height: float) -> tuple[Box, ...]:
+    """One fine box per sphere: r <= refined_radius D, z within patch_margin D of the sphere's top and bottom,
+    reaching down to the wall once its lower edge is within a margin of it (the gap is then in the patch)."""
+    fd = scene.numerics.fd
+    boxes = []
+    for sphere, center in zip(scene.spheres, centers):
+        margin = fd.patch_margin * sphere.diameter
+        low = center - sphere.radius - margin
+        boxes.append(Box(r_max=fd.refined_radius * sphere.diameter, z_min=0.0 if low < margin else low,
+                         z_max=min(center + sphere.radius + margin, height)))
+    return tuple(boxes)
+
+
+def patch_center(scene: Scene, center: float, index: int = 0) -> float:
+    """Where a patch around a sphere centred at z = center [m] is centred: on a grid of half the margin, so that
+    the same positions make the same (cached) meshes and a restart makes its run's mesh again."""
+    spacing = 0.5 * scene.numerics.fd.patch_margin * scene.spheres[index].diameter
+    return round(center / spacing) * spacing
 
 
 PEAK_SPEED_FACTOR = 1.5  # the fastest fluid: 1.5 U at the equator of a sphere in potential flow

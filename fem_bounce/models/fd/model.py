@@ -32,6 +32,7 @@ import numpy as np
 from ...bodies import scene_bodies
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import check_size, create_mesh
+from ...fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 from ...fem.solver import SolverError
 from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
 from ...motion import is_stream
@@ -39,7 +40,7 @@ from ...output import CheckpointError, body_array, per_body, segment_path
 from ...scene import SceneError, pair_diameter
 from ...integrator import FluidForce
 from . import coupling
-from .domain import Domain, domain_for, penalty_rate, time_step
+from .domain import Domain, domain_for, patch_center, penalty_rate, time_step
 from .fields import FieldWriter
 from .fluid import FlowSolver
 from .immersed import ImmersedBodies, check_hold, interior_slip
@@ -89,10 +90,19 @@ class FictitiousDomainModel(FlowModel):
 
     def __init__(self, scene, comm):
         super().__init__(scene, comm)
-        self.domain: Domain = domain_for(scene)
-        check_size(self.domain.spec, "numerics.fd")
+        self.path_domain: Domain = domain_for(scene)  # refined along the whole path: the largest mesh
+        check_size(self.path_domain.spec, "numerics.fd")
         self.dt = time_step(scene)
         self.bodies = scene_bodies(scene)
+        centers = [body.initial_gap + body.sphere.radius for body in self.bodies]
+        # the patches' centres [m] (numerics.fd.patch), None: refined along the path
+        self.patches = [patch_center(scene, c, k) for k, c in enumerate(centers)] if self.settings.patch else None
+        self.domain = self.path_domain if self.patches is None else domain_for(scene, self.patches)
+        self.remeshes, self.remesh_s = 0, 0.0
+        self.retired = {"back_solves": 0, "factorisations": 0}  # the solver counts of the meshes left behind
+        if self.patches is not None and self.settings.output_every > 0:
+            raise SceneError("numerics.fd.patch = true writes no field files (they follow one mesh): give "
+                             "numerics.fd.output_every = 0 or patch = false")
         self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
         self.flow: FlowSolver | None = None
         self.immersed: ImmersedBodies | None = None
@@ -126,12 +136,21 @@ class FictitiousDomainModel(FlowModel):
         launched sphere's penalty force then sets its interior liquid moving without taking that momentum
         from the sphere: a rigid sphere has none)."""
         start = time.perf_counter()
-        scene, domain, fd = self.scene, self.domain, self.settings
         self.hold_gaps = tuple(integrator.hold_gaps)  # (above the wall, each pair's) [m]
+        self._make_flow([body.initial_gap + body.sphere.radius for body in self.bodies])
+        velocities = np.array([body.start_velocity for body in self.bodies])
+        interiors = self.immersed.interiors(self.flow.now.x.petsc_vec)
+        order = self.flow.order
+        self.history = History(self.flow.bdf, [velocities] * order, [interiors] * order)
+        self.timings["setup"] = time.perf_counter() - start
+
+    def _make_flow(self, centers) -> None:
+        """The mesh of `self.domain`, its flow at rest (or in its stream) and the spheres' indicators at
+        `centers` [m]."""
+        scene, domain, fd, liquid = self.scene, self.domain, self.settings, self.scene.liquid
         mesh, _, facet_tags = create_mesh(self.comm, domain.spec)
         self.mesh = mesh
         options = dict(inflow_speed=domain.inflow_speed, order=fd.time_order, solver=fd.solver)
-        liquid = scene.liquid
         if self.implicit:
             self.flow = PenalisedFlow(mesh, facet_tags, domain.sides, liquid.density, liquid.viscosity, self.dt,
                                       penalty_rate(scene), **options)
@@ -140,17 +159,40 @@ class FictitiousDomainModel(FlowModel):
                                    **options)
         self.flow.set_uniform((0.0, domain.inflow_speed))
         radii = [body.sphere.radius for body in self.bodies]
-        centers = [body.initial_gap + a for body, a in zip(self.bodies, radii)]
         edge = fd.resolved("radius_offset") * domain.fine_size
         self.immersed = ImmersedBodies(self.flow, [a + edge for a in radii], radii,
                                        fd.interface_width * domain.fine_size, centers)
         if self.implicit:
             self.flow.place(self.immersed, centers)
-        velocities = np.array([body.start_velocity for body in self.bodies])
-        interiors = self.immersed.interiors(self.flow.now.x.petsc_vec)
-        order = self.flow.order
-        self.history = History(self.flow.bdf, [velocities] * order, [interiors] * order)
-        self.timings["setup"] = time.perf_counter() - start
+
+    def follow(self, centers) -> None:
+        """Move the refined patches (numerics.fd.patch) when a sphere's centre has strayed more than half the
+        margin from its patch's: a new mesh around `centers` [m], the flow's BDF history carried over
+        (fem.transfer: interpolated, then made discretely divergence-free), the interiors' integrals
+        rescaled to the new indicators' volumes."""
+        margins = [0.5 * self.settings.patch_margin * body.diameter for body in self.bodies]
+        if all(abs(c - p) <= m for c, p, m in zip(centers, self.patches, margins)):
+            return
+        start = time.perf_counter()
+        old_flow, old_immersed = self.flow, self.immersed
+        self.patches = [patch_center(self.scene, c, k) for k, c in enumerate(centers)]
+        self.domain = domain_for(self.scene, self.patches)
+        self._make_flow(centers)
+        projection = DivergenceFreeProjection(self.flow.W, self.flow.bcs, prefix="fd_projection_")
+        try:
+            for old, new in zip(old_flow.states, self.flow.states):
+                interpolate_from(SerialField(old, 1e-9 * self.domain.fine_size), new)
+                projection.project(new)
+        finally:
+            projection.destroy()
+        scale = self.immersed.volumes / old_immersed.volumes
+        self.history.interiors = [interior * scale for interior in self.history.interiors]
+        self.retired["back_solves"] += old_flow.operator.back_solves
+        self.retired["factorisations"] += getattr(old_flow, "factorisations", 0)
+        old_immersed.destroy()
+        old_flow.destroy()
+        self.remeshes += 1
+        self.remesh_s += time.perf_counter() - start
 
     def initial_velocities(self) -> list[np.ndarray]:
         return list(self.history.velocities)
@@ -168,6 +210,8 @@ class FictitiousDomainModel(FlowModel):
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         centers = self.predicted_centers(prediction)
+        if self.patches is not None:
+            self.follow(centers)
         if self.implicit:
             self.flow.place(self.immersed, centers)
             linear = self.flow.linearise(self.history.momentum_history, self.history.reference_velocity)
@@ -246,18 +290,33 @@ class FictitiousDomainModel(FlowModel):
 
     def resolved_top(self) -> float:
         """The height [m] up to which the mesh is refined: a rising sphere is stopped there."""
-        return self.domain.spec.refined[0].z_max
+        return self.path_domain.spec.refined[0].z_max
 
     # -- checkpoints and fields -------------------------------------------------------------
     def checkpoint_state(self) -> tuple[dict, dict]:
         """The BDF history of the flow (u, p at t_n, t_{n-1}, ...) by dof coordinates, gathered on rank 0,
         and of the spheres' velocities and interior integrals (a list per level, one value per sphere)."""
-        return {"dt": self.dt, **self.history.state()}, gather_history(self.flow.states)
+        patches = {} if self.patches is None else {
+            "patch_centers": list(self.patches), "placed_centers": [sphere.center for sphere in self.immersed.spheres]}
+        return {"dt": self.dt, **self.history.state(), **patches}, gather_history(self.flow.states)
 
     def restore(self, state: dict, arrays) -> None:
         if not math.isclose(state["dt"], self.dt, rel_tol=1e-12):
             raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
                                   f"{self.dt:g} s: the scene was changed")
+        if self.patches is not None and state.get("patch_centers") != self.patches:  # moved: that mesh again
+            try:
+                patches, placed = ([float(z) for z in state[key]] for key in ("patch_centers", "placed_centers"))
+            except (KeyError, TypeError, ValueError):
+                raise CheckpointError("the checkpoint has no patch_centers and placed_centers: it was made with "
+                                      "numerics.fd.patch = false") from None
+            if len(patches) != len(self.bodies) or len(placed) != len(self.bodies):
+                raise CheckpointError(f"the checkpoint's patches are for {len(patches)} sphere(s), this scene has "
+                                      f"{len(self.bodies)}: the scene was changed")
+            self.immersed.destroy()
+            self.flow.destroy()
+            self.patches, self.domain = patches, domain_for(self.scene, patches)
+            self._make_flow(placed)
         try:
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.domain.fine_size)
         except (ValueError, KeyError, CheckpointMismatch) as err:
@@ -293,7 +352,7 @@ class FictitiousDomainModel(FlowModel):
         self.timings["steps"] = self.loop_seconds
         steps = max(self.steps_this_run, 1)
         operator = self.flow.operator
-        solves = operator.back_solves
+        solves = operator.back_solves + self.retired["back_solves"]
         single = operator.single_solve_time / operator.single_solves if operator.single_solves else None
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
         displaced = np.array([body.displaced_mass for body in self.bodies])
@@ -316,6 +375,7 @@ class FictitiousDomainModel(FlowModel):
                 [body.sphere.volume for body in self.bodies])),
             "pair_min_flow_gap_m": min(self.immersed.min_gaps, default=None),
             "steady_gmres_iterations": self.steady_iterations,
+            **({} if self.patches is None else {"remeshes": self.remeshes, "remesh_s": self.remesh_s}),
             **(self.constraint_report() if self.implicit else {}),
         }
 
@@ -325,7 +385,8 @@ class FictitiousDomainModel(FlowModel):
         slips = [interior_slip(self.flow, self.flow.now, sphere.center, velocity,
                                sphere.band.radius - sphere.band.width)
                  for sphere, velocity in zip(self.immersed.spheres, self.history.velocity)]
-        return {"constraint": self.settings.constraint, "factorisations": self.flow.factorisations,
+        factorisations = self.flow.factorisations + self.retired["factorisations"]
+        return {"constraint": self.settings.constraint, "factorisations": factorisations,
                 "penalty_rate_per_s": self.flow.penalty_rate, "interior_slip_m_s": max(slips)}
 
     def destroy(self) -> None:

@@ -1,4 +1,5 @@
-"""Moving the flow to a new mesh after remeshing, keeping it divergence-free and its momentum.
+"""Moving the flow to a new mesh after remeshing, keeping it divergence-free and its momentum: the ale
+model's remeshing around its moving sphere and the fd model's moving refined patch share it.
 
 The old mesh and one finite-element function on it are gathered onto every rank as a serial
 copy (`SerialField`), where any point can be looked up (bounding-box tree, `Function.eval`);
@@ -35,11 +36,11 @@ from dolfinx import mesh as dmesh
 from dolfinx.fem.petsc import assemble_matrix, create_vector
 from mpi4py import MPI
 
-from ...fem import forms
-from ...fem.compat import collapse, geometry_cells
-from ...fem.functions import gather_values, scatter_values
-from ...fem.solver import FactorizedOperator, ReusedFactorOperator
-from ...fem.taylor_hood import lifted_rhs, owned_dirichlet_rows
+from . import forms
+from .compat import collapse, geometry_cells
+from .functions import gather_values, scatter_values
+from .solver import FactorizedOperator, ReusedFactorOperator
+from .taylor_hood import lifted_rhs, owned_dirichlet_rows
 
 
 def _gather_mesh(mesh) -> tuple[np.ndarray, np.ndarray]:
