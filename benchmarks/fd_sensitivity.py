@@ -3,6 +3,8 @@
     python benchmarks/fd_sensitivity.py                       # the default sweep at 12 cells/D (~3 minutes)
     python benchmarks/fd_sensitivity.py --cells 16 --only forcing_number,interface_width
     python benchmarks/fd_sensitivity.py --variant "numerics.fd.constraint=implicit"   # one extra row
+    python benchmarks/fd_sensitivity.py --cells 24 --variant "numerics.fd.constraint=implicit,numerics.fd.patch=true" \
+        --variant model=ib           # side by side, one after the other (the speed targets of issue 41)
 
 Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
 default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
@@ -48,10 +50,14 @@ def reference() -> dict:
 
 
 def measure(cells: float, settings: list[str]) -> dict:
-    overrides = ["run.bounces=2", f"numerics.fd.cells_per_diameter={cells:g}", *settings]  # as --set takes them
+    """One run; a setting "model=NAME" runs that model at its own default resolution instead of fd at `cells`."""
+    model = next((item.split("=", 1)[1] for item in settings if item.startswith("model=")), "fd")
+    settings = [item for item in settings if not item.startswith("model=")]
+    resolution = [f"numerics.fd.cells_per_diameter={cells:g}"] if model == "fd" else []
+    overrides = ["run.bounces=2", *resolution, *settings]  # as --set takes them
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = fb.simulate(fb.load("li2011-case3", overrides), "fd")
+        result = fb.simulate(fb.load("li2011-case3", overrides), model)
     impacts, rebounds = result.impacts, result.rebounds
     row = {"set": settings, "status": result.status, "wall_time_s": result.wall_time,
            "steps": result.summary["steps"]}

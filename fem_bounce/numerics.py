@@ -30,7 +30,7 @@ class FdNumerics:
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
     # patch: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
     # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the
-    # patch's (models/fd/model.py); false: along the whole path
+    # patch's (models/fd/model.py); false, or every sphere held: along the whole path
     patch: bool = False
     patch_margin: float = _setting(0.75, 0.1, 20.0)
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
@@ -111,7 +111,7 @@ class AleNumerics:
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
     # patch: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
     # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the
-    # patch's (models/fd/model.py); false: along the whole path
+    # patch's (models/fd/model.py); false, or every sphere held: along the whole path
     patch: bool = False
     patch_margin: float = _setting(0.75, 0.1, 20.0)
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D

@@ -96,7 +96,8 @@ class FictitiousDomainModel(FlowModel):
         self.bodies = scene_bodies(scene)
         centers = [body.initial_gap + body.sphere.radius for body in self.bodies]
         # the patches' centres [m] (numerics.fd.patch), None: refined along the path
-        self.patches = [patch_center(scene, c, k) for k, c in enumerate(centers)] if self.settings.patch else None
+        moving = self.settings.patch and not self.held.all()  # held spheres keep the path's (their own) box
+        self.patches = [patch_center(scene, c, k) for k, c in enumerate(centers)] if moving else None
         self.domain = self.path_domain if self.patches is None else domain_for(scene, self.patches)
         self.remeshes, self.remesh_s = 0, 0.0
         self.retired = {"back_solves": 0, "factorisations": 0}  # the solver counts of the meshes left behind
