@@ -1,7 +1,7 @@
 """The fd model's speed targets of issue 12, each run and recorded with its history.
 
     mpiexec -n 2 python benchmarks/fd_targets.py case3 --cells 12       # case 3 to the second apex
-    python benchmarks/fd_targets.py glycerol [--set numerics.fd.constraint=brinkman]
+    python benchmarks/fd_targets.py glycerol [--set numerics.fd.constraint=implicit]
     python benchmarks/fd_targets.py table                               # what the history holds
 
 case3     Li case 3 to the apex after the second impact (run.bounces = 2): wall time, and V_i, Re_II and

@@ -2,7 +2,7 @@
 
     python benchmarks/fd_validation.py                       # every section, 16 cells per diameter
     python benchmarks/fd_validation.py brenner drag --cells 32
-    python benchmarks/fd_validation.py brenner --set numerics.fd.constraint=brinkman
+    python benchmarks/fd_validation.py brenner --set numerics.fd.constraint=implicit
     mpiexec -n 2 python benchmarks/fd_validation.py cases
 
 Sections (each a function of fem_bounce.studies.validation, runs under runs/fd-validation/):
@@ -25,6 +25,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from fem_bounce import scene
 from fem_bounce.studies import validation
 from provenance import stamp
 
@@ -45,13 +46,7 @@ def main() -> None:
                         help="a scene setting for every section (recorded in the history key)")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
-    changes = {}
-    for item in args.set:
-        key, text = item.split("=", 1)
-        try:
-            changes[key] = float(text)
-        except ValueError:
-            changes[key] = text
+    changes = dict(scene.parse_override(item) for item in args.set)  # read as fem-bounce's --set reads them
     resolution = {"numerics.fd.cells_per_diameter": args.cells, **changes}
     tag = f"{args.cells:g}cpd" + "".join(f",{k}={v}" for k, v in sorted(changes.items()))
     found: dict = {}

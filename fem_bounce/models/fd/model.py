@@ -94,6 +94,7 @@ class FictitiousDomainModel(FlowModel):
         check_size(self.path_domain.spec, "numerics.fd")
         self.dt = time_step(scene)
         self.bodies = scene_bodies(scene)
+        self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
         centers = [body.initial_gap + body.sphere.radius for body in self.bodies]
         # the patches' centres [m] (numerics.fd.patch), None: refined along the path
         moving = self.settings.patch and not self.held.all()  # held spheres keep the path's (their own) box
@@ -104,7 +105,6 @@ class FictitiousDomainModel(FlowModel):
         if self.patches is not None and self.settings.output_every > 0:
             raise SceneError("numerics.fd.patch = true writes no field files (they follow one mesh): give "
                              "numerics.fd.output_every = 0 or patch = false")
-        self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
         self.flow: FlowSolver | None = None
         self.immersed: ImmersedBodies | None = None
         self.fields: FieldWriter | None = None
