@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from fem_bounce import cli
+from fem_bounce import cli, output
 from fem_bounce import scene as scenes
 from fem_bounce.studies import restitution, restitution_planning
 from test_bad_input import ODE, assert_one_line, fd_copy, fd_run, messages, run_cli, tree  # noqa: F401
@@ -30,24 +30,36 @@ def ode_run(capsys, tmp_path, *settings: str) -> tuple[dict, list[str], list[str
 # -- 1. the loss audit -------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("setting", ["contact.model=ehd", "run.end_time=0.06893",
+def inside_the_first_contact(tmp_path, capsys) -> float:
+    """A time [s] when case 3's sphere is inside its first Hertz contact (overlapping the wall), from a run."""
+    summary, _, _ = ode_run(capsys, tmp_path / "whole", "run.bounces=1")
+    rows = output.read_trajectory(tmp_path / "whole" / "run")
+    overlap = rows["t"][(rows["gap"] < 0.0) & (rows["t"] < summary["impacts"][0]["time"])]
+    return float(overlap[len(overlap) // 2])
+
+
+@pytest.mark.parametrize("setting", ["contact.model=ehd", "run.end_time=IN_CONTACT",
                                      "numerics.ode.output_interval=0.001", "initial_gap=0.001"])
 def test_the_loss_audit_is_right_or_says_why(setting, tmp_path, capsys):
     """ehd wrote no audit (the handover row sits on the contact gap: no crossing); a run ending inside the Hertz
     contact said "no impact: the sphere ended -0.0005948 D above the wall"; rows 1 ms apart gave an audit with
     imbalance 47, drawn without a word; a release inside delta_sl D had no audit and no reason."""
+    if setting == "run.end_time=IN_CONTACT":
+        end = inside_the_first_contact(tmp_path, capsys)
+        setting = f"run.end_time={end!r}"
     summary, out, err = ode_run(capsys, tmp_path, setting)
     impacts = summary["impacts"]
     if setting == "contact.model=ehd":
         assert len(impacts) == 3 and err == []
         for impact in impacts:
             assert abs(impact["losses"]["imbalance"]) < 1e-3 and impact["losses"]["share"]["film"][1] > 1.0
-    elif setting == "run.end_time=0.06893":
+    elif setting.startswith("run.end_time="):
         assert impacts == [] and summary["final"]["in_contact"]
-        assert any(line.startswith("impact in progress: the run ended at t = 0.06893 s in the contact")
+        assert any(line.startswith("impact in progress: the run ended at t = ") and "in the contact" in line
                    for line in out), out
-    elif setting == "numerics.ode.output_interval=0.001":
-        assert all("losses" not in impact and "do not resolve" in impact["losses_skipped"] for impact in impacts[:1])
+    elif setting == "numerics.ode.output_interval=0.001":  # the rows cannot resolve any collision: no audit, said so
+        assert impacts and all("losses" not in impact and "the trajectory's rows" in impact["losses_skipped"]
+                               for impact in impacts)
         assert_one_line(err, "warning: no loss audit for impact(s) 1", "numerics.ode.output_interval = 0.001 s")
         assert not (tmp_path / "run" / "losses.png").exists()
     else:
