@@ -31,7 +31,7 @@ class FdNumerics:
     # patch: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
     # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the
     # patch's (models/fd/model.py); false, or every sphere held: along the whole path
-    patch: bool = False
+    patch: bool = True
     patch_margin: float = _setting(0.75, 0.1, 20.0)
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
@@ -41,14 +41,16 @@ class FdNumerics:
     wall_layer: float = _setting(0.25, 0.01, 5.0)
     wall_radius: float = _setting(0.6, 0.05, 10.0)
     # dt <= cfl * fine size / (1.5 speed scale); unset: the constraint's own, 0.2 for "penalty" (its convection is
-    # explicit: stable at Re 200, not at 0.3), 0.4 for "implicit" (an accuracy choice: docs/validation.md section 12)
+    # explicit: stable at Re 200, not at 0.3), 0.8 for "implicit" (an accuracy choice: case 3's apex moves 2 %
+    # from 0.4 to 0.8, docs/validation.md section 12)
     cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
     forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
-    # "penalty": the one-shot forcing rho c phi (U - u~), c = 3 / (2 dt), on a matrix factorised once, rigid only
-    # under forcing_number; its effective surface moves with dt (docs/validation.md section 12): calibrated
-    # with radius_offset 0.5.  "implicit": the friction rho c_B phi (u - U) in the step's matrix, with convection
-    # implicit, factorised every step (models/fd/penalised.py): no viscous step bound
-    constraint: str = field(default="penalty", metadata={"choices": ("penalty", "implicit")})
+    # "implicit" (the default since issue 41): the friction rho c_B phi (u - U) in the step's matrix, with
+    # convection implicit, factorised every step (models/fd/penalised.py): no step bound from either, the interior
+    # rigid through a collision.  "penalty" (the default before): the one-shot forcing rho c phi (U - u~),
+    # c = 3 / (2 dt), on a matrix factorised once, rigid only under forcing_number; its effective surface moves
+    # with dt (docs/validation.md section 12), placed by radius_offset 0.5 at its default step
+    constraint: str = field(default="implicit", metadata={"choices": ("implicit", "penalty")})
     # implicit: c_B over the viscous, convective and step rates; the steady drag near a wall (Brenner 1961) comes
     # out 10 % low at 1e3, within 1.6 % at 1e5 (8 and 16 cells/D; the penalisation's error ~ strength^-1/2)
     penalty_strength: float = _setting(1e5, 1.0, 1e8)
@@ -68,7 +70,7 @@ class FdNumerics:
         if value is not None:
             return value
         penalty = self.constraint == "penalty"
-        return {"cfl": 0.2 if penalty else 0.4, "radius_offset": 0.5 if penalty else 0.0}[name]
+        return {"cfl": 0.2 if penalty else 0.8, "radius_offset": 0.5 if penalty else 0.0}[name]
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
     steady_stokes: bool = False  # held sphere at Re -> 0: solve for the step's steady state, no marching
@@ -109,11 +111,6 @@ class AleNumerics:
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
     grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
-    # patch: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
-    # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the
-    # patch's (models/fd/model.py); false, or every sphere held: along the whole path
-    patch: bool = False
-    patch_margin: float = _setting(0.75, 0.1, 20.0)
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
     cfl: float = _setting(0.5, 0.01, 20.0)  # dt = cfl * fine size / speed scale (convection is implicit)

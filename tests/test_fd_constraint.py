@@ -80,7 +80,7 @@ def test_the_implicit_constraint_has_no_viscous_step_bound():
     """In 95 % glycerol the one-shot penalty's bound 0.025 h^2 / nu sets dt; the implicit constraint keeps
     the convective one, and its friction rate beats the viscous rate by penalty_strength."""
     changes = {"numerics.fd.cells_per_diameter": 12}
-    penalty = scene.load("li2011-table3-steel-95", changes)
+    penalty = scene.load("li2011-table3-steel-95", {**changes, "numerics.fd.constraint": "penalty"})
     implicit = scene.load("li2011-table3-steel-95", {**changes, **IMPLICIT})
     fine = penalty.sphere.diameter / 12
     viscous_rate = penalty.liquid.kinematic_viscosity / fine**2

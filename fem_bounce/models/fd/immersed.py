@@ -201,7 +201,14 @@ class ImmersedBodies:
 
     @property
     def volumes(self) -> np.ndarray:
+        """V_phi = 2 pi int phi r dx of each sphere [m^3]."""
         return np.array([sphere.volume for sphere in self.spheres])
+
+    @property
+    def ball_volumes(self) -> np.ndarray:
+        """The volumes 4/3 pi a_h^3 of the balls the indicators cover [m^3]: all of it moves with the sphere
+        under the implicit constraint's friction, the band included."""
+        return np.array([4.0 / 3.0 * math.pi * sphere.band.radius**3 for sphere in self.spheres])
 
     def check_separation(self, centers) -> None:
         gaps = np.diff(centers) - self._contact_distances

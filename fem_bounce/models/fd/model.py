@@ -102,9 +102,6 @@ class FictitiousDomainModel(FlowModel):
         self.domain = self.path_domain if self.patches is None else domain_for(scene, self.patches)
         self.remeshes, self.remesh_s = 0, 0.0
         self.retired = {"back_solves": 0, "factorisations": 0}  # the solver counts of the meshes left behind
-        if self.patches is not None and self.settings.output_every > 0:
-            raise SceneError("numerics.fd.patch = true writes no field files (they follow one mesh): give "
-                             "numerics.fd.output_every = 0 or patch = false")
         self.flow: FlowSolver | None = None
         self.immersed: ImmersedBodies | None = None
         self.fields: FieldWriter | None = None
@@ -141,6 +138,8 @@ class FictitiousDomainModel(FlowModel):
         self._make_flow([body.initial_gap + body.sphere.radius for body in self.bodies])
         velocities = np.array([body.start_velocity for body in self.bodies])
         interiors = self.immersed.interiors(self.flow.now.x.petsc_vec)
+        if self.implicit:  # the liquid's mean velocity over the ball the friction holds (penalised.py)
+            interiors = interiors * self.immersed.ball_volumes / self.immersed.volumes
         order = self.flow.order
         self.history = History(self.flow.bdf, [velocities] * order, [interiors] * order)
         self.timings["setup"] = time.perf_counter() - start
@@ -186,12 +185,16 @@ class FictitiousDomainModel(FlowModel):
                 projection.project(new)
         finally:
             projection.destroy()
-        scale = self.immersed.volumes / old_immersed.volumes
-        self.history.interiors = [interior * scale for interior in self.history.interiors]
+        if not self.implicit:  # U V_phi: the new indicators' volumes (the implicit's balls are the same)
+            scale = self.immersed.volumes / old_immersed.volumes
+            self.history.interiors = [interior * scale for interior in self.history.interiors]
         self.retired["back_solves"] += old_flow.operator.back_solves
         self.retired["factorisations"] += getattr(old_flow, "factorisations", 0)
         old_immersed.destroy()
         old_flow.destroy()
+        if self.fields is not None:  # the snapshots go on in a file on the new mesh (fields.read_snapshots merges)
+            self.fields.close()
+            self._open_fields()
         self.remeshes += 1
         self.remesh_s += time.perf_counter() - start
 
@@ -246,7 +249,7 @@ class FictitiousDomainModel(FlowModel):
         velocities = np.array(velocities, dtype=float)
         if self.implicit:
             new = flow.field(velocities, flow.work)
-            interiors = self.immersed.interiors(new)
+            interiors = velocities * self.immersed.ball_volumes  # the held ball's momentum / rho (penalised.py)
         else:
             new = self.immersed.field(flow.predicted, coupling.rigid_amplitudes(self.integrals, velocities), flow.work)
             interiors = velocities * self.integrals.volume
@@ -330,9 +333,13 @@ class FictitiousDomainModel(FlowModel):
         self.history = History(self.flow.bdf, velocities, interiors)
 
     def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
-        if not fields:
-            return
-        path = self.comm.bcast(segment_path(out_dir) if self.comm.rank == 0 else None, root=0)
+        if fields:
+            self.fields_dir = out_dir
+            self._open_fields()
+
+    def _open_fields(self) -> None:
+        """A field file of its own for the mesh as it is (a new segment after each new mesh)."""
+        path = self.comm.bcast(segment_path(self.fields_dir) if self.comm.rank == 0 else None, root=0)
         self.fields = FieldWriter(self.comm, self.mesh, self.flow.W, path)
 
     def write_fields(self, time_now: float) -> None:

@@ -19,10 +19,14 @@ u(U) = x_0 + sum_j U_j x_j with x_0 = A^-1 b(u^n, u^{n-1}) and x_j = A^-1 (rho c
 assembled int phi_j e_z . v r dx: one pass over the factors per step for all of them.
 
 The force of the liquid on sphere i is the reaction to its penalty plus the rate of change of the
-phi-weighted momentum of the liquid inside it (Uhlmann 2005, J. Comput. Phys. 209, 448, eq. 12), with
-I_i = 2 pi int phi_i u_z r dx and the BDF rate c (I_i - J_i) (J_i: the BDF history of I_i):
+momentum of the liquid in the region the penalty holds (Uhlmann 2005, J. Comput. Phys. 209, 448, eq. 12).
+The friction is strong enough to move all of the ball |x - X_i| < a_h with the sphere, the band included
+(its slip is 1 / penalty_strength of the speed), so that momentum is rho U_i B_i with B_i = 4/3 pi a_h^3, not
+the phi-weighted rho U_i V_i, V_i = 2 pi int phi_i r dx: weighting it with phi left the band's liquid,
+rho (B_i - V_i), on the sphere as extra mass (0.55 of the displaced mass at 8 cells/D).  With
+I_i(u) = 2 pi int phi_i u_z r dx and the BDF rate c (U_i B_i - J_i) (J_i: the BDF history of U_i B_i):
 
-    F_i(U) = rho c_B (I_i(u) - U_i V_i) + rho c (I_i(u) - J_i),
+    F_i(U) = rho c_B (I_i(u) - U_i V_i) + rho c (U_i B_i - J_i),
 
 affine in U, so the body integrator solves for U implicitly with the numerical added mass
 M = -dF/dU / c (stable for any density ratio, coupling.py).
@@ -113,10 +117,10 @@ class PenalisedFlow(FlowSolver):
         self.factorisations += 1
         interiors, slopes = self._responses(self.operator, history=True)
         rho, c, c_b = self.density, self.c, self.penalty_rate
-        # F(U) = rho (c_B + c) I(u(U)) - rho c_B U V - rho c J, I(u(U)) = I(x_0) + slopes U
-        derivative = rho * (c_b + c) * slopes - rho * c_b * np.diag(self.bodies.volumes)
+        # F(U) = rho c_B (I(u(U)) - U V) + rho c (U B - J), I(u(U)) = I(x_0) + slopes U
+        derivative = rho * c_b * (slopes - np.diag(self.bodies.volumes)) + rho * c * np.diag(self.bodies.ball_volumes)
         reference = np.asarray(reference, dtype=float)
-        explicit = rho * (c_b + c) * interiors + derivative @ reference - rho * c * momentum_history
+        explicit = rho * c_b * interiors + derivative @ reference - rho * c * momentum_history
         return Linearised(explicit=explicit, added_mass=-derivative / c, reference=reference)
 
     def steady(self, velocities) -> np.ndarray:
