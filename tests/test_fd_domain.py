@@ -31,12 +31,17 @@ def test_container_is_no_slip_all_round_and_a_stream_flows_through():
 
 
 def test_time_step_takes_the_tighter_of_the_convective_and_forcing_bounds():
-    sc = scene.load("sphere-drag-re200")  # fast and not very viscous: convection binds
+    """The one-shot penalty's step: its explicit convection's bound or its forcing number's; the implicit
+    constraint's: the convective one alone, at its own cfl 0.8."""
+    penalty = {"numerics.fd.constraint": "penalty"}
+    sc = scene.load("sphere-drag-re200", penalty)  # fast and not very viscous: convection binds
     h = sc.sphere.diameter / 24
     assert domain.time_step(sc) == pytest.approx(0.2 * h / (1.5 * 0.1))
-    slow = scene.load("brenner-approach")  # Re = 0.01: the forcing number binds
+    slow = scene.load("brenner-approach", penalty)  # Re = 0.01: the forcing number binds
     h = slow.sphere.diameter / 24
     assert domain.time_step(slow) == pytest.approx(0.025 * h**2 / slow.liquid.kinematic_viscosity)
+    implicit = scene.load("brenner-approach")
+    assert domain.time_step(implicit) == pytest.approx(0.8 * h / (1.5 * abs(implicit.motion.velocity)))
 
 
 def test_a_held_sphere_needs_a_speed_to_set_the_time_step():

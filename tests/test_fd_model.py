@@ -35,12 +35,15 @@ def test_two_ranks_give_the_serial_trajectory(shared_tmp):
 @pytest.mark.mpi
 def test_restart_continues_to_the_same_result(shared_tmp):
     """Checkpoint every 20 steps; 'kill' after 50 (end_time short), extend the end time, --restart:
-    the rows after the last checkpoint are redone and the result equals the straight run's."""
+    the rows after the last checkpoint are redone and the result equals the straight run's.  The one-shot
+    penalty, whose short steps give the run those 50 (a restart across a new mesh: tests/test_restart.py)."""
     comm = MPI.COMM_WORLD
-    straight = run(shared_tmp / "straight", **{"numerics.fd.checkpoint_every": 20, "numerics.fd.output_every": 15})
+    penalty = {"numerics.fd.constraint": "penalty"}
+    straight = run(shared_tmp / "straight", **{**penalty, "numerics.fd.checkpoint_every": 20,
+                                               "numerics.fd.output_every": 15})
     steps = straight["steps"]
     killed = shared_tmp / "killed"
-    short = {"numerics.fd.checkpoint_every": 20, "numerics.fd.output_every": 15,
+    short = {**penalty, "numerics.fd.checkpoint_every": 20, "numerics.fd.output_every": 15,
              "run.end_time": TINY["run.end_time"] * 50 / steps}
     run(killed, **short)
     if comm.rank == 0:  # the user continues the same scene: its end time as in the straight run
@@ -61,11 +64,12 @@ def test_restart_continues_to_the_same_result(shared_tmp):
 
 
 def test_a_diverging_run_stops_clearly_and_keeps_its_checkpoint(tmp_path):
-    """A time step far beyond the convective limit blows up: the run stops with a message naming
-    the last checkpoint, which is still there, and the summary says 'diverged'."""
+    """A time step far beyond the explicit convection's limit (the one-shot penalty's) blows up: the run
+    stops with a message naming the last checkpoint, which is still there, and the summary says 'diverged'."""
     out = tmp_path / "blowup"
     with pytest.raises(RunDiverged, match=r"last checkpoint at step 5"):
-        run(out, name="sphere-drag-re200", **{"numerics.fd.cfl": 8.0, "numerics.fd.forcing_number": 10.0,
+        run(out, name="sphere-drag-re200", **{"numerics.fd.constraint": "penalty", "numerics.fd.cfl": 8.0,
+                                              "numerics.fd.forcing_number": 10.0,
                                               "numerics.fd.checkpoint_every": 5, "run.end_time": 3.0})
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"].startswith("diverged")
@@ -76,7 +80,7 @@ def test_a_diverging_run_stops_clearly_and_keeps_its_checkpoint(tmp_path):
 
 
 def test_fields_hold_velocity_pressure_and_vorticity(tmp_path):
-    run(tmp_path / "f", **{"numerics.fd.output_every": 20})
+    run(tmp_path / "f", **{"numerics.fd.output_every": 4})
     snapshots = fields.read_snapshots(tmp_path / "f")
     first, last = snapshots[0], snapshots[-1]
     n = len(first.points)

@@ -39,15 +39,16 @@ def pair_scene(preset: str, changes: dict, gap: float, velocity: float, mode: st
 TOY = {"numerics.fd.cells_per_diameter": 8, "initial_gap": 0.02, "contact.delta_sl": 0.4}
 
 
-@pytest.fixture(scope="module", params=[2, 3])
+@pytest.fixture(scope="module", params=[(2, "penalty"), (3, "penalty"), (2, "implicit"), (3, "implicit")])
 def falling_column(request):
     """li2011-case3's sphere 2 D above the wall, an equal sphere 1 D above it coming down at 0.1 m/s; or
-    three-spheres-wall's column of three, 1 D apart, at the same toy size."""
-    count = request.param
+    three-spheres-wall's column of three, 1 D apart, at the same toy size; with either constraint."""
+    count, constraint = request.param
+    changes = {**TOY, "numerics.fd.constraint": constraint}
     if count == 2:
-        sc = pair_scene("li2011-case3", TOY, gap=0.0095, velocity=-0.1)
+        sc = pair_scene("li2011-case3", changes, gap=0.0095, velocity=-0.1)
     else:
-        sc = scene.load("three-spheres-wall", TOY)
+        sc = scene.load("three-spheres-wall", changes)
     fd = FictitiousDomainModel(sc, MPI.COMM_WORLD)
     fd.build(HoldingIntegrator(0.0019, *[0.0019] * (count - 1)))
     yield fd
@@ -60,9 +61,14 @@ def test_a_step_has_a_symmetric_positive_added_mass_matrix(falling_column):
     positive definite, its diagonal near half the displaced mass (0.5 for a sharp sphere, more for the
     8-cell diffuse band), and each neighbour's entry negative (accelerating one sphere toward another
     pushes the other away) and near the potential-flow dipole coupling -(3/2) (a/l)^3 m_l (Lamb; l the
-    centre distance).  The step's field then moves each interior with its own sphere."""
+    centre distance).  The step's field then moves each interior with its own sphere.  The implicit
+    constraint's matrix also holds the viscous response within its longer step (cfl 0.8 against the
+    penalty's 0.2; it falls with the step, 0.78-0.83 on the diagonal at cfl 0.05) and its 8-cell body is
+    larger: measured diagonal 0.85-0.93, neighbour entries 1.5-1.7 times the dipole's; its interiors move
+    with their spheres to the friction's slip."""
     fd = falling_column
     sc = fd.scene
+    implicit = sc.numerics.fd.constraint == "implicit"
     count = len(sc.spheres)
     velocities = np.zeros(count)
     velocities[1] = -0.1
@@ -72,14 +78,15 @@ def test_a_step_has_a_symmetric_positive_added_mass_matrix(falling_column):
     assert force.explicit.shape == (count,) and matrix.shape == (count, count)
     assert np.abs(matrix - matrix.T).max() < 1e-6 * np.abs(matrix).max()
     assert np.all(np.linalg.eigvalsh(0.5 * (matrix + matrix.T)) > 0.0)
-    assert np.all((0.5 < np.diag(matrix)) & (np.diag(matrix) < 0.9))
+    assert np.all((0.5 < np.diag(matrix)) & (np.diag(matrix) < (1.0 if implicit else 0.9)))
     for k in range(count - 1):
         distance = (sc.initial_gaps[k + 1] - sc.initial_gaps[k]) / sc.sphere.radius
-        assert -1.4 * 1.5 / distance**3 < matrix[k, k + 1] < -0.6 * 1.5 / distance**3
+        assert -(2.0 if implicit else 1.4) * 1.5 / distance**3 < matrix[k, k + 1] < -0.6 * 1.5 / distance**3
     reached = np.linspace(-0.01, -0.09, count)
     fd.complete(reached, fd.dt)
     for sphere, velocity in zip(fd.immersed.spheres, reached):
-        assert sphere.interior(fd.flow.now.x.petsc_vec) == pytest.approx(velocity * sphere.volume, rel=1e-9)
+        assert sphere.interior(fd.flow.now.x.petsc_vec) == pytest.approx(velocity * sphere.volume,
+                                                                         rel=1e-3 if implicit else 1e-9)
     assert fd.history.velocity == pytest.approx(reached)
 
 

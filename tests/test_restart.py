@@ -14,10 +14,10 @@ from test_ale_pair import FREE_PAIR
 from test_bad_input import assert_one_line, assert_same_trajectory, messages, spawn, wait_for
 
 CASES = {  # a toy run of each model that writes checkpoints, alone and in a pair
-    # with its refined patch following the sphere: 3 new meshes in 138 steps, the first before step 80, so the
-    # checkpoint at step 80 is across a remesh and the restart must make that mesh again
+    # the one-shot penalty with the refined patch following the sphere: 3 new meshes in 138 steps, the first
+    # before step 80, so the checkpoint at step 80 is across a remesh and the restart must make that mesh again
     "fd": ["li2011-case3", "--model", "fd", "--set", "numerics.fd.cells_per_diameter=6", "--set", "run.end_time=0.06",
-           "--set", "numerics.fd.patch=true", "--set", "numerics.fd.checkpoint_every=80"],
+           "--set", "numerics.fd.constraint=penalty", "--set", "numerics.fd.checkpoint_every=80"],
     "ib": ["li2011-case3", "--model", "ib", "--set", "numerics.ib.cells_per_diameter=10", "--set", "run.end_time=0.06",
            "--set", "numerics.ib.checkpoint_every=10", "--set", "numerics.ib.output_every=7"],
     # no field snapshots: dolfinx's XDMF/HDF5 file of a SIGKILLed segment can be left unreadable (the ib
@@ -25,11 +25,10 @@ CASES = {  # a toy run of each model that writes checkpoints, alone and in a pai
     "ale": ["li2011-case3", "--model", "ale", "--set", "numerics.ale.cells_per_diameter=6",
             "--set", "run.end_time=0.08",
             "--set", "numerics.ale.checkpoint_every=35"],  # after its remesh at step 31 of 49
-    # the pair with the implicit penalisation (the single sphere has the penalty): its factorised-every-step
-    # flow restarts from the same history; 8 cells/D (its indicators end on the surfaces)
+    # the pair at the fd defaults (the implicit penalisation, a patch per sphere), 8 cells/D (its indicators end
+    # on the surfaces)
     "fd-pair": ["yang-hunt2006-pair", "--model", "fd", "--set", "numerics.fd.cells_per_diameter=8",
-                "--set", "numerics.fd.constraint=implicit",
-                "--set", "run.end_time=0.03", "--set", "numerics.fd.checkpoint_every=20"],
+                "--set", "run.end_time=0.06", "--set", "numerics.fd.checkpoint_every=10"],
     "ale-pair": FREE_PAIR,  # through the collision; its checkpoint after the remesh (tests/test_ale_pair.py)
 }
 
