@@ -3,10 +3,11 @@
 What it solves.  A sphere of diameter D held at a gap h = delta D above a no-slip
 wall, its surface moving toward the wall at V (Re = 0.01), in a large
 axisymmetric domain with slip far boundaries.  The fd model represents the sphere
-by its smoothed indicator and the immersed force of its time step; at Re -> 0 the
-quantity of interest is the step's steady state, which `numerics.fd.steady_stokes`
-finds directly (GMRES on the steady-state equation, a few dozen back-solves)
-instead of marching through a viscous time of the domain.
+by its smoothed indicator and the friction that holds it (the implicit penalisation,
+numerics.fd.constraint); at Re -> 0 the quantity of interest is the steady state, which
+`numerics.fd.steady_stokes` finds directly (one factorisation of the steady Stokes matrix
+with the friction; GMRES on the steady-state equation with the one-shot penalty) instead of
+marching through a viscous time of the domain.
 
     lambda(delta) = F / (6 pi mu a V)     vs Brenner's exact series (data/brenner1961_wall_drag.csv)
 
