@@ -168,8 +168,8 @@ class FictitiousDomainModel(FlowModel):
     def follow(self, centers) -> None:
         """Move the refined patches (numerics.fd.patch) when a sphere's centre has strayed more than half the
         margin from its patch's: a new mesh around `centers` [m], the flow's BDF history carried over
-        (fem.transfer: interpolated, then made discretely divergence-free), the interiors' integrals
-        rescaled to the new indicators' volumes."""
+        (fem.transfer: interpolated, then made discretely divergence-free); the penalty's interior integrals
+        U V_phi rescaled to the new indicators' volumes."""
         margins = [0.5 * self.settings.patch_margin * body.diameter for body in self.bodies]
         if all(abs(c - p) <= m for c, p, m in zip(centers, self.patches, margins)):
             return
