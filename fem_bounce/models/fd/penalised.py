@@ -14,8 +14,8 @@ so that edge is put on the sphere's surface (numerics.fd.radius_offset unset: 0 
 
 The matrix changes every step (the indicator moves, and convection is linearised about u*, implicit as in
 the ale model: no convective step bound either), so it is assembled and factorised every step (MUMPS; a
-factorisation costs about 15 back-solves on this stack, docs/performance.md).  The flow is affine in the spheres' velocities,
-u(U) = x_0 + sum_j U_j x_j with x_0 = A^-1 b(u^n, u^{n-1}) and x_j = A^-1 (rho c_B b_j), b_j the
+factorisation costs about 15 back-solves on this stack, docs/performance.md).  The flow is affine in the
+spheres' velocities, u(U) = x_0 + sum_j U_j x_j with x_0 = A^-1 b(u^n, u^{n-1}) and x_j = A^-1 (rho c_B b_j), b_j the
 assembled int phi_j e_z . v r dx: one pass over the factors per step for all of them.
 
 The force of the liquid on sphere i is the reaction to its penalty plus the rate of change of the
