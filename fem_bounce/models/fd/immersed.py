@@ -9,9 +9,10 @@ rho c phi, and c = 3 / (2 dt) is large, so any tail of phi outside the sphere (a
 tanh profile has one) drags the fluid there along and inflates the body: with a
 tanh half-level at a and a one-cell width, Cd(Re = 100) came out 1.59 instead of
 1.09.  With compact support the effective surface sits where rho c phi first beats
-the local shear rate, about half a cell inside a_h for a two-cell band; hence the
-default a_h = a + h/2 (numerics.FdNumerics.radius_offset, the same in cells at
-every resolution).
+the local shear rate, about half a cell inside a_h for a two-cell band at its default
+step (and further out as dt falls: docs/validation.md section 12); hence the one-shot
+penalty's a_h = a + h/2 (numerics.FdNumerics.radius_offset, the same in cells at every
+resolution).  The implicit penalisation (penalised.py) holds the whole band: a_h = a.
 
 Only phi, b_phi = assemble(phi e_z . v r dx), V_phi and the forcing vector
 assemble(-rho c phi u~ . v r dx) change with the sphere's position.  They are
@@ -25,7 +26,8 @@ Every sphere on the axis has its own indicator phi_i (ImmersedSphere) and unit r
 forcing of -u~ is one vector over all of them, with one response y0 (ImmersedBodies; the algebra is
 coupling.py's).  The indicators' supports |x - X_i| < a_h,i must not overlap (the forcing would count
 the liquid between them twice and tie two interiors together): neighbouring surfaces must stay at least
-(a_h,i - a_i) + (a_h,i+1 - a_i+1) apart, one fine cell with the default radius_offset.  A pair's hold
+(a_h,i - a_i) + (a_h,i+1 - a_i+1) apart: one fine cell with the penalty's radius_offset, none with the
+implicit constraint's.  A pair's hold
 gap (flow_model.flow_gaps) keeps the flow's spheres that far apart; `check_hold` refuses a scene whose
 hold does not.
 """
