@@ -98,6 +98,56 @@ class Predictor:
         self.velocities = [np.array(velocities, dtype=float)] + self.velocities[:-1]
 
 
+# An adaptive step (numerics.ale.adaptive_step, numerics.fd.adaptive_step) is the longest that
+GAP_FRACTION = 0.05  # moves the spheres by at most a fraction (the model's) of their gap to what they may hit,
+JERK_TOLERANCE = 1e-3  # keeps the velocity's curvature |dA/dt| dt^2 below this fraction of the speed scale,
+GROWTH = 1.5  # and is at most this many times the step before (variable-step BDF2 is zero-stable below 2.41)
+
+
+@dataclass(frozen=True)
+class StepLimits:
+    """How long an adaptive step may be: between min_factor and max_factor times the model's cfl step
+    `base` [s]; `speed_scale` [m/s] the scene's, `gap_fraction` the part of the gap a step may close.
+
+    A collision is a jump of the sphere's velocity within a few tens of microseconds; the flow meets it
+    as a jump of its boundary velocity, and its answer (the rebound's drag and history, and how much
+    liquid moves with the sphere while the contact reverses it) is decided in the steps around it: those
+    need short steps, the fall far from the wall long ones.  BDF2's local error goes with the third
+    derivative of the motion, the jerk, times the step squared."""
+
+    base: float
+    min_factor: float
+    max_factor: float
+    speed_scale: float
+    gap_fraction: float = GAP_FRACTION
+
+    def next(self, dt: float, gap: float, speed: float, jerk: float) -> float:
+        """The coming step [s] after one of length dt [s] that leaves the spheres `gap` [m] from what they
+        may hit, at `speed` [m/s], with their acceleration changing at `jerk` [m/s3]."""
+        longest = min(self.max_factor * self.base, GROWTH * dt)
+        if speed > 0.0:
+            longest = min(longest, self.gap_fraction * max(gap, 0.0) / speed)
+        if jerk > 0.0:
+            longest = min(longest, math.sqrt(JERK_TOLERANCE * self.speed_scale / jerk))
+        return max(self.min_factor * self.base, longest)
+
+    def after(self, velocities: list, dt: float, last_step: float, gap: float) -> float:
+        """The coming step [s] after one of length dt [s] that ended at velocities[0] (the bodies' last three
+        velocities, newest first, arrays [m/s]; last_step [s] the step before it, 0 if none): the jerk from
+        the three levels, the fastest body's."""
+        acceleration = (velocities[0] - velocities[1]) / dt
+        before = (velocities[1] - velocities[2]) / last_step if last_step else acceleration
+        jerk = float(np.max(np.abs(acceleration - before))) / (0.5 * (dt + (last_step or dt)))
+        return self.next(dt, gap, float(np.max(np.abs(velocities[0]))), jerk)
+
+
+def nearest_gap(gaps, diameters, wall: bool) -> float:
+    """The bodies' nearest gap [m] for their `gaps` (lowest points above z = 0) and `diameters` [m]: each
+    neighbouring pair's and sphere 1's to the wall (to z = 0 for one sphere without a wall)."""
+    between = list(np.diff(gaps) - np.asarray(diameters)[:-1])
+    return float(min(between + [gaps[0]]) if wall or not between else min(between))
+
+
 def steps_to(end_time: float, dt: float) -> int:
     """The number of steps of length dt that reach end_time."""
     return max(1, math.ceil(end_time / dt - 1e-9))

@@ -44,6 +44,14 @@ class FdNumerics:
     # explicit: stable at Re 200, not at 0.3), 0.8 for "implicit" (an accuracy choice: case 3's apex moves 2 %
     # from 0.4 to 0.8, docs/validation.md section 12)
     cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
+    # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
+    # approach to a contact (a step closes at most gap_fraction of the gap) and the changes of the sphere's velocity
+    # ask (flow_model.StepLimits); unset: the constraint's own, true for "implicit" (it assembles every step
+    # anyway) at time_order 1 or 2, false for "penalty" (it keeps its factors: one step length)
+    adaptive_step: bool | None = None
+    min_step_factor: float = _setting(0.05, 0.001, 1.0)
+    max_step_factor: float = _setting(1.0, 1.0, 50.0)
+    gap_fraction: float = _setting(0.5, 0.001, 1.0)
     forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
     # "implicit" (the default since issue 41): the friction rho c_B phi (u - U) in the step's matrix, with
     # convection implicit, factorised every step (models/fd/penalised.py): no step bound from either, the interior
@@ -65,12 +73,13 @@ class FdNumerics:
     radius_offset: float | None = field(default=None, metadata={"range": (-3.0, 3.0, False, False), "unit": ""})
 
     def resolved(self, name: str) -> float:
-        """A setting's value, the constraint's own when it is unset (cfl, radius_offset)."""
+        """A setting's value, the constraint's own when it is unset (cfl, radius_offset, adaptive_step)."""
         value = getattr(self, name)
         if value is not None:
             return value
         penalty = self.constraint == "penalty"
-        return {"cfl": 0.2 if penalty else 0.8, "radius_offset": 0.5 if penalty else 0.0}[name]
+        return {"cfl": 0.2 if penalty else 0.8, "radius_offset": 0.5 if penalty else 0.0,
+                "adaptive_step": not penalty and self.time_order < 3}[name]
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
     steady_stokes: bool = False  # held sphere at Re -> 0: solve for the step's steady state, no marching

@@ -194,16 +194,17 @@ def test_the_prediction_over_an_unequal_step_is_exact_for_a_constant_acceleratio
 
 
 def test_the_adaptive_step_stays_within_its_bounds_and_shortens_near_the_wall():
-    from fem_bounce.models.ale.domain import GROWTH, next_time_step, time_step
+    from fem_bounce.flow_model import GROWTH
+    from fem_bounce.models.ale.domain import step_limits, time_step
 
     scene = scenes.load("li2011-case3", {"numerics.ale.adaptive_step": True})
-    base = time_step(scene)
-    far = next_time_step(scene, base, gap=0.1, speed=0.01, jerk=0.0)  # slow, far away: grows by GROWTH
+    base, limits = time_step(scene), step_limits(scene)
+    far = limits.next(base, gap=0.1, speed=0.01, jerk=0.0)  # slow, far away: grows by GROWTH
     assert far == pytest.approx(GROWTH * base, rel=1e-12)
-    assert next_time_step(scene, 10 * base, gap=0.1, speed=0.01, jerk=0.0) == pytest.approx(4.0 * base)
-    near = next_time_step(scene, base, gap=1e-6, speed=0.4, jerk=0.0)  # about to touch: the shortest
+    assert limits.next(10 * base, gap=0.1, speed=0.01, jerk=0.0) == pytest.approx(4.0 * base)
+    near = limits.next(base, gap=1e-6, speed=0.4, jerk=0.0)  # about to touch: the shortest
     assert near == pytest.approx(0.125 * base, rel=1e-12)
-    assert next_time_step(scene, base, gap=0.1, speed=0.01, jerk=1e9) == pytest.approx(0.125 * base)
+    assert limits.next(base, gap=0.1, speed=0.01, jerk=1e9) == pytest.approx(0.125 * base)
 
 
 def test_an_adaptive_step_held_at_the_cfl_step_is_the_constant_step():

@@ -14,8 +14,6 @@ model's holds under its near-wall correction (model.py says why that is harmless
 """
 from __future__ import annotations
 
-import math
-
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +21,7 @@ import numpy as np
 from ...bodies import scene_bodies
 from ...fem.domain import extent, speed_scale
 from ...fem.mesh import Box, HalfPlane, SphereHole
+from ...flow_model import StepLimits
 from ...scene import Scene, SceneError, pair_diameter
 
 
@@ -88,28 +87,11 @@ def time_step(scene: Scene) -> float:
     return ale.cfl * scene.sphere.diameter / ale.cells_per_diameter / speed_scale(scene, "ale")
 
 
-# An adaptive step (numerics.ale.adaptive_step) is the longest that
-GAP_FRACTION = 0.05  # moves the sphere by at most this fraction of its gap (to the wall or its neighbour),
-JERK_TOLERANCE = 1e-3  # keeps its velocity's curvature |dA/dt| dt^2 below this fraction of the speed scale,
-GROWTH = 1.5  # and is at most this many times the step before (variable-step BDF2 is zero-stable below 2.41)
-
-
-def next_time_step(scene: Scene, dt: float, gap: float, speed: float, jerk: float) -> float:
-    """The coming step [s] after one of length dt [s] that leaves the sphere `gap` [m] from what it may hit,
-    at `speed` [m/s], with its acceleration changing at `jerk` [m/s3]: the longest step that GAP_FRACTION,
-    JERK_TOLERANCE and GROWTH allow, between min_step_factor and max_step_factor times the cfl step
-    (time_step).  The flow meets a collision as a jump of the sphere's velocity, and its answer (the
-    rebound's drag and history) is decided in the few steps after: those need short steps, the free fall
-    far from the wall long ones; BDF2's local error goes with the third derivative of the motion, the
-    jerk, times the step squared."""
+def step_limits(scene: Scene) -> StepLimits:
+    """The adaptive step's bounds (numerics.ale.adaptive_step; flow_model.StepLimits): each step between
+    min_step_factor and max_step_factor times the cfl step, closing at most GAP_FRACTION of the gap."""
     ale = scene.numerics.ale
-    base = time_step(scene)
-    longest = min(ale.max_step_factor * base, GROWTH * dt)
-    if speed > 0.0:
-        longest = min(longest, GAP_FRACTION * max(gap, 0.0) / speed)
-    if jerk > 0.0:
-        longest = min(longest, math.sqrt(JERK_TOLERANCE * speed_scale(scene, "ale") / jerk))
-    return max(ale.min_step_factor * base, longest)
+    return StepLimits(time_step(scene), ale.min_step_factor, ale.max_step_factor, speed_scale(scene, "ale"))
 
 
 def is_steady(scene: Scene) -> bool:

@@ -63,12 +63,12 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import SPHERE_TAGS, check_size, create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
-from ...flow_model import FlowModel, Prediction, flow_gaps
+from ...flow_model import FlowModel, Prediction, flow_gaps, nearest_gap
 from ...integrator import FluidForce
 from ...output import CheckpointError, body_array, per_body, segment_path
 from ...motion import is_stream
 from ...scene import pair_diameter
-from .domain import AleDomain, domain_for, is_steady, next_time_step, time_step
+from .domain import AleDomain, domain_for, is_steady, step_limits, time_step
 from .fields import MovingFieldWriter
 from .flow import SphereFlow
 from .motion import MeshMotion
@@ -166,6 +166,7 @@ class AleModel(FlowModel):
         check_size(self.domain.spec(self.domain.initial_centers), "numerics.ale")
         self.steady = is_steady(scene)
         self.dt = self.cfl_step = time_step(scene)  # the coming step; the shortest (adaptive_step) [s]
+        self.step_limits = step_limits(scene)
         self.mesh = self.motion = self.flow = None
         self.stats = Statistics()
         self.bodies = scene_bodies(scene)
@@ -348,29 +349,19 @@ class AleModel(FlowModel):
         change = velocity - reference
         self.flow.commit(change)
         if self.settings.adaptive_step:
-            self.dt = self._next_step(velocity, self._nearest_gap(prediction))
+            self.dt = self._next_step(velocity, prediction)
         self.kinematics.push(velocity, center, t_next)
         self.step = self.kinematics.step
         self._record_force(t_next, gap, force + slope @ change, added_mass,
                            quality if remeshed else self.motion.quality(self.motion.shift), remeshed)
 
-    def _nearest_gap(self, prediction: Prediction) -> float:
-        """The spheres' predicted nearest gap at the step's end [m]: each neighbouring pair's and sphere 1's to
-        the wall (to z = 0 for one sphere without a wall); where they are, not where the mesh holds them."""
-        gaps = prediction.gaps
-        between = list(np.diff(gaps) - self.diameters[:-1])
-        return min(between + [gaps[0]]) if self.scene.wall.present or not between else min(between)
-
-    def _next_step(self, velocity: np.ndarray, gap: float) -> float:
-        """The coming step [s] (domain.next_time_step) from the step just made, which ends at `velocity`
-        with the spheres `gap` [m] from what they may hit (the nearest wall or neighbour): the jerk from the
-        last three velocities, the fastest sphere's."""
-        k, dt = self.kinematics, self.dt
-        levels = [velocity, *k.velocities[:2]]
-        acceleration = (levels[0] - levels[1]) / dt
-        before = (levels[1] - levels[2]) / k.last_step if k.last_step else acceleration
-        jerk = float(np.max(np.abs(acceleration - before))) / (0.5 * (dt + (k.last_step or dt)))
-        step = next_time_step(self.scene, dt, gap, float(np.max(np.abs(levels[0]))), jerk)
+    def _next_step(self, velocity: np.ndarray, prediction: Prediction) -> float:
+        """The coming step [s] (domain.step_limits) from the step just made, which ends at `velocity`, with
+        the spheres' predicted nearest gap (to the wall or a neighbour: where they are, not where the mesh
+        holds them)."""
+        k = self.kinematics
+        gap = nearest_gap(prediction.gaps, self.diameters, self.scene.wall.present)
+        step = self.step_limits.after([velocity, *k.velocities[:2]], self.dt, k.last_step, gap)
         self.stats.longest_step = max(self.stats.longest_step, step)
         return step
 

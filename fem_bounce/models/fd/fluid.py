@@ -26,8 +26,8 @@ from ...fem import forms
 from ...fem.compat import collapse
 from ...fem.mesh import AXIS
 from ...fem.solver import FactorizedOperator, FieldSplitOperator
-from ...fem.taylor_hood import (BDF, EXTRAPOLATION, SIDE_KINDS, lifted_rhs, pressure_pin, set_velocity,
-                                side_constraints, taylor_hood_space)
+from ...fem.taylor_hood import (SIDE_KINDS, lifted_rhs, pressure_pin, set_velocity, side_constraints,
+                                step_coefficients, taylor_hood_space)
 
 
 class FlowSolver:
@@ -43,8 +43,11 @@ class FlowSolver:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
         self.mesh, self.density, self.viscosity, self.dt = mesh, density, viscosity, dt
         self.order = order
-        self.bdf, self.ext = BDF[order], EXTRAPOLATION[order]
-        self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference(u^n, u^{n-1}, ...))
+        # the step's coefficients as constants of the forms (set_time_step): c, then -alpha_j / dt for the
+        # history levels; the extrapolation's weights
+        self.rates = fem.Constant(mesh, np.zeros(order + 1))
+        self.weights = fem.Constant(mesh, np.zeros(order))
+        self.set_time_step(dt)
         self.W = taylor_hood_space(mesh)
         self.states = [fem.Function(self.W) for _ in range(order)]  # u^n, u^{n-1}, ... (with p)
         self.now = self.states[0]
@@ -57,8 +60,8 @@ class FlowSolver:
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         self.test_velocity = v
         past = [ufl.split(state)[0] for state in self.states]
-        extrapolated = sum(beta * u_j for beta, u_j in zip(self.ext, past))
-        history = -density / dt * sum(alpha * u_j for alpha, u_j in zip(self.bdf[1:], past))
+        extrapolated = sum(self.weights[j] * u_j for j, u_j in enumerate(past))
+        history = density * sum(self.rates[j + 1] * u_j for j, u_j in enumerate(past))
         a, L = self.step_forms(u, p, v, q, extrapolated, history)
         self.a, self.L_history = fem.form(a), fem.form(L)
         A = assemble_matrix(self.a, bcs=self.bcs)
@@ -83,10 +86,21 @@ class FlowSolver:
         owned = np.sort(dofs[dofs < index_map.size_local])
         return PETSc.IS().createGeneral(owned + index_map.local_range[0], comm=self.mesh.comm)
 
+    def set_time_step(self, dt: float, previous: float | None = None) -> None:
+        """The coming step's length dt [s] and the one before it (default dt): the BDF and extrapolation
+        coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ).
+        The matrix holds c: a solver that keeps its factors (this one) takes one step length only; the
+        penalised flow assembles every step."""
+        self.dt = dt
+        self.bdf, self.ext = step_coefficients(self.order, dt / previous if previous else 1.0)
+        self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference(u^n, u^{n-1}, ...))
+        self.rates.value[:] = [self.c, *(-alpha / dt for alpha in self.bdf[1:])]
+        self.weights.value[:] = self.ext
+
     def step_forms(self, u, p, v, q, extrapolated, history):
         """The step's bilinear and linear forms (UFL): convection extrapolated, so the matrix is fixed."""
         r, dx, rho = self.r, self.dx, self.density
-        return (forms.stokes_operator(u, p, v, q, rho * self.c, self.viscosity, r, dx),
+        return (forms.stokes_operator(u, p, v, q, rho * self.rates[0], self.viscosity, r, dx),
                 forms.source(history, v, r, dx) - rho * forms.convection(extrapolated, extrapolated, v, r, dx))
 
     # -- boundary conditions ---------------------------------------------------------------

@@ -30,11 +30,12 @@ from pathlib import Path
 import numpy as np
 
 from ...bodies import scene_bodies
+from ...fem.domain import speed_scale
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import check_size, create_mesh
 from ...fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel, Prediction, flow_gaps, steps_to
+from ...flow_model import FlowModel, Prediction, StepLimits, flow_gaps, nearest_gap, steps_to
 from ...motion import is_stream
 from ...output import CheckpointError, body_array, per_body, segment_path
 from ...scene import SceneError, pair_diameter
@@ -92,7 +93,13 @@ class FictitiousDomainModel(FlowModel):
         super().__init__(scene, comm)
         self.path_domain: Domain = domain_for(scene)  # refined along the whole path: the largest mesh
         check_size(self.path_domain.spec, "numerics.fd")
-        self.dt = time_step(scene)
+        self.dt = self.cfl_step = time_step(scene)  # the coming step; the cfl step [s]
+        self.adaptive = self.settings.resolved("adaptive_step")  # steps of their own length (StepLimits)
+        fd = self.settings
+        self.step_limits = StepLimits(self.cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"),
+                                      fd.gap_fraction)
+        self.time, self.last_step = 0.0, 0.0  # t_n and the step that reached it (adaptive steps) [s]
+        self.step_range = [math.inf, 0.0]  # the shortest and longest step taken [s]
         self.bodies = scene_bodies(scene)
         self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
         centers = [body.initial_gap + body.sphere.radius for body in self.bodies]
@@ -110,6 +117,9 @@ class FictitiousDomainModel(FlowModel):
         self.last_force: coupling.Linearised | None = None
         self.steady = self.settings.steady_stokes
         self.implicit = self.settings.constraint == "implicit"
+        if self.adaptive and (not self.implicit or fd.time_order == 3):
+            raise SceneError("numerics.fd.adaptive_step = true needs numerics.fd.constraint = \"implicit\" (the "
+                             "penalty keeps its factors for one step length) and time_order 1 or 2")
         if self.steady and (not self.held.all() or is_stream(scene)):
             raise SceneError("numerics.fd.steady_stokes = true needs every sphere's mode = \"fixed\" (motion.mode, "
                              "second_sphere.mode) without a stream")
@@ -201,6 +211,21 @@ class FictitiousDomainModel(FlowModel):
     def initial_velocities(self) -> list[np.ndarray]:
         return list(self.history.velocities)
 
+    def previous_time_step(self) -> float | None:
+        return self.last_step if self.adaptive and self.last_step else None
+
+    def next_time(self) -> float:
+        return self.time + self.dt if self.adaptive else super().next_time()
+
+    def finished(self, end_time: float) -> bool:
+        if self.adaptive:
+            return self.time >= end_time - 1e-9 * self.cfl_step
+        return super().finished(end_time)
+
+    def time_now(self) -> float:
+        """t_n [s]."""
+        return self.time if self.adaptive else self.step * self.dt
+
     # -- one step -------------------------------------------------------------------------
     def predicted_centers(self, prediction: Prediction) -> np.ndarray:
         """Where the flow's spheres will be at t_{n+1} [m]: held spheres stay put, the others as predicted
@@ -216,6 +241,10 @@ class FictitiousDomainModel(FlowModel):
         centers = self.predicted_centers(prediction)
         if self.patches is not None:
             self.follow(centers)
+        if self.adaptive:
+            self.flow.set_time_step(self.dt, self.previous_time_step())
+            self.history.bdf = self.flow.bdf
+            self._gap = nearest_gap(prediction.gaps, [body.diameter for body in self.bodies], self.scene.wall.present)
         if self.implicit:
             self.flow.place(self.immersed, centers)
             linear = self.flow.linearise(self.history.momentum_history, self.history.reference_velocity)
@@ -224,7 +253,7 @@ class FictitiousDomainModel(FlowModel):
             linear = self._linearise_penalty()
         if not (np.all(np.isfinite(linear.explicit)) and np.all(np.isfinite(linear.added_mass))):
             raise FloatingPointError(f"the fluid force became {linear.explicit} N at "
-                                     f"t = {(self.step + 1) * self.dt:.6g} s")
+                                     f"t = {self.next_time():.6g} s")
         self.last_force = linear
         self._integrator_start = time.perf_counter()
         implicit = self.settings.coupling == "implicit"
@@ -254,10 +283,21 @@ class FictitiousDomainModel(FlowModel):
             new = self.immersed.field(flow.predicted, coupling.rigid_amplitudes(self.integrals, velocities), flow.work)
             interiors = velocities * self.integrals.volume
         if not math.isfinite(new.norm()):
-            raise FloatingPointError(f"the flow field became non-finite at t = {(self.step + 1) * self.dt:.6g} s")
+            raise FloatingPointError(f"the flow field became non-finite at t = {self.next_time():.6g} s")
         flow.commit(new)
+        if self.adaptive:
+            self._advance_time(velocities)
         self.history.push(velocities, interiors)
         self.step += 1
+
+    def _advance_time(self, velocities: np.ndarray) -> None:
+        """t_n <- t_{n+1}, and the coming step from the one just made (StepLimits.after)."""
+        dt, levels = self.dt, [velocities, *self.history.velocities[:2]]
+        if len(levels) < 3:  # BDF1 keeps one level
+            levels.append(levels[-1])
+        self.step_range = [min(self.step_range[0], dt), max(self.step_range[1], dt)]
+        self.dt = self.step_limits.after(levels, dt, self.last_step, self._gap)
+        self.time, self.last_step = self.time + dt, dt
 
     def steady_force(self) -> FluidForce:
         """The steady Stokes state of the step (steady.SteadyStokes), held from the start."""
@@ -270,6 +310,7 @@ class FictitiousDomainModel(FlowModel):
 
     def complete_steady(self, time_now: float) -> None:
         self.step = steps_to(self.scene.run.end_time, self.dt)
+        self.time = self.step * self.dt
 
     def steady_forces(self) -> np.ndarray:
         """The steady Stokes forces on the held spheres [N], their surfaces moving at their velocities
@@ -302,12 +343,20 @@ class FictitiousDomainModel(FlowModel):
         and of the spheres' velocities and interior integrals (a list per level, one value per sphere)."""
         patches = {} if self.patches is None else {
             "patch_centers": list(self.patches), "placed_centers": [sphere.center for sphere in self.immersed.spheres]}
-        return {"dt": self.dt, **self.history.state(), **patches}, gather_history(self.flow.states)
+        steps = {"time": self.time, "step_length": self.dt, "last_step": self.last_step} if self.adaptive else {}
+        return ({"dt": self.cfl_step, **steps, **self.history.state(), **patches},
+                gather_history(self.flow.states))
 
     def restore(self, state: dict, arrays) -> None:
-        if not math.isclose(state["dt"], self.dt, rel_tol=1e-12):
+        if not math.isclose(state["dt"], self.cfl_step, rel_tol=1e-12):
             raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
-                                  f"{self.dt:g} s: the scene was changed")
+                                  f"{self.cfl_step:g} s: the scene was changed")
+        if self.adaptive:
+            try:
+                self.time, self.dt, self.last_step = (float(state[key]) for key in ("time", "step_length", "last_step"))
+            except (KeyError, TypeError, ValueError):
+                raise CheckpointError("the checkpoint has no adaptive step (time, step_length, last_step): it was made "
+                                      "with numerics.fd.adaptive_step = false") from None
         if self.patches is not None and state.get("patch_centers") != self.patches:  # moved: that mesh again
             try:
                 patches, placed = ([float(z) for z in state[key]] for key in ("patch_centers", "placed_centers"))
@@ -343,7 +392,7 @@ class FictitiousDomainModel(FlowModel):
         self.fields = FieldWriter(self.comm, self.mesh, self.flow.W, path)
 
     def write_fields(self, time_now: float) -> None:
-        self.fields.write(self.flow.now, self.step * self.dt)
+        self.fields.write(self.flow.now, self.time_now())
 
     def close_outputs(self) -> None:
         if self.fields is not None:
@@ -352,7 +401,7 @@ class FictitiousDomainModel(FlowModel):
     # -- what the summary says ----------------------------------------------------------------
     def sizes(self) -> dict:
         cells = self.mesh.topology.index_map(2).size_global
-        return {"cells": cells, "unknowns": self.flow.unknowns, "dt": self.dt, "fine_size": self.domain.fine_size}
+        return {"cells": cells, "unknowns": self.flow.unknowns, "dt": self.cfl_step, "fine_size": self.domain.fine_size}
 
     def report(self) -> dict:
         """Cost and discretisation details for summary.json (per-sphere values: a number for one sphere,
@@ -384,6 +433,8 @@ class FictitiousDomainModel(FlowModel):
             "pair_min_flow_gap_m": min(self.immersed.min_gaps, default=None),
             "steady_gmres_iterations": self.steady_iterations,
             **({} if self.patches is None else {"remeshes": self.remeshes, "remesh_s": self.remesh_s}),
+            **({"shortest_step_s": self.step_range[0], "longest_step_s": self.step_range[1]} if self.adaptive
+               and self.step_range[1] else {}),
             **(self.constraint_report() if self.implicit else {}),
         }
 

@@ -72,7 +72,7 @@ class PenalisedFlow(FlowSolver):
     def step_forms(self, u, p, v, q, extrapolated, history):
         """Convection linearised about u* and the friction rho c_B phi u . v in the matrix."""
         r, dx, rho = self.r, self.dx, self.density
-        a = (forms.stokes_operator(u, p, v, q, rho * self.c, self.viscosity, r, dx)
+        a = (forms.stokes_operator(u, p, v, q, rho * self.rates[0], self.viscosity, r, dx)
              + rho * forms.convection(extrapolated, u, v, r, dx)
              + rho * self.penalty_rate * self.indicator * ufl.inner(u, v) * r * self.dx_indicator)
         return a, forms.source(history, v, r, dx)
