@@ -1,10 +1,9 @@
 """Which numerical parameter the fd model's error on case 3 follows (issue 41, item 1).
 
-    python benchmarks/fd_sensitivity.py                       # the default sweep at 12 cells/D (~3 minutes)
-    python benchmarks/fd_sensitivity.py --cells 16 --only forcing_number,interface_width
-    python benchmarks/fd_sensitivity.py --variant "numerics.fd.constraint=implicit"   # one extra row
-    python benchmarks/fd_sensitivity.py --cells 24 --variant "numerics.fd.constraint=implicit,numerics.fd.patch=true" \
-        --variant model=ib           # side by side, one after the other (the speed targets of issue 41)
+    python benchmarks/fd_sensitivity.py                       # every sweep at 12 cells/D (~4 minutes)
+    python benchmarks/fd_sensitivity.py --cells 16 --only cfl,collision_steps
+    python benchmarks/fd_sensitivity.py --cells 24 --only default   # the default row alone (a ladder: 12, 16, 24, 32)
+    python benchmarks/fd_sensitivity.py --cells 24 --variant model=ib   # side by side, one after the other
 
 Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
 default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
@@ -31,13 +30,16 @@ REFERENCE_ROW = "case3-ale16s3-cfl0.125"  # near_wall.py reference: ALE, 16 cell
 
 # one parameter at a time: name -> the --set values tried (the fd default is the first row, "default")
 SWEEPS = {
-    "forcing_number": ["numerics.fd.forcing_number=0.0125", "numerics.fd.forcing_number=0.00625"],
-    "cfl": ["numerics.fd.cfl=0.1"],
+    "cfl": ["numerics.fd.cfl=0.4"],
+    "collision_steps": ["numerics.fd.min_step_factor=0.0125", "numerics.fd.gap_fraction=0.2"],
+    "constant_step": ["numerics.fd.adaptive_step=false", "numerics.fd.adaptive_step=false,numerics.fd.cfl=0.2"],
+    "penalty_strength": ["numerics.fd.penalty_strength=1e4", "numerics.fd.penalty_strength=1e6"],
     "interface_width": ["numerics.fd.interface_width=1", "numerics.fd.interface_width=4"],
-    "radius_offset": ["numerics.fd.radius_offset=0", "numerics.fd.radius_offset=1"],
-    "delta_sl": ["contact.delta_sl=0.1", "contact.delta_sl=0.3"],
+    "delta_sl": ["contact.delta_sl=0.05", "contact.delta_sl=0.2"],
     "far_field": ["numerics.fd.far_field=20"],
     "wall_cells": ["numerics.fd.wall_cells_per_diameter=48"],
+    # the one-shot penalty, the default before issue 41 (its own sweeps: forcing_number, cfl, radius_offset)
+    "penalty": ["numerics.fd.constraint=penalty,numerics.fd.patch=false"],
 }
 
 
@@ -70,14 +72,16 @@ def measure(cells: float, settings: list[str]) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cells", type=float, default=12.0, help="numerics.fd.cells_per_diameter (default 12)")
-    parser.add_argument("--only", help="comma-separated sweeps (default: all): " + ", ".join(SWEEPS))
+    parser.add_argument("--only", help="comma-separated sweeps (default: all; 'default': the default row alone): "
+                        + ", ".join(SWEEPS))
     parser.add_argument("--variant", action="append", default=[],
                         help="an extra row: comma-separated key=value settings (repeatable)")
     parser.add_argument("--no-default", action="store_true", help="skip the default row")
     args = parser.parse_args()
     names = args.only.split(",") if args.only else ([] if args.variant else list(SWEEPS))
+    names = [name for name in names if name != "default"]
     rows = [] if args.no_default else [("default", [])]
-    rows += [(name, [setting]) for name in names for setting in SWEEPS[name]]
+    rows += [(name, setting.split(",")) for name in names for setting in SWEEPS[name]]
     rows += [("variant", variant.split(",")) for variant in args.variant]
     ref = reference()
     record = {**stamp(), "load_1min": os.getloadavg()[0], "cells_per_diameter": args.cells, "reference": ref,
