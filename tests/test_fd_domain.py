@@ -17,7 +17,8 @@ def test_unbounded_fall_closes_with_slip_and_refines_the_path():
     assert d.spec.radius == pytest.approx(10 * D)
     assert d.spec.height == pytest.approx(sc.initial_gap + D + 2 * D + 10 * D)  # path, wake, far field
     box = d.spec.refined[0]
-    assert box.z_min == 0.0 and box.z_max == pytest.approx(sc.initial_gap + 3 * D) and box.r_max == pytest.approx(0.75 * D)
+    assert box.z_min == 0.0 and box.z_max == pytest.approx(sc.initial_gap + 3 * D)
+    assert box.r_max == pytest.approx(sc.numerics.fd.refined_radius * D)
     assert d.fine_size == pytest.approx(D / 24) and d.center == pytest.approx(sc.initial_gap + D / 2)
 
 
