@@ -26,10 +26,12 @@ class FdNumerics:
 
     cells_per_diameter: float = _setting(24.0, 2.0, 400.0)  # fine triangle size D / this
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
-    grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
-    # the fine region r <= this * D (0.75 since issue 41, was 1: case 3 at 24 cells/D in 0.85 of the time, its
-    # errors within 0.4 % of 1's; a grading of 0.2 halves the time but moves the Stokes drag 5 % at 12 cells/D)
-    refined_radius: float = _setting(0.75, 0.5, 100.0)
+    # size growth per unit distance from the fine region (0.2 would halve case 3's time at 24 cells/D, but moves
+    # the Stokes drag of tests/test_fd_pair.py 5 %)
+    grading: float = _setting(0.1, 0.01, 2.0)
+    # the fine region r <= this * D (0.75 would save 15 % of case 3's time at 24 cells/D, its errors within
+    # 0.4 %, but puts Cd at Re 200 3.5 % high, against 2.4 % at 1: docs/validation.md section 12)
+    refined_radius: float = _setting(1.0, 0.5, 100.0)
     # patch: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
     # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the
     # patch's (models/fd/model.py); false, or every sphere held: along the whole path

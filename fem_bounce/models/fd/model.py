@@ -14,7 +14,10 @@ controller (fem_bounce.run.Controller), which owns the loop, the observers and t
 
 Every per-sphere value is an array over the spheres on the axis (one sphere is N = 1).
 numerics.fd.constraint = "implicit" (penalised.PenalisedFlow) replaces steps 2-5 by one solve with the
-spheres' friction in the step's matrix, factorised every step: no viscous step bound.
+spheres' friction in the step's matrix, factorised every step: no viscous step bound, and each step may have
+its own length (numerics.fd.adaptive_step, flow_model.StepLimits, the ale model's controller): short through
+a collision, which the contact makes within one step (with a long one the step's numerical added mass,
+the liquid the step moves with the sphere, grows with dt, and the contact reverses it with the sphere).
 
 A checkpoint holds the flow's BDF history by dof coordinates (fem.functions), so a run checkpointed
 on two ranks can restart on one.
