@@ -54,7 +54,7 @@ class FdNumerics:
     # anyway) at time_order 1 or 2, false for "penalty" (it keeps its factors: one step length)
     adaptive_step: bool | None = None
     min_step_factor: float = _setting(0.05, 0.001, 1.0)
-    max_step_factor: float = _setting(1.0, 1.0, 50.0)
+    max_step_factor: float = _setting(2.0, 1.0, 50.0)
     gap_fraction: float = _setting(0.5, 0.001, 1.0)
     forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
     # "implicit" (the default since issue 41): the friction rho c_B phi (u - U) in the step's matrix, with
