@@ -116,6 +116,15 @@ def test_the_rebound_does_not_move_with_the_step(tmp_path):
     assert runs[0.2]["apex_gap"] == pytest.approx(runs[0.8]["apex_gap"], rel=0.025)
 
 
+def test_adaptive_steps_need_the_implicit_constraint():
+    """The one-shot penalty keeps its factors, so it takes one step length: asking it for adaptive steps is
+    refused before anything is built, naming the setting."""
+    sc = scene.load("li2011-case3", {"numerics.fd.constraint": "penalty", "numerics.fd.adaptive_step": True})
+    with pytest.raises(scene.SceneError, match="numerics.fd.adaptive_step"):
+        FictitiousDomainModel(sc, MPI.COMM_WORLD)
+    assert not scene.load("li2011-case3", {"numerics.fd.constraint": "penalty"}).numerics.fd.resolved("adaptive_step")
+
+
 def largest_cell_near(mesh, center: float, reach: float) -> float:
     """The longest triangle edge [m] among the cells whose centroid lies within `reach` of (0, center) (all ranks)."""
     corners = mesh.geometry.x[geometry_cells(mesh)[:mesh.topology.index_map(2).size_local]][:, :, :2]
