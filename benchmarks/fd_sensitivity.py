@@ -35,7 +35,7 @@ SWEEPS = {
     "constant_step": ["numerics.fd.adaptive_step=false", "numerics.fd.adaptive_step=false,numerics.fd.cfl=0.2"],
     "penalty_strength": ["numerics.fd.penalty_strength=1e4", "numerics.fd.penalty_strength=1e6"],
     "interface_width": ["numerics.fd.interface_width=1", "numerics.fd.interface_width=4"],
-    "delta_sl": ["contact.delta_sl=0.05", "contact.delta_sl=0.2"],
+    "delta_sl": ["contact.delta_sl=0.1", "contact.delta_sl=0.3"],
     "far_field": ["numerics.fd.far_field=20"],
     "wall_cells": ["numerics.fd.wall_cells_per_diameter=48"],
     # the one-shot penalty, the default before issue 41 (its own sweeps: forcing_number, cfl, radius_offset)
