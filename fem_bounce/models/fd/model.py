@@ -225,10 +225,6 @@ class FictitiousDomainModel(FlowModel):
             return self.time >= end_time - 1e-9 * self.cfl_step
         return super().finished(end_time)
 
-    def time_now(self) -> float:
-        """t_n [s]."""
-        return self.time if self.adaptive else self.step * self.dt
-
     # -- one step -------------------------------------------------------------------------
     def predicted_centers(self, prediction: Prediction) -> np.ndarray:
         """Where the flow's spheres will be at t_{n+1} [m]: held spheres stay put, the others as predicted
@@ -346,7 +342,8 @@ class FictitiousDomainModel(FlowModel):
         and of the spheres' velocities and interior integrals (a list per level, one value per sphere)."""
         patches = {} if self.patches is None else {
             "patch_centers": list(self.patches), "placed_centers": [sphere.center for sphere in self.immersed.spheres]}
-        steps = {"time": self.time, "step_length": self.dt, "last_step": self.last_step} if self.adaptive else {}
+        steps = {"time": self.time, "step_length": self.dt, "last_step": self.last_step,
+                 "step_range": self.step_range} if self.adaptive else {}
         return ({"dt": self.cfl_step, **steps, **self.history.state(), **patches},
                 gather_history(self.flow.states))
 
@@ -357,6 +354,7 @@ class FictitiousDomainModel(FlowModel):
         if self.adaptive:
             try:
                 self.time, self.dt, self.last_step = (float(state[key]) for key in ("time", "step_length", "last_step"))
+                self.step_range = [float(value) for value in state.get("step_range", self.step_range)]
             except (KeyError, TypeError, ValueError):
                 raise CheckpointError("the checkpoint has no adaptive step (time, step_length, last_step): it was made "
                                       "with numerics.fd.adaptive_step = false") from None
@@ -395,7 +393,7 @@ class FictitiousDomainModel(FlowModel):
         self.fields = FieldWriter(self.comm, self.mesh, self.flow.W, path)
 
     def write_fields(self, time_now: float) -> None:
-        self.fields.write(self.flow.now, self.time_now())
+        self.fields.write(self.flow.now, time_now)
 
     def close_outputs(self) -> None:
         if self.fields is not None:
