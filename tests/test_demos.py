@@ -17,30 +17,33 @@ from mpi4py import MPI
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
-# demo -> (key path in result.json, pinned value)
+# demo -> (key path in result.json, pinned value[, relative tolerance: 1e-4 unless given])
 PINNED = {
-    # fd demos: at the fd defaults of issue 41 (the implicit penalisation, the refined patch); before it, with the
-    # one-shot penalty: brenner_drag 1.52733, sphere_drag 1.16389, tencate_e4 0.122589, li_case3 0.386940,
-    # case7_vorticity 124.420
+    # fd demos: at the fd defaults of issue 41 (the implicit penalisation, the refined patch, adaptive steps);
+    # before it, with the one-shot penalty: brenner_drag 1.52733, sphere_drag 1.16389, tencate_e4 0.122589,
+    # li_case3 0.386940, case7_vorticity 124.420; before its adaptive steps tencate_e4 0.118184, li_case3 0.380201,
+    # case7_vorticity 123.675
     "brenner_drag": ([0, "lambda"], 1.56249),
     "sphere_drag": ([0, "Cd"], 1.18462),
-    "tencate_e4": (["peak_speed"], 0.118184),
+    # tencate_e4: its adaptive steps follow the velocity's jerk all the way down, so round-off (one rank or two)
+    # changes the step sequence and the answer by its time error: 0.1179105 serial, 0.1179308 on 2 ranks
+    "tencate_e4": (["peak_speed"], 0.117921, 5e-4),
     # li_case3: 0.350548 before the near-wall correction (issue 11), 0.379102 before the lubricated Hertz
     # contact (issue 23: the 2 ms impact mean now ends at the Hertz overlap, not 160 um above the wall)
-    "li_case3": (["impact_speed"], 0.380201),
-    "case7_vorticity": (["Re_I"], 123.675),  # 115.104 before issue 11, 122.423 before issue 23
+    "li_case3": (["impact_speed"], 0.377789),
+    "case7_vorticity": (["Re_I"], 122.972),  # 115.104 before issue 11, 122.423 before issue 23
     # the Python API tutorial (issue 28): case 3, ode model; 0.387954 before the screened inertial drag (issue 42)
     "tutorial": (["ode", "impact_speed"], 0.391346),
 }
 
 
 def assert_pinned(demo: str, out: Path) -> None:
-    keys, pinned = PINNED[demo]
+    keys, pinned, *tolerance = PINNED[demo]
     value = json.loads((out / "result.json").read_text())
     for key in keys:
         value = value[key]
     print(demo, value)
-    assert value == pytest.approx(pinned, rel=1e-4)
+    assert value == pytest.approx(pinned, rel=tolerance[0] if tolerance else 1e-4)
 
 
 @pytest.mark.slow
