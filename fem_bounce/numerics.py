@@ -45,8 +45,8 @@ class FdNumerics:
     wall_layer: float = _setting(0.25, 0.01, 5.0)
     wall_radius: float = _setting(0.6, 0.05, 10.0)
     # dt <= cfl * fine size / (1.5 speed scale); unset: the constraint's own, 0.2 for "penalty" (its convection is
-    # explicit: stable at Re 200, not at 0.3), 0.8 for "implicit" (an accuracy choice: case 3's apex moves 2 %
-    # from 0.4 to 0.8, docs/validation.md section 12)
+    # explicit: stable at Re 200, not at 0.3), 0.8 for "implicit" (an accuracy choice: with adaptive steps
+    # case 3's apex moves 1.3 % from 0.8 to 0.4 at 16 cells/D, docs/validation.md section 12)
     cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
     # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
     # approach to a contact (a step closes at most gap_fraction of the gap) and the changes of the sphere's velocity
