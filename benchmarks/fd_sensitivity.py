@@ -4,6 +4,7 @@
     python benchmarks/fd_sensitivity.py --cells 16 --only cfl,collision_steps
     python benchmarks/fd_sensitivity.py --cells 24 --only default   # the default row alone (a ladder: 12, 16, 24, 32)
     python benchmarks/fd_sensitivity.py --cells 24 --variant model=ib   # side by side, one after the other
+    python benchmarks/fd_sensitivity.py --fit 16,24,32,48     # order and limit of the ladder's errors (no runs)
 
 Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
 default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
@@ -20,6 +21,8 @@ import os
 import time
 import warnings
 from pathlib import Path
+
+import numpy as np
 
 import fem_bounce as fb
 from provenance import stamp
@@ -69,6 +72,29 @@ def measure(cells: float, settings: list[str]) -> dict:
     return row
 
 
+def fit(cells: list[float]) -> None:
+    """Print the order p and the limit E_0 of E = E_0 + C h^p (h = D / cells, least squares) for each error,
+    through the latest default row at each of `cells` in the history."""
+    from scipy.optimize import curve_fit
+
+    latest = {}
+    for record in json.loads(RESULTS.read_text()):
+        for row in record["rows"]:
+            if row["sweep"] == "default" and "V_i" in row:
+                latest[record["cells_per_diameter"]] = (record["date"], record["reference"], row)
+    missing = [n for n in cells if n not in latest]
+    if missing:
+        raise SystemExit(f"no default row at {missing} cells/D in {RESULTS}: run --cells N --only default first")
+    h = 1.0 / np.array(cells)
+    print("cells/D: " + ", ".join(f"{n:g} ({latest[n][0]})" for n in cells))
+    for key in latest[cells[0]][1]:
+        errors = np.array([100.0 * (latest[n][2][key] / latest[n][1][key] - 1.0) for n in cells])
+        (limit, scale, order), _ = curve_fit(lambda x, e0, c, p: e0 + c * (x / h[0]) ** p, h, errors,
+                                             p0=(0.0, errors[0], 1.0), maxfev=20000)
+        listed = " / ".join(f"{e:+.2f}" for e in errors)
+        print(f"{key:6s} errors {listed} %: order {order:.2f}, limit {limit:+.2f} %")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cells", type=float, default=12.0, help="numerics.fd.cells_per_diameter (default 12)")
@@ -77,7 +103,11 @@ def main() -> None:
     parser.add_argument("--variant", action="append", default=[],
                         help="an extra row: comma-separated key=value settings (repeatable)")
     parser.add_argument("--no-default", action="store_true", help="skip the default row")
+    parser.add_argument("--fit", help="comma-separated cells/D: fit order and limit to the history's default rows "
+                        "there (no runs)")
     args = parser.parse_args()
+    if args.fit:
+        return fit([float(n) for n in args.fit.split(",")])
     names = args.only.split(",") if args.only else ([] if args.variant else list(SWEEPS))
     names = [name for name in names if name != "default"]
     rows = [] if args.no_default else [("default", [])]

@@ -132,11 +132,11 @@ class StepLimits:
         return max(self.min_factor * self.base, longest)
 
     def after(self, velocities: list, dt: float, last_step: float, gap: float) -> float:
-        """The coming step [s] after one of length dt [s] that ended at velocities[0] (the bodies' last three
-        velocities, newest first, arrays [m/s]; last_step [s] the step before it, 0 if none): the jerk from
-        the three levels, the fastest body's."""
+        """The coming step [s] after one of length dt [s] that ended at velocities[0] (the bodies' last two or
+        three velocities, newest first, arrays [m/s]; last_step [s] the step before it, 0 if none): the jerk
+        from the three levels, the fastest body's (none from two)."""
         acceleration = (velocities[0] - velocities[1]) / dt
-        before = (velocities[1] - velocities[2]) / last_step if last_step else acceleration
+        before = (velocities[1] - velocities[2]) / last_step if last_step and len(velocities) > 2 else acceleration
         jerk = float(np.max(np.abs(acceleration - before))) / (0.5 * (dt + (last_step or dt)))
         return self.next(dt, gap, float(np.max(np.abs(velocities[0]))), jerk)
 

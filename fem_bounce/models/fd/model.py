@@ -291,9 +291,7 @@ class FictitiousDomainModel(FlowModel):
 
     def _advance_time(self, velocities: np.ndarray) -> None:
         """t_n <- t_{n+1}, and the coming step from the one just made (StepLimits.after)."""
-        dt, levels = self.dt, [velocities, *self.history.velocities[:2]]
-        if len(levels) < 3:  # BDF1 keeps one level
-            levels.append(levels[-1])
+        dt, levels = self.dt, [velocities, *self.history.velocities[:2]]  # BDF1 keeps one level: no jerk
         self.step_range = [min(self.step_range[0], dt), max(self.step_range[1], dt)]
         self.dt = self.step_limits.after(levels, dt, self.last_step, self._gap)
         self.time, self.last_step = self.time + dt, dt
