@@ -89,7 +89,7 @@ def fit(cells: list[float]) -> None:
     print("cells/D: " + ", ".join(f"{n:g} ({latest[n][0]})" for n in cells))
     for key in latest[cells[0]][1]:
         errors = np.array([100.0 * (latest[n][2][key] / latest[n][1][key] - 1.0) for n in cells])
-        (limit, scale, order), _ = curve_fit(lambda x, e0, c, p: e0 + c * (x / h[0]) ** p, h, errors,
+        (limit, _, order), _ = curve_fit(lambda x, e0, c, p: e0 + c * (x / h[0]) ** p, h, errors,
                                              p0=(0.0, errors[0], 1.0), maxfev=20000)
         listed = " / ".join(f"{e:+.2f}" for e in errors)
         print(f"{key:6s} errors {listed} %: order {order:.2f}, limit {limit:+.2f} %")

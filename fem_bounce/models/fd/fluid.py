@@ -41,7 +41,7 @@ class FlowSolver:
         for kind in sides.values():
             if kind not in SIDE_KINDS:
                 raise ValueError(f"boundary kind {kind!r} is not one of {SIDE_KINDS}")
-        self.mesh, self.density, self.viscosity, self.dt = mesh, density, viscosity, dt
+        self.mesh, self.density, self.viscosity = mesh, density, viscosity
         self.order = order
         # the step's coefficients as constants of the forms (set_time_step): c, then -alpha_j / dt for the
         # history levels; the extrapolation's weights
