@@ -12,7 +12,7 @@ How a run ends (summary.json "status" and "stop_reason"):
 
 - completed: end_time, the bounce limit, a sphere at rest on the wall (or, without gravity, stalled in
   the film: integrator.py), or a sphere lighter than the liquid stopped where it can no
-  longer be followed: risen RISE_LIMIT diameters above its release, at a container's lid, or at the
+  longer be followed: risen RISE_LIMIT diameters above its release, LID_GAP D below a container's lid, or at the
   top of a resolved model's refined region (it never reaches the wall);
 - diverged (RunDiverged): NaN, a solver failure, the sphere inside the wall, or the sphere's energy
   1/2 m_p V^2 + (m_p - m_l) g h above its value at release, which the liquid can only take away;
@@ -45,6 +45,7 @@ from .progress import Interrupts, Monitor, ProgressBar, StopNow, on_root_watchin
 from .steppers import Stepper, stepper_for
 
 RISE_LIMIT = 10.0  # diameters above its release at which a rising (light) sphere is stopped
+LID_GAP = 0.25  # and diameters below a container's lid (a mesh model's gap to the lid must still be meshed)
 ENERGY_TOLERANCE = 0.10  # of |m_p - m_l| g h0: room for the integrators' error before a gain stops the run
 
 
@@ -135,7 +136,8 @@ class _Safeguards:
         d = bodies[0].diameter
         limits = [(h0[0] + RISE_LIMIT * d, f"risen {RISE_LIMIT:g} D above its release")]
         if not scene.container.unbounded:
-            limits.append((scene.container.height - d, "reached the container's lid"))
+            limits.append((scene.container.height - (1.0 + LID_GAP) * d,
+                           f"come within {LID_GAP:g} D of the container's lid"))
         if math.isfinite(resolved_top):
             limits.append((resolved_top - d, f"reached the top of the {info.name} model's refined region"))
         self.ceiling, self.where = min(limits)
@@ -158,7 +160,7 @@ class _Safeguards:
                 f"{excess / self.tolerance * ENERGY_TOLERANCE:.0%} of its scale above its bound at release; the "
                 f"coupling or the time step is unstable ({hint})")
         if self.light and h[0] >= self.ceiling and self.stop_reason is None:
-            self.stop_reason = (f"the light sphere {self.where} (gap {h[0] / d:.3g} D at t = {row['t']:.4g} s); "
+            self.stop_reason = (f"the light sphere has {self.where} (gap {h[0] / d:.3g} D at t = {row['t']:.4g} s); "
                                 "it never reaches the wall")
             integrator.done = True
 
@@ -384,7 +386,7 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     # Everything that can refuse the run comes before anything is written.
     models.check_scene(info, scene)
     cachedir.checked_root()  # where the resolved models' meshes go
-    model_cls = models.flow_model_class(info)
+    model_cls = models.flow_model_class(info, scene)
     root = comm.rank == 0
     interrupts = interrupts or Interrupts.active
     out_dir = None if out_dir is None else Path(out_dir)
