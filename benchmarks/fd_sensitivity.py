@@ -2,9 +2,9 @@
 
     python benchmarks/fd_sensitivity.py                       # every sweep at 12 cells/D (~4 minutes)
     python benchmarks/fd_sensitivity.py --cells 16 --only cfl,collision_steps
-    python benchmarks/fd_sensitivity.py --cells 24 --only default   # the default row alone (a ladder: 12, 16, 24, 32)
-    python benchmarks/fd_sensitivity.py --cells 24 --variant model=ib   # side by side, one after the other
-    python benchmarks/fd_sensitivity.py --fit 16,24,32,48     # order and limit of the ladder's errors (no runs)
+    python benchmarks/fd_sensitivity.py --cells 12 --only default   # the default row alone (a ladder: 8, 12, 16, 24)
+    python benchmarks/fd_sensitivity.py --cells 12 --variant model=ib   # side by side, one after the other
+    python benchmarks/fd_sensitivity.py --fit 8,12,16,24      # order and limit of the ladder's errors (no runs)
 
 Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
 default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
@@ -33,16 +33,17 @@ REFERENCE_ROW = "case3-ale16s3-cfl0.125"  # near_wall.py reference: ALE, 16 cell
 
 # one parameter at a time: name -> the --set values tried (the fd default is the first row, "default")
 SWEEPS = {
-    "cfl": ["numerics.fd.cfl=0.4"],
+    "cfl": ["numerics.fd.cfl=0.4", "numerics.fd.cfl=0.2"],
+    "mesh": ["numerics.fd.mesh=fixed"],  # the fixed mesh at the same fine size (the default before the moving one)
     "collision_steps": ["numerics.fd.min_step_factor=0.0125", "numerics.fd.gap_fraction=0.2"],
     "constant_step": ["numerics.fd.adaptive_step=false", "numerics.fd.adaptive_step=false,numerics.fd.cfl=0.2"],
     "penalty_strength": ["numerics.fd.penalty_strength=1e4", "numerics.fd.penalty_strength=1e6"],
     "interface_width": ["numerics.fd.interface_width=1", "numerics.fd.interface_width=4"],
     "delta_sl": ["contact.delta_sl=0.1", "contact.delta_sl=0.3"],
     "far_field": ["numerics.fd.far_field=20"],
-    "wall_cells": ["numerics.fd.wall_cells_per_diameter=48"],
+    "surface": ["numerics.fd.surface_refinement=2"],  # the moving mesh's surface triangles twice finer
     # the one-shot penalty, the default before issue 41 (its own sweeps: forcing_number, cfl, radius_offset)
-    "penalty": ["numerics.fd.constraint=penalty,numerics.fd.patch=false"],
+    "penalty": ["numerics.fd.mesh=fixed,numerics.fd.constraint=penalty,numerics.fd.patch=false"],
 }
 
 
@@ -72,15 +73,20 @@ def measure(cells: float, settings: list[str]) -> dict:
     return row
 
 
+def default_mesh() -> str:
+    """The fd default's numerics.fd.mesh (records before it was a setting are the fixed mesh's)."""
+    return fb.load("li2011-case3").numerics.fd.mesh
+
+
 def fit(cells: list[float]) -> None:
     """Print the order p and the limit E_0 of E = E_0 + C h^p (h = D / cells, least squares) for each error,
-    through the latest default row at each of `cells` in the history."""
+    through the latest default row at each of `cells` in the history, on the default's mesh."""
     from scipy.optimize import curve_fit
 
-    latest = {}
+    latest, mesh = {}, default_mesh()
     for record in json.loads(RESULTS.read_text()):
         for row in record["rows"]:
-            if row["sweep"] == "default" and "V_i" in row:
+            if row["sweep"] == "default" and "V_i" in row and record.get("mesh", "fixed") == mesh:
                 latest[record["cells_per_diameter"]] = (record["date"], record["reference"], row)
     missing = [n for n in cells if n not in latest]
     if missing:
@@ -114,8 +120,8 @@ def main() -> None:
     rows += [(name, setting.split(",")) for name in names for setting in SWEEPS[name]]
     rows += [("variant", variant.split(",")) for variant in args.variant]
     ref = reference()
-    record = {**stamp(), "load_1min": os.getloadavg()[0], "cells_per_diameter": args.cells, "reference": ref,
-              "rows": []}
+    record = {**stamp(), "load_1min": os.getloadavg()[0], "cells_per_diameter": args.cells, "mesh": default_mesh(),
+              "reference": ref, "rows": []}
     print(f"reference (ALE {REFERENCE_ROW}): " + ", ".join(f"{k} {v:.4g}" for k, v in ref.items()))
     print(f"{'sweep':16s} {'setting':48s} " + " ".join(f"{k:>7s}" for k in ("V_i", "Re_II", "e_1", "apex", "steps"))
           + f" {'wall':>7s}")

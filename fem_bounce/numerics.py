@@ -24,7 +24,10 @@ class OdeNumerics:
 class FdNumerics:
     """The fictitious-domain model (fem_bounce.models.fd).  Sizes are per sphere diameter D."""
 
-    cells_per_diameter: float = _setting(24.0, 2.0, 400.0)  # fine triangle size D / this
+    # fine triangle size D / this: on the spheres' surfaces and along their paths with mesh = "moving" (case 3 within
+    # 0.8 % of the reference at 12, 2.2 % with a quarter of the step: docs/validation.md section 12); mesh = "fixed"
+    # needs 24-48 (its first apex -5.0 / -2.4 %)
+    cells_per_diameter: float = _setting(12.0, 2.0, 400.0)
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
     # size growth per unit distance from the fine region (0.2 would halve case 3's time at 24 cells/D, but moves
     # the Stokes drag of tests/test_fd_pair.py 5 %)
@@ -37,6 +40,17 @@ class FdNumerics:
     # patch's (models/fd/model.py); false, or every sphere held: along the whole path
     patch: bool = True
     patch_margin: float = _setting(0.75, 0.1, 20.0)
+    # "moving" (the default since issue 41): the mesh follows the spheres as the ale model's does (models/fd/moving.py),
+    # each sphere's surface a curve of the mesh and its inside meshed and held by the implicit constraint, remade when
+    # a triangle's quality would fall below min_quality; patch, patch_margin and the wall box are then unused.
+    # "fixed": one mesh the spheres move through (patches or the whole path), and steady_stokes's
+    mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
+    # mesh = "moving": as numerics.ale's (the surface's triangles this many times finer; remeshing; the gap a
+    # remeshed gap keeps triangles across; the gap / D at which the mesh stops following a sphere)
+    surface_refinement: float = _setting(1.0, 1.0, 16.0)
+    min_quality: float = _setting(0.3, 0.01, 0.9)
+    min_gap_cells: float = _setting(2.0, 0.5, 100.0)
+    hold_delta: float = _setting(0.02, 0.0, 0.5)
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
     # the gap under the sphere's path: triangles D / wall_cells_per_diameter (0: no wall box) in

@@ -288,7 +288,7 @@ def test_pair_refused_by_fd_writes_nothing(tmp_path, monkeypatch, capsys):
     """The refusal came after the marker, scene.toml, a header-only trajectory and a 64 kB reserve."""
     refused(capsys, tmp_path, monkeypatch, "run", "yang-hunt2006-pair", "--model", "fd", "--quiet", "--out", "r",
             "--set", "numerics.fd.cells_per_diameter=6", "--set", "numerics.fd.constraint=penalty",
-            message="spheres' indicators overlap")
+            "--set", "numerics.fd.mesh=fixed", message="spheres' indicators overlap")
 
 
 def test_full_stdout_gives_one_line(tmp_path):

@@ -9,8 +9,11 @@ from fem_bounce.fem.mesh import OUTER, TOP, WALL
 from fem_bounce.models.fd import domain
 
 
+FIXED = {"numerics.fd.mesh": "fixed", "numerics.fd.cells_per_diameter": 24}  # the fixed mesh, as these tests meant
+
+
 def test_unbounded_fall_closes_with_slip_and_refines_the_path():
-    sc = scene.load("li2011-case3")
+    sc = scene.load("li2011-case3", FIXED)
     d = domain.domain_for(sc)
     D = sc.sphere.diameter
     assert d.sides == {WALL: "no-slip", OUTER: "slip", TOP: "slip"}
@@ -34,14 +37,14 @@ def test_container_is_no_slip_all_round_and_a_stream_flows_through():
 def test_time_step_takes_the_tighter_of_the_convective_and_forcing_bounds():
     """The one-shot penalty's step: its explicit convection's bound or its forcing number's; the implicit
     constraint's: the convective one alone, at its own cfl 0.8."""
-    penalty = {"numerics.fd.constraint": "penalty"}
+    penalty = {**FIXED, "numerics.fd.constraint": "penalty"}
     sc = scene.load("sphere-drag-re200", penalty)  # fast and not very viscous: convection binds
     h = sc.sphere.diameter / 24
     assert domain.time_step(sc) == pytest.approx(0.2 * h / (1.5 * 0.1))
     slow = scene.load("brenner-approach", penalty)  # Re = 0.01: the forcing number binds
     h = slow.sphere.diameter / 24
     assert domain.time_step(slow) == pytest.approx(0.025 * h**2 / slow.liquid.kinematic_viscosity)
-    implicit = scene.load("brenner-approach")
+    implicit = scene.load("brenner-approach", FIXED)
     assert domain.time_step(implicit) == pytest.approx(0.8 * h / (1.5 * abs(implicit.motion.velocity)))
 
 
@@ -68,8 +71,8 @@ def test_a_neutrally_buoyant_free_sphere_is_refused_clearly():
 def test_the_wall_box_refines_the_gap_under_the_path_only():
     from fem_bounce.models.fd.domain import domain_for
 
-    sc = scene.load("li2011-case3", {"numerics.fd.wall_cells_per_diameter": 48})
-    plain = domain_for(scene.load("li2011-case3")).spec
+    sc = scene.load("li2011-case3", {**FIXED, "numerics.fd.wall_cells_per_diameter": 48})
+    plain = domain_for(scene.load("li2011-case3", FIXED)).spec
     spec = domain_for(sc).spec
     D = sc.sphere.diameter
     assert spec.size_at(0.3 * D, 0.1 * D) == pytest.approx(D / 48)

@@ -38,7 +38,7 @@ def test_restart_continues_to_the_same_result(shared_tmp):
     the rows after the last checkpoint are redone and the result equals the straight run's.  The one-shot
     penalty, whose short steps give the run those 50 (a restart across a new mesh: tests/test_restart.py)."""
     comm = MPI.COMM_WORLD
-    penalty = {"numerics.fd.constraint": "penalty"}
+    penalty = {"numerics.fd.mesh": "fixed", "numerics.fd.constraint": "penalty"}
     straight = run(shared_tmp / "straight", **{**penalty, "numerics.fd.checkpoint_every": 20,
                                                "numerics.fd.output_every": 15})
     steps = straight["steps"]
@@ -68,8 +68,8 @@ def test_a_diverging_run_stops_clearly_and_keeps_its_checkpoint(tmp_path):
     stops with a message naming the last checkpoint, which is still there, and the summary says 'diverged'."""
     out = tmp_path / "blowup"
     with pytest.raises(RunDiverged, match=r"last checkpoint at step 5"):
-        run(out, name="sphere-drag-re200", **{"numerics.fd.constraint": "penalty", "numerics.fd.cfl": 8.0,
-                                              "numerics.fd.forcing_number": 10.0,
+        run(out, name="sphere-drag-re200", **{"numerics.fd.mesh": "fixed", "numerics.fd.constraint": "penalty",
+                                              "numerics.fd.cfl": 8.0, "numerics.fd.forcing_number": 10.0,
                                               "numerics.fd.checkpoint_every": 5, "run.end_time": 3.0})
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"].startswith("diverged")
@@ -116,10 +116,10 @@ def test_implicit_coupling_is_stable_for_light_spheres(tmp_path, ratio):
 
 
 def test_explicit_coupling_fails_for_a_light_sphere(tmp_path):
-    """The contrast: the lagged force (no added mass in the sphere equation) diverges at density
+    """The contrast, on the fixed mesh: the lagged force (no added mass in the sphere equation) diverges at density
     ratio 0.1, where the implicit coupling is smooth: within milliseconds the sphere moves many times
     faster than the inviscid bound allows, and the run stops on the energy gain.  (At ratio 0.3 the
     sphere reaches the box's lid, where every run now stops, before the lagged coupling fails.)"""
     with pytest.raises(RunDiverged, match="gained energy it cannot have.*coupling = \"explicit\" fails"):
         run(tmp_path / "x", name="tencate2002-e4", **{"sphere.density": 960.0 * 0.1, "run.end_time": 0.02,
-                                                     "numerics.fd.coupling": "explicit"})
+                                                     "numerics.fd.coupling": "explicit", "numerics.fd.mesh": "fixed"})

@@ -71,6 +71,7 @@ LAYERS = {
     "fem_bounce.models.fd.fluid": MODELS,
     "fem_bounce.models.fd.immersed": MODELS,
     "fem_bounce.models.fd.model": MODELS,
+    "fem_bounce.models.fd.moving": MODELS,
     "fem_bounce.models.fd.penalised": MODELS,
     "fem_bounce.models.fd.steady": MODELS,
     "fem_bounce.models.ib": MODELS,

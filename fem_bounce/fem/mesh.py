@@ -11,7 +11,9 @@ TOP z = Z) so a model can pick its conditions per side.  A boundary-fitted model
 cuts the spheres on the axis out of the half-plane (`holes=(SphereHole(...), ...)`,
 lowest first): their surfaces are the groups SPHERE, SPHERE_2, ..., each meshed at its
 own size, and the thin gap to the wall or between two surfaces keeps a set number
-of triangles across.
+of triangles across.  A filled sphere (`SphereHole(..., filled=True)`, the fd model on a mesh that
+moves with it) is meshed inside too, its triangles the group SOLID: its surface is then a curve of
+the mesh, not a boundary.
 
 gmsh meshes on rank 0, a large mesh in a child process that a signal stops (`_generate`);
 `dolfinx.io.gmsh` distributes the mesh.  The .msh file is cached under the mesh
@@ -49,7 +51,7 @@ from ..progress import on_root_watching, stop_requested
 from ..scene import SceneError
 
 # physical group tags
-FLUID = 1
+FLUID, SOLID = 1, 2  # cell groups: the liquid, the inside of filled spheres
 WALL, AXIS, OUTER, TOP, SPHERE, SPHERE_2 = 1, 2, 3, 4, 5, 6
 SPHERE_TAGS = tuple(range(SPHERE, SPHERE + 8))  # the surface of the k-th hole from the bottom (at most 8)
 BOUNDARY_NAMES = {WALL: "wall", AXIS: "axis", OUTER: "outer", TOP: "top", SPHERE: "sphere",
@@ -86,6 +88,7 @@ class SphereHole:
     radius: float
     surface_size: float
     gap_cells: float = 0.0
+    filled: bool = False  # its inside meshed too (sizes growing inward from the surface at the grading)
 
     def __post_init__(self):
         if not (self.radius > 0 and self.center > self.radius and self.surface_size > 0 and self.gap_cells >= 0):
@@ -105,28 +108,34 @@ class SphereHole:
         """The size limit of the surface and the gap at (r, z) [m] (the same law as gmsh_size).  The gap
         is the one down to the wall, or up from the sphere `below` (a pair)."""
         a, zc = self.radius, self.center
-        size = self.surface_size + grading * np.maximum(np.hypot(r, z - zc) - a, 0.0)
+        distance = np.hypot(r, z - zc) - a
+        size = self.surface_size + grading * (np.abs(distance) if self.filled else np.maximum(distance, 0.0))
         if self.gap_cells > 0:
             local_gap = zc - np.sqrt(np.maximum(a * a - r * r, 0.0))
-            # only beneath the sphere's centre: the rule must not refine the axis above it
-            cap = 1e6 * np.maximum(z - zc, 0.0)
+            # only beneath the sphere's centre (a filled one's: beneath its surface): the rule must not
+            # refine the axis above it
+            cap = 1e6 * np.maximum(z - (local_gap if self.filled else zc), 0.0)
             if below is not None:  # the local gap between the two surfaces, between the two centres
-                local_gap = local_gap - below.center - np.sqrt(np.maximum(below.radius**2 - r * r, 0.0))
-                cap = cap + 1e6 * np.maximum(below.center - z, 0.0)
+                below_top = below.center + np.sqrt(np.maximum(below.radius**2 - r * r, 0.0))  # its surface's top
+                local_gap = local_gap - below_top
+                cap = cap + 1e6 * np.maximum((below_top if below.filled else below.center) - z, 0.0)
             size = np.minimum(size, local_gap / self.gap_cells + cap)
         return size
 
     def gmsh_size(self, grading: float, below: SphereHole | None = None) -> str:
         """size_at as a gmsh MathEval expression in x = r, y = z."""
         a, zc = self.radius, self.center
-        text = f"{self.surface_size!r} + {grading!r} * max(sqrt(x^2 + (y - {zc!r})^2) - {a!r}, 0)"
+        distance = f"(sqrt(x^2 + (y - {zc!r})^2) - {a!r})"
+        growth = f"abs{distance}" if self.filled else f"max{distance[:-1]}, 0)"
+        text = f"{self.surface_size!r} + {grading!r} * {growth}"
         if self.gap_cells > 0:
             local_gap = f"({zc!r} - sqrt(max({a * a!r} - x^2, 0)))"
-            cap = f"1e6 * max(y - {zc!r}, 0)"
+            cap = f"1e6 * max(y - {local_gap if self.filled else repr(zc)}, 0)"
             if below is not None:
                 b, zb = below.radius, below.center
+                below_top = f"({zb!r} + sqrt(max({b * b!r} - x^2, 0)))"
                 local_gap = f"({zc!r} - sqrt(max({a * a!r} - x^2, 0)) - {zb!r} - sqrt(max({b * b!r} - x^2, 0)))"
-                cap = f"{cap} + 1e6 * max({zb!r} - y, 0)"
+                cap = f"{cap} + 1e6 * max({below_top if below.filled else repr(zb)} - y, 0)"
             text = f"min({text}, {local_gap} / {self.gap_cells!r} + {cap})"
         return text
 
@@ -158,6 +167,9 @@ class HalfPlane:
     def key(self) -> str:
         """A short hash of everything that shapes the mesh (the cache file name)."""
         data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION, "gmsh": gmsh_version()}
+        for hole in data["holes"]:  # the meshes of holes keep the keys they had before `filled`
+            if not hole["filled"]:
+                del hole["filled"]
         text = json.dumps(data, sort_keys=True, default=lambda x: round(x, 15))
         return hashlib.sha1(text.encode()).hexdigest()[:16]
 
@@ -212,6 +224,7 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
     points = [geo.addPoint(r, z, 0.0) for r, z in corners]
     wall, outer, top = (geo.addLine(points[k], points[k + 1]) for k in range(3))
     curves = {WALL: [wall], OUTER: [outer], TOP: [top]}
+    insides = []  # the surfaces inside filled spheres
     if not spec.holes:
         curves[AXIS] = [geo.addLine(points[3], points[0])]
         loop = [wall, outer, top, *curves[AXIS]]
@@ -230,6 +243,10 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
             arcs = [geo.addCircleArc(north, center, equator), geo.addCircleArc(equator, center, south)]
             curves[SPHERE_TAGS[len(poles) - 1 - k]] = arcs
             loop += [*arcs, axis]
+            if spec.holes[len(poles) - 1 - k].filled:  # the inside: the arcs back up, the axis down
+                diameter = geo.addLine(south, north)
+                curves[AXIS].append(diameter)
+                insides.append(geo.addPlaneSurface([geo.addCurveLoop([diameter, *arcs])]))
     surface = geo.addPlaneSurface([geo.addCurveLoop(loop)])
     geo.synchronize()
     for tag, group in curves.items():
@@ -237,6 +254,9 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
         gmsh.model.setPhysicalName(1, tag, BOUNDARY_NAMES[tag])
     gmsh.model.addPhysicalGroup(2, [surface], FLUID)
     gmsh.model.setPhysicalName(2, FLUID, "fluid")
+    if insides:
+        gmsh.model.addPhysicalGroup(2, insides, SOLID)
+        gmsh.model.setPhysicalName(2, SOLID, "solid")
     field = gmsh.model.mesh.field.add("MathEval")
     gmsh.model.mesh.field.setString(field, "F", spec._gmsh_size_expression())
     gmsh.model.mesh.field.setAsBackgroundMesh(field)

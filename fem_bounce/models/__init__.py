@@ -32,13 +32,16 @@ def get(name: str):
     return flow_model_class(info(name))
 
 
-def flow_model_class(entry: ModelInfo):
-    """The FlowModel class of a registry entry (imported on demand)."""
+def flow_model_class(entry: ModelInfo, scene=None):
+    """The FlowModel class of a registry entry (imported on demand); for a `scene`, the one its chooser picks."""
     name = entry.name
     try:
-        return getattr(importlib.import_module(entry.module), entry.class_name)
+        module = importlib.import_module(entry.module)
     except ModuleNotFoundError as err:
         raise ModelError(f"model {name!r} needs {err.name}, which is not installed (see README.md)") from None
+    if scene is not None and entry.chooser:
+        return getattr(module, entry.chooser)(scene)
+    return getattr(module, entry.class_name)
 
 
 def model_list(names: str | Sequence[str]) -> list[str]:

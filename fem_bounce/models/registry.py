@@ -39,6 +39,7 @@ class ModelInfo:
     max_spheres: int = 1  # the most spheres on the axis it runs (scene.second_sphere, further_spheres)
     stepper: str = "coupled"  # how time advances (fem_bounce.steppers.STEPPERS); a held steady model: "steady"
     max_initial_gap: float | None = None  # [diameters] the highest release it meshes (None: no limit)
+    chooser: str | None = None  # a function of the module that picks the class for a scene (else class_name)
 
     @property
     def restarts(self) -> bool:
@@ -129,7 +130,7 @@ MODELS: dict[str, ModelInfo] = {
         serial=True, trajectory_interval_key="numerics.ode.output_interval", colour="C0",
         sources=("models/ode.py",), max_spheres=MANY, stepper="ode"),
     "fd": ModelInfo(
-        name="fd", module="fem_bounce.models.fd", class_name="FictitiousDomainModel",
+        name="fd", module="fem_bounce.models.fd", class_name="FictitiousDomainModel", chooser="model_class",
         liquid="axisymmetric Taylor-Hood Navier-Stokes (FEniCSx), diffuse-interface sphere", resolved=True,
         resolution_key="numerics.fd.cells_per_diameter", resolution_unit="cells/D",
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.fd.cfl",

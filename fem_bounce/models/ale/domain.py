@@ -11,6 +11,8 @@ times finer if asked: the collision's Stokes layer is thinner than a cell), and 
 a remeshed gap is always resolved.  The mesh holds sphere 1 at hold_delta D above the wall and each
 neighbouring pair's gap at hold_delta 2a* (a* their reduced radius) at the closest, or at the contact
 model's holds under its near-wall correction (model.py says why that is harmless below delta_sl).
+
+The fd model's moving mesh (models/fd/moving.py) is this domain from numerics.fd, its spheres filled.
 """
 from __future__ import annotations
 
@@ -44,41 +46,45 @@ class AleDomain:
     # numerics.ale.hold_delta as gaps: sphere 1's above the wall (hold_delta D1), then each neighbouring
     # pair's (hold_delta 2a*), as flow_model.flow_gaps takes them
     holds: tuple
+    filled: bool = False  # the spheres' insides meshed too (the fd model's moving mesh: fem.mesh.SphereHole)
 
     def spec(self, centers) -> HalfPlane:
-        """The half-plane with the spheres cut out at z = centers [m] (a number: sphere 1's alone)."""
-        holes = tuple(SphereHole(center=float(z), radius=a, surface_size=self.surface_size, gap_cells=self.gap_cells)
+        """The half-plane with the spheres cut out (or filled) at z = centers [m] (a number: sphere 1's alone)."""
+        holes = tuple(SphereHole(center=float(z), radius=a, surface_size=self.surface_size, gap_cells=self.gap_cells,
+                                 filled=self.filled)
                       for z, a in zip(np.atleast_1d(centers), self.radii))
         return HalfPlane(radius=self.radius, height=self.height, fine_size=self.fine_size,
                          coarse_size=self.coarse_size, grading=self.grading, refined=(self.refined,), holes=holes)
 
 
-def domain_for(scene: Scene) -> AleDomain:
-    ale = scene.numerics.ale
+def domain_for(scene: Scene, model: str = "ale") -> AleDomain:
+    """The moving mesh's domain from `[numerics.model]` (the ale model's, or the fd model's with mesh = "moving",
+    whose spheres are filled)."""
+    ale = getattr(scene.numerics, model)
     diameter = scene.sphere.diameter
     fine = diameter / ale.cells_per_diameter
     coarse = max(diameter / ale.coarse_cells_per_diameter, fine)
-    half_plane = extent(scene, "ale")
+    half_plane = extent(scene, model)
     bodies = scene_bodies(scene)
     radii = tuple(body.sphere.radius for body in bodies)
     centers = tuple(gap + a for gap, a in zip(scene.initial_gaps, radii))
     if centers[-1] + radii[-1] + 2.0 * fine > half_plane.height:
-        raise SceneError(f"numerics.ale: the domain height {half_plane.height:g} m leaves no fluid above "
+        raise SceneError(f"numerics.{model}: the domain height {half_plane.height:g} m leaves no fluid above "
                          f"{bodies[-1].key}")
     holds = (ale.hold_delta * diameter,
              *(ale.hold_delta * pair_diameter(lower.sphere, upper.sphere) for lower, upper in zip(bodies, bodies[1:])))
     if bodies[0].held and bodies[0].initial_gap < holds[0]:
-        raise SceneError(f"numerics.ale.hold_delta = {ale.hold_delta:g} is above the held sphere's gap "
+        raise SceneError(f"numerics.{model}.hold_delta = {ale.hold_delta:g} is above the held sphere's gap "
                          f"{scene.initial_gap / diameter:g} D: lower it")
     for lower, upper, hold in zip(bodies, bodies[1:], holds[1:]):
         if lower.held and upper.held and upper.sphere.gap < hold:
-            raise SceneError(f"numerics.ale.hold_delta = {ale.hold_delta:g} is above the gap {upper.sphere.gap:g} m "
-                             f"between the held {lower.key} and {upper.key}: lower it")
+            raise SceneError(f"numerics.{model}.hold_delta = {ale.hold_delta:g} is above the gap "
+                             f"{upper.sphere.gap:g} m between the held {lower.key} and {upper.key}: lower it")
     return AleDomain(radius=half_plane.radius, height=half_plane.height, refined=half_plane.refined, fine_size=fine,
                      surface_size=fine / ale.surface_refinement,
                      coarse_size=coarse, grading=ale.grading, gap_cells=ale.min_gap_cells, radii=radii,
                      sides=half_plane.sides, inflow_speed=half_plane.inflow_speed, initial_centers=centers,
-                     holds=holds)
+                     holds=holds, filled=model == "fd")
 
 
 def time_step(scene: Scene) -> float:

@@ -1,4 +1,5 @@
-"""The boundary-fitted ALE model (`--model ale`): the time loop.
+"""The boundary-fitted ALE model (`--model ale`): the time loop (also the fd model's on its moving mesh:
+models/fd/moving.py puts the fd constraint in the spheres, meshed inside, in place of the holes; make_flow).
 
 The N spheres on the axis (bodies.scene_bodies, sphere 1 the lowest) are holes in one mesh, each
 with its own mesh extension and unit flow response (motion.py, flow.py); every per-sphere value is
@@ -162,11 +163,12 @@ class AleModel(FlowModel):
     def __init__(self, scene, comm):
         super().__init__(scene, comm)
         self.writer: MovingFieldWriter | None = None
-        self.domain: AleDomain = domain_for(scene)
-        check_size(self.domain.spec(self.domain.initial_centers), "numerics.ale")
+        self.domain: AleDomain = domain_for(scene, self.name)
+        check_size(self.domain.spec(self.domain.initial_centers), f"numerics.{self.name}")
         self.steady = is_steady(scene)
         self.dt = self.cfl_step = time_step(scene)  # the coming step; the shortest (adaptive_step) [s]
         self.step_limits = step_limits(scene)
+        self.adaptive = self.settings.adaptive_step  # steps of their own length (StepLimits)
         self.mesh = self.motion = self.flow = None
         self.stats = Statistics()
         self.bodies = scene_bodies(scene)
@@ -181,16 +183,25 @@ class AleModel(FlowModel):
     # -- meshes ------------------------------------------------------------------------------
     def build_mesh(self, centers: np.ndarray, cache: bool = True) -> tuple:
         """(mesh, motion, flow) with the spheres centred at z = centers [m]."""
-        scene, domain = self.scene, self.domain
-        mesh, _, facet_tags = create_mesh(self.comm, domain.spec(centers), cache=cache)
+        mesh, _, facet_tags = create_mesh(self.comm, self.domain.spec(centers), cache=cache)
         motion = MeshMotion(mesh, facet_tags, centers, sphere_tags=self.sphere_tags)
-        flow = SphereFlow(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
-                          motion.velocity, inflow_speed=domain.inflow_speed, order=self.settings.time_order,
-                          sphere_tags=self.sphere_tags, factorisation=self.settings.factorisation,
-                          reuse_iterations=self.settings.reuse_iterations, krylov_rtol=self.settings.krylov_rtol,
-                          factorisation_cost=self.settings.factorisation_cost)
+        flow = self.make_flow(mesh, facet_tags, motion, centers)
         self.stats.max_unknowns = max(self.stats.max_unknowns, flow.unknowns)
         return mesh, motion, flow
+
+    def make_flow(self, mesh, facet_tags, motion: MeshMotion, centers: np.ndarray):
+        """The flow on a new mesh around the spheres centred at `centers` [m]: no-slip on their surfaces."""
+        scene, domain, ale = self.scene, self.domain, self.settings
+        return SphereFlow(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity, self.dt,
+                          motion.velocity, inflow_speed=domain.inflow_speed, order=ale.time_order,
+                          sphere_tags=self.sphere_tags, factorisation=ale.factorisation,
+                          reuse_iterations=ale.reuse_iterations, krylov_rtol=ale.krylov_rtol,
+                          factorisation_cost=ale.factorisation_cost)
+
+    @property
+    def reuses_factors(self) -> bool:
+        """The step's matrix is solved with an earlier step's factors (numerics.ale.factorisation = "reuse")."""
+        return self.settings.factorisation == "reuse"
 
     def _with_tallies(self, stats: Statistics, flow: SphereFlow) -> None:
         """Add a flow's (a mesh's) solver counts and times to `stats`: the run's before the flow is dropped."""
@@ -212,7 +223,7 @@ class AleModel(FlowModel):
         tolerance = 1e-9 * self.scene.sphere.diameter
         momenta = []
         volumes = [self.sphere_volume(old_flow), self.sphere_volume(flow)]
-        reuse = self.settings.factorisation == "reuse"
+        reuse = self.reuses_factors
         projection = None
         try:
             for level, (old_state, new_state) in enumerate(zip(old_flow.states, flow.states)):
@@ -229,7 +240,7 @@ class AleModel(FlowModel):
                     if projection is not None:
                         projection.destroy()
                     projection = DivergenceFreeProjection(flow.W, flow.bcs, reuse=reuse,
-                                                          rtol=self.settings.krylov_rtol)
+                                                          **({"rtol": self.settings.krylov_rtol} if reuse else {}))
                 projection.project(new_state)
                 momenta.append((before, interpolated, flow.momentum(new_state)))
         finally:
@@ -291,18 +302,18 @@ class AleModel(FlowModel):
         return list(self.kinematics.velocities)
 
     def next_time(self) -> float:
-        if self.settings.adaptive_step:
+        if self.adaptive:
             return self.kinematics.time + self.dt
         return super().next_time()  # (n + 1) dt, as every constant-step model
 
     def finished(self, end_time: float) -> bool:
-        if self.settings.adaptive_step:
+        if self.adaptive:
             return self.kinematics.time >= end_time - 1e-9 * self.cfl_step
         return super().finished(end_time)
 
     def previous_time_step(self) -> float | None:
         k = self.kinematics
-        return k.last_step if self.settings.adaptive_step and k.last_step else None
+        return k.last_step if self.adaptive and k.last_step else None
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         k, settings = self.kinematics, self.settings
@@ -348,7 +359,7 @@ class AleModel(FlowModel):
         velocity = np.array(velocities, dtype=float)  # the flow's own copy of the integrator's
         change = velocity - reference
         self.flow.commit(change)
-        if self.settings.adaptive_step:
+        if self.adaptive:
             self.dt = self._next_step(velocity, prediction)
         self.kinematics.push(velocity, center, t_next)
         self.step = self.kinematics.step
@@ -366,7 +377,7 @@ class AleModel(FlowModel):
         return step
 
     def _record_force(self, t, gap, force, added_mass, quality, remeshed) -> None:
-        surface = self.flow.surface_force()
+        surface = self.flow.surface_force()  # collective: every rank, though rank 0 alone writes
         if self._forces is None:
             return
         values = [t, gap, *self.mesh_pair_gaps(self.kinematics.centers[0]), *np.ravel(force), *np.ravel(surface),
@@ -485,7 +496,7 @@ class AleModel(FlowModel):
                           "assembly": stats.assembly_s, "factorisation": stats.factorise_s,
                           "solves": stats.solve_s},
             "time_per_step_s": self.loop_seconds / steps,
-            "factorisation": self.settings.factorisation,
+            "factorisation": "reuse" if self.reuses_factors else "every-step",
             "factorisations": stats.factorisations,  # of the step matrix (each remesh adds two projections)
             "factorisations_per_step": stats.factorisations / steps,
             "krylov_iterations": stats.krylov_iterations,
@@ -493,7 +504,7 @@ class AleModel(FlowModel):
             "remeshes": [asdict(r) for r in stats.remeshes],
             "hold_delta": self.settings.hold_delta,
             "held_steps": stats.held_steps,
-            "adaptive_step": self.settings.adaptive_step,
+            "adaptive_step": self.adaptive,
             "longest_step_s": max(stats.longest_step, self.cfl_step),
             "min_mesh_delta": stats.min_mesh_gap / diameter,
             "last_force_N": per_body(force),

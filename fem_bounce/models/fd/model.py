@@ -1,4 +1,5 @@
-"""The fictitious-domain model (`--model fd`): one fluid step, as a FlowModel (fem_bounce.flow_model).
+"""The fictitious-domain model on a fixed mesh (`--model fd`, numerics.fd.mesh = "fixed"): one fluid step, as a
+FlowModel (fem_bounce.flow_model).  The default mesh moves with the spheres: moving.py.
 
 One fluid step of length dt (fluid.FlowSolver, immersed.ImmersedBodies, coupling), driven by the run
 controller (fem_bounce.run.Controller), which owns the loop, the observers and the checkpoints:

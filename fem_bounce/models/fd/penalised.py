@@ -36,6 +36,8 @@ immersed.BandAssembler evaluates it exactly, zero in every cell the bands do not
 """
 from __future__ import annotations
 
+import time
+
 import basix
 import basix.ufl
 import numpy as np
@@ -68,12 +70,17 @@ class PenalisedFlow(FlowSolver):
         self.x0 = fem.Function(self.W)
         self.bodies = None
         self.factorisations = 0
+        self.assembly_s = self.factorise_s = self.solve_s = 0.0  # [s] in linearise
+
+    def convecting(self, extrapolated):
+        """The velocity that convects the new field: u* (on a moving mesh, u* less the mesh's velocity)."""
+        return extrapolated
 
     def step_forms(self, u, p, v, q, extrapolated, history):
         """Convection linearised about u* and the friction rho c_B phi u . v in the matrix."""
         r, dx, rho = self.r, self.dx, self.density
         a = (forms.stokes_operator(u, p, v, q, rho * self.rates[0], self.viscosity, r, dx)
-             + rho * forms.convection(extrapolated, u, v, r, dx)
+             + rho * forms.convection(self.convecting(extrapolated), u, v, r, dx)
              + rho * self.penalty_rate * self.indicator * ufl.inner(u, v) * r * self.dx_indicator)
         return a, forms.source(history, v, r, dx)
 
@@ -109,13 +116,19 @@ class PenalisedFlow(FlowSolver):
     def linearise(self, momentum_history: np.ndarray, reference: np.ndarray) -> Linearised:
         """Assemble and factorise the step's matrix, solve for x_0 and each x_j; F(U) as
         explicit - M c (U - reference) (coupling.Linearised) [N, kg, m/s]."""
+        start = time.perf_counter()
         A = self.matrix
         A.zeroEntries()
         assemble_matrix(A, self.a, bcs=self.bcs)
         A.assemble()
+        assembled = time.perf_counter()
         self.operator.refactor()
         self.factorisations += 1
+        factorised = time.perf_counter()
         interiors, slopes = self._responses(self.operator, history=True)
+        self.assembly_s += assembled - start
+        self.factorise_s += factorised - assembled
+        self.solve_s += time.perf_counter() - factorised
         rho, c, c_b = self.density, self.c, self.penalty_rate
         # F(U) = rho c_B (I(u(U)) - U V) + rho c (U B - J), I(u(U)) = I(x_0) + slopes U
         derivative = rho * c_b * (slopes - np.diag(self.bodies.volumes)) + rho * c * np.diag(self.bodies.ball_volumes)
