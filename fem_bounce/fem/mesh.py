@@ -125,8 +125,8 @@ class SphereHole:
     def gmsh_size(self, grading: float, below: SphereHole | None = None) -> str:
         """size_at as a gmsh MathEval expression in x = r, y = z."""
         a, zc = self.radius, self.center
-        distance = f"(sqrt(x^2 + (y - {zc!r})^2) - {a!r})"
-        growth = f"abs{distance}" if self.filled else f"max{distance[:-1]}, 0)"
+        distance = f"sqrt(x^2 + (y - {zc!r})^2) - {a!r}"  # from the surface, negative inside
+        growth = f"abs({distance})" if self.filled else f"max({distance}, 0)"
         text = f"{self.surface_size!r} + {grading!r} * {growth}"
         if self.gap_cells > 0:
             local_gap = f"({zc!r} - sqrt(max({a * a!r} - x^2, 0)))"
