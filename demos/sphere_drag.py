@@ -8,7 +8,7 @@ rules and time step rules the bouncing runs use.
 
     Cd = F / (rho U^2 pi a^2 / 2)    vs 1.087 (Re 100, Johnson & Patel 1999) and 0.77 (Re 200, Fornberg 1988)
 
-Run (about 3 and 5 minutes at 16 cells per diameter on one core; `--toy` about 20 s):
+Run (at the fd default, 12 cells per diameter, on one core; `--toy` about 20 s):
 
     mpiexec -n 2 python demos/sphere_drag.py --out runs/demo-drag
     python demos/sphere_drag.py --toy
