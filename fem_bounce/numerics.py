@@ -43,7 +43,8 @@ class FdNumerics:
     # "moving" (the default since issue 41): the mesh follows the spheres as the ale model's does (models/fd/moving.py),
     # each sphere's surface a curve of the mesh and its inside meshed and held by the implicit constraint, remade when
     # a triangle's quality would fall below min_quality; patch, patch_margin and the wall box are then unused.
-    # "fixed": one mesh the spheres move through (patches or the whole path), and steady_stokes's
+    # "fixed": one mesh the spheres move through (patches or the whole path); the one-shot penalty and steady_stokes
+    # run on it only
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
     # mesh = "moving": as numerics.ale's (the surface's triangles this many times finer; remeshing; the gap a
     # remeshed gap keeps triangles across; the gap / D at which the mesh stops following a sphere)

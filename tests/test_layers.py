@@ -60,6 +60,7 @@ LAYERS = {
     "fem_bounce.fem.solver": FEM,
     "fem_bounce.fem.taylor_hood": FEM,
     "fem_bounce.fem.transfer": FEM,
+    "fem_bounce.fem.vertex_fields": FEM,
     # the registry and the models
     "fem_bounce.models": MODELS,
     "fem_bounce.models.registry": MODELS,

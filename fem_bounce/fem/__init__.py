@@ -4,6 +4,7 @@
 - `forms`: pure functions returning the r-weighted UFL forms of axisymmetric flow.
 - `solver`: a factorise-once, back-solve-many linear solver owning its PETSc objects.
 - `functions`: partition-independent save/load of finite-element functions.
+- `transfer`: a flow carried onto a new mesh; `vertex_fields`: a state as P1 fields for the field files.
 
 Importing this package needs dolfinx; nothing here runs at import.
 """
