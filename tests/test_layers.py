@@ -57,6 +57,7 @@ LAYERS = {
     "fem_bounce.fem.forms": FEM,
     "fem_bounce.fem.functions": FEM,
     "fem_bounce.fem.mesh": FEM,
+    "fem_bounce.fem.matrix": FEM,
     "fem_bounce.fem.solver": FEM,
     "fem_bounce.fem.taylor_hood": FEM,
     "fem_bounce.fem.transfer": FEM,

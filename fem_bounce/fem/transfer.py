@@ -33,12 +33,13 @@ import numpy as np
 import ufl
 from dolfinx import fem, geometry
 from dolfinx import mesh as dmesh
-from dolfinx.fem.petsc import assemble_matrix, create_vector
+from dolfinx.fem.petsc import create_vector
 from mpi4py import MPI
 
 from . import forms
 from .compat import collapse, geometry_cells
 from .functions import gather_values, scatter_values
+from .matrix import FormMatrix
 from .solver import FactorizedOperator, ReusedFactorOperator
 from .taylor_hood import lifted_rhs, owned_dirichlet_rows
 
@@ -118,8 +119,8 @@ class DivergenceFreeProjection:
         self.a = fem.form(forms.stokes_operator(u, p, v, q, 1.0, 0.0, r, dx))
         self.L = fem.form(forms.source(ufl.split(self.field)[0], v, r, dx))
         self.bcs = bcs
-        self.matrix = assemble_matrix(self.a, bcs=bcs)
-        self.matrix.assemble()
+        self.assembler = FormMatrix(self.a, bcs)
+        self.matrix = self.assembler.petsc
         self.rhs = create_vector(W)
         self.solver = ReusedFactorOperator(self.matrix, prefix + "reuse_", rtol=rtol,
                                            fixed_rows=owned_dirichlet_rows(bcs)) if reuse else \
@@ -127,9 +128,7 @@ class DivergenceFreeProjection:
 
     def reassemble(self) -> None:
         """The matrix on the mesh as it is now (moved); factorised again unless `reuse`."""
-        self.matrix.zeroEntries()
-        assemble_matrix(self.matrix, self.a, bcs=self.bcs)
-        self.matrix.assemble()
+        self.assembler.assemble()
         if isinstance(self.solver, ReusedFactorOperator):
             self.solver.end_step()  # the next solve starts from the field given, with the old factors
         else:
@@ -146,5 +145,5 @@ class DivergenceFreeProjection:
 
     def destroy(self) -> None:
         self.solver.destroy()
-        self.matrix.destroy()
+        self.assembler.destroy()
         self.rhs.destroy()

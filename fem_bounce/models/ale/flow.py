@@ -71,6 +71,7 @@ from petsc4py import PETSc
 
 from ...fem import forms
 from ...fem.compat import collapse
+from ...fem.matrix import FormMatrix
 from ...fem.mesh import AXIS, SPHERE
 from ...fem.solver import FactorizedOperator, ReusedFactorOperator
 from ...fem.taylor_hood import (SIDE_KINDS, lifted_rhs, owned_dirichlet_rows, pressure_pin, set_velocity,
@@ -148,8 +149,8 @@ class SphereFlow:
         self.surface_force_forms = [fem.form(surface_force(self.solution, self.mu, r, ds(tag)))
                                     for tag in self.sphere_tags]
 
-        self.matrix = assemble_matrix(self.a, bcs=self.bcs)
-        self.matrix.assemble()
+        self.assembler = FormMatrix(self.a, self.bcs)
+        self.matrix = self.assembler.petsc
         self.operator: FactorizedOperator | ReusedFactorOperator | None = None
         self.rhs = create_vector(self.W)
 
@@ -232,10 +233,7 @@ class SphereFlow:
         """Assemble the step's matrix on the mesh as it is now and factorise it ("every-step": every step;
         "reuse": on a new mesh, and when the renewal rule says so)."""
         start = time.perf_counter()
-        A = self.matrix
-        A.zeroEntries()
-        assemble_matrix(A, self.a, bcs=self.bcs)
-        A.assemble()
+        A = self.assembler.assemble()
         assembled = time.perf_counter()
         self.assembly_s += assembled - start
         if self.operator is None:
@@ -387,7 +385,7 @@ class SphereFlow:
     def destroy(self) -> None:
         if self.operator is not None:
             self.operator.destroy()
-        self.matrix.destroy()
+        self.assembler.destroy()
         self.rhs.destroy()
 
 

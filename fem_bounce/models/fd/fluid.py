@@ -19,11 +19,12 @@ from __future__ import annotations
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx.fem.petsc import assemble_matrix, create_vector, set_bc
+from dolfinx.fem.petsc import create_vector, set_bc
 from petsc4py import PETSc
 
 from ...fem import forms
 from ...fem.compat import collapse
+from ...fem.matrix import FormMatrix
 from ...fem.mesh import AXIS
 from ...fem.solver import FactorizedOperator, FieldSplitOperator
 from ...fem.taylor_hood import (SIDE_KINDS, lifted_rhs, pressure_pin, set_velocity, side_constraints,
@@ -64,9 +65,8 @@ class FlowSolver:
         history = density * sum(self.rates[j + 1] * u_j for j, u_j in enumerate(past))
         a, L = self.step_forms(u, p, v, q, extrapolated, history)
         self.a, self.L_history = fem.form(a), fem.form(L)
-        A = assemble_matrix(self.a, bcs=self.bcs)
-        A.assemble()
-        self.matrix = A
+        self.assembler = FormMatrix(self.a, self.bcs)
+        A = self.matrix = self.assembler.petsc
         if solver == "fieldsplit":
             velocity, pressure = (self._field_indices(k) for k in (0, 1))
             # its own options prefix: the direct solver's defaults (ksp preonly, pc lu) live under `prefix`
@@ -160,7 +160,7 @@ class FlowSolver:
 
     def destroy(self) -> None:
         self.operator.destroy()
-        self.matrix.destroy()
+        self.assembler.destroy()
         self.rhs.destroy()
         self.work.destroy()
 

@@ -117,10 +117,7 @@ class PenalisedFlow(FlowSolver):
         """Assemble and factorise the step's matrix, solve for x_0 and each x_j; F(U) as
         explicit - M c (U - reference) (coupling.Linearised) [N, kg, m/s]."""
         start = time.perf_counter()
-        A = self.matrix
-        A.zeroEntries()
-        assemble_matrix(A, self.a, bcs=self.bcs)
-        A.assemble()
+        self.assembler.assemble()
         assembled = time.perf_counter()
         self.operator.refactor()
         self.factorisations += 1
