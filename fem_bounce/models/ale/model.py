@@ -234,13 +234,11 @@ class AleModel(FlowModel):
                 motion.move_to(k.centers[level] if motion.quality(k.centers[level] - center) > 0.0 else center)
                 interpolated = flow.momentum(new_state)
                 flow.set_boundary_values(k.velocities[level])
-                if projection is not None and reuse:  # the older level: the first level's factors precondition
-                    projection.reassemble()
-                else:
-                    if projection is not None:
-                        projection.destroy()
+                if projection is None:
                     projection = DivergenceFreeProjection(flow.W, flow.bcs, reuse=reuse,
                                                           **({"rtol": self.settings.krylov_rtol} if reuse else {}))
+                else:  # the older level, on the mesh moved there: factorised again or, reuse, the first level's factors
+                    projection.reassemble()
                 projection.project(new_state)
                 momenta.append((before, interpolated, flow.momentum(new_state)))
         finally:
