@@ -1,10 +1,10 @@
 """Which numerical parameter the fd model's error on case 3 follows (issue 41, item 1).
 
-    python benchmarks/fd_sensitivity.py                       # every sweep at 12 cells/D (~4 minutes)
-    python benchmarks/fd_sensitivity.py --cells 16 --only cfl,collision_steps
-    python benchmarks/fd_sensitivity.py --cells 12 --only default   # the default row alone (a ladder: 8, 12, 16, 24)
-    python benchmarks/fd_sensitivity.py --cells 12 --variant model=ib   # side by side, one after the other
-    python benchmarks/fd_sensitivity.py --fit 8,12,16,24      # order and limit of the ladder's errors (no runs)
+    python benchmarks/fd_sensitivity.py                       # every sweep at the default 8 cells/D (~3 minutes)
+    python benchmarks/fd_sensitivity.py --cells 12 --only cfl,collision_steps
+    python benchmarks/fd_sensitivity.py --cells 8 --only default   # the default row alone (a ladder: 6, 8, 12, 16)
+    python benchmarks/fd_sensitivity.py --variant model=ib    # side by side, one after the other
+    python benchmarks/fd_sensitivity.py --fit 6,8,12,16       # order and limit of the ladder's errors (no runs)
 
 Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
 default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
@@ -33,7 +33,7 @@ REFERENCE_ROW = "case3-ale16s3-cfl0.125"  # near_wall.py reference: ALE, 16 cell
 
 # one parameter at a time: name -> the --set values tried (the fd default is the first row, "default")
 SWEEPS = {
-    "cfl": ["numerics.fd.cfl=0.4", "numerics.fd.cfl=0.2"],
+    "cfl": ["numerics.fd.cfl=0.8", "numerics.fd.cfl=0.2"],
     "mesh": ["numerics.fd.mesh=fixed"],  # the fixed mesh at the same fine size (the default before the moving one)
     "collision_steps": ["numerics.fd.min_step_factor=0.0125", "numerics.fd.gap_fraction=0.2"],
     "constant_step": ["numerics.fd.adaptive_step=false", "numerics.fd.adaptive_step=false,numerics.fd.cfl=0.2"],
@@ -41,7 +41,11 @@ SWEEPS = {
     "interface_width": ["numerics.fd.interface_width=1", "numerics.fd.interface_width=4"],
     "delta_sl": ["contact.delta_sl=0.1", "contact.delta_sl=0.3"],
     "far_field": ["numerics.fd.far_field=20"],
-    "surface": ["numerics.fd.surface_refinement=2"],  # the moving mesh's surface triangles twice finer
+    # the moving mesh's surface triangles as fine as the path's, 1.5 times finer than the default's
+    "surface": ["numerics.fd.surface_refinement=1", "numerics.fd.surface_refinement=3"],
+    # the path's triangles 1.5 times finer, the surface's as the default's (at the default 8 cells/D: D / 16)
+    "path": ["numerics.fd.cells_per_diameter=12,numerics.fd.surface_refinement=1.3333333333333333"],
+    "grading": ["numerics.fd.grading=0.1"],  # the moving mesh's growth away from the fine region, as the fixed one's
     # the one-shot penalty, the default before issue 41 (its own sweeps: forcing_number, cfl, radius_offset)
     "penalty": ["numerics.fd.mesh=fixed,numerics.fd.constraint=penalty,numerics.fd.patch=false"],
 }
@@ -103,7 +107,7 @@ def fit(cells: list[float]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cells", type=float, default=12.0, help="numerics.fd.cells_per_diameter (default 12)")
+    parser.add_argument("--cells", type=float, default=8.0, help="numerics.fd.cells_per_diameter (default 8)")
     parser.add_argument("--only", help="comma-separated sweeps (default: all; 'default': the default row alone): "
                         + ", ".join(SWEEPS))
     parser.add_argument("--variant", action="append", default=[],

@@ -24,14 +24,15 @@ class OdeNumerics:
 class FdNumerics:
     """The fictitious-domain model (fem_bounce.models.fd).  Sizes are per sphere diameter D."""
 
-    # fine triangle size D / this: on the spheres' surfaces and along their paths with mesh = "moving" (case 3 within
-    # 0.8 % of the reference at 12, 2.2 % with a quarter of the step: docs/validation.md section 12); mesh = "fixed"
-    # needs 24-48 (its first apex -5.0 / -2.4 %)
-    cells_per_diameter: float = _setting(12.0, 2.0, 400.0)
+    # fine triangle size D / this along the spheres' paths (and on their surfaces, surface_refinement times finer,
+    # with mesh = "moving"): case 3 within 0.6 % of the reference at 8, 1.4 % with half the step
+    # (docs/validation.md section 12); mesh = "fixed" needs 24-48 (its first apex -5.0 / -2.4 %)
+    cells_per_diameter: float = _setting(8.0, 2.0, 400.0)
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
-    # size growth per unit distance from the fine region (0.2 would halve case 3's time at 24 cells/D, but moves
-    # the Stokes drag of tests/test_fd_pair.py 5 %)
-    grading: float = _setting(0.1, 0.01, 2.0)
+    # size growth per unit distance from the fine region; unset: the mesh's own, 0.2 on the moving mesh (against
+    # 0.1: case 3, Cd at Re 100 and 200 and ten Cate's peak within 0.2 %, docs/validation.md section 12), 0.1 on the
+    # fixed one (0.2 moves the Stokes drag of tests/test_fd_pair.py 5 %)
+    grading: float | None = field(default=None, metadata={"range": (0.01, 2.0, False, False), "unit": ""})
     # the fine region r <= this * D (0.75 would save 15 % of case 3's time at 24 cells/D, its errors within
     # 0.4 %, but puts Cd at Re 200 3.5 % high, against 2.4 % at 1: docs/validation.md section 12)
     refined_radius: float = _setting(1.0, 0.5, 100.0)
@@ -47,8 +48,10 @@ class FdNumerics:
     # run on it only
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
     # mesh = "moving": as numerics.ale's (the surface's triangles this many times finer; remeshing; the gap a
-    # remeshed gap keeps triangles across; the gap / D at which the mesh stops following a sphere)
-    surface_refinement: float = _setting(1.0, 1.0, 16.0)
+    # remeshed gap keeps triangles across; the gap / D at which the mesh stops following a sphere).  The error follows
+    # the surface's size, not the path's: converged in the step, case 3 with D / 12 on the surface is the same
+    # within 0.3 % with D / 8, 10 or 12 along the path (docs/validation.md section 12)
+    surface_refinement: float = _setting(2.0, 1.0, 16.0)
     min_quality: float = _setting(0.3, 0.01, 0.9)
     min_gap_cells: float = _setting(2.0, 0.5, 100.0)
     hold_delta: float = _setting(0.02, 0.0, 0.5)
@@ -60,8 +63,8 @@ class FdNumerics:
     wall_layer: float = _setting(0.25, 0.01, 5.0)
     wall_radius: float = _setting(0.6, 0.05, 10.0)
     # dt <= cfl * fine size / (1.5 speed scale); unset: the constraint's own, 0.2 for "penalty" (its convection is
-    # explicit: stable at Re 200, not at 0.3), 0.8 for "implicit" (an accuracy choice: with adaptive steps
-    # case 3's apex moves 1.3 % from 0.8 to 0.4 at 16 cells/D, docs/validation.md section 12)
+    # explicit: stable at Re 200, not at 0.3), 0.4 for "implicit" (an accuracy choice: case 3's apex moves 0.9 % from
+    # 0.4 to 0.2 at the default mesh, 1.9 % from 0.8 to 0.4; docs/validation.md section 12)
     cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
     # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
     # approach to a contact (a step closes at most gap_fraction of the gap) and the changes of the sphere's velocity
@@ -92,13 +95,21 @@ class FdNumerics:
     radius_offset: float | None = field(default=None, metadata={"range": (-3.0, 3.0, False, False), "unit": ""})
 
     def resolved(self, name: str) -> float:
-        """A setting's value, the constraint's own when it is unset (cfl, radius_offset, adaptive_step)."""
+        """A setting's value, the constraint's (the mesh's) own when it is unset (cfl, radius_offset, adaptive_step;
+        grading)."""
         value = getattr(self, name)
         if value is not None:
             return value
         penalty = self.constraint == "penalty"
-        return {"cfl": 0.2 if penalty else 0.8, "radius_offset": 0.5 if penalty else 0.0,
-                "adaptive_step": not penalty and self.time_order < 3}[name]
+        return {"cfl": 0.2 if penalty else 0.4, "radius_offset": 0.5 if penalty else 0.0,
+                "adaptive_step": not penalty and self.time_order < 3,
+                "grading": 0.2 if self.moving else 0.1}[name]
+
+    @property
+    def moving(self) -> bool:
+        """The model runs on the moving mesh: mesh = "moving", unless steady_stokes (solved on the fixed one)."""
+        return self.mesh == "moving" and not self.steady_stokes
+
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
     steady_stokes: bool = False  # held sphere at Re -> 0: solve for the step's steady state, no marching

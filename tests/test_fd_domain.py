@@ -36,7 +36,7 @@ def test_container_is_no_slip_all_round_and_a_stream_flows_through():
 
 def test_time_step_takes_the_tighter_of_the_convective_and_forcing_bounds():
     """The one-shot penalty's step: its explicit convection's bound or its forcing number's; the implicit
-    constraint's: the convective one alone, at its own cfl 0.8."""
+    constraint's: the convective one alone, at its own cfl 0.4."""
     penalty = {**FIXED, "numerics.fd.constraint": "penalty"}
     sc = scene.load("sphere-drag-re200", penalty)  # fast and not very viscous: convection binds
     h = sc.sphere.diameter / 24
@@ -45,7 +45,7 @@ def test_time_step_takes_the_tighter_of_the_convective_and_forcing_bounds():
     h = slow.sphere.diameter / 24
     assert domain.time_step(slow) == pytest.approx(0.025 * h**2 / slow.liquid.kinematic_viscosity)
     implicit = scene.load("brenner-approach", FIXED)
-    assert domain.time_step(implicit) == pytest.approx(0.8 * h / (1.5 * abs(implicit.motion.velocity)))
+    assert domain.time_step(implicit) == pytest.approx(0.4 * h / (1.5 * abs(implicit.motion.velocity)))
 
 
 def test_a_held_sphere_needs_a_speed_to_set_the_time_step():

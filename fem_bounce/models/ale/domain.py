@@ -80,9 +80,10 @@ def domain_for(scene: Scene, model: str = "ale") -> AleDomain:
         if lower.held and upper.held and upper.sphere.gap < hold:
             raise SceneError(f"numerics.{model}.hold_delta = {ale.hold_delta:g} is above the gap "
                              f"{upper.sphere.gap:g} m between the held {lower.key} and {upper.key}: lower it")
+    grading = ale.resolved("grading") if model == "fd" else ale.grading  # fd: unset is the moving mesh's own
     return AleDomain(radius=half_plane.radius, height=half_plane.height, refined=half_plane.refined, fine_size=fine,
                      surface_size=fine / ale.surface_refinement,
-                     coarse_size=coarse, grading=ale.grading, gap_cells=ale.min_gap_cells, radii=radii,
+                     coarse_size=coarse, grading=grading, gap_cells=ale.min_gap_cells, radii=radii,
                      sides=half_plane.sides, inflow_speed=half_plane.inflow_speed, initial_centers=centers,
                      holds=holds, filled=model == "fd")
 

@@ -12,8 +12,7 @@ from .moving import MovingFictitiousDomainModel
 def model_class(scene):
     """The fd model's class for `scene`: the moving mesh's (numerics.fd.mesh = "moving") unless the scene asks
     for the held spheres' steady Stokes state (numerics.fd.steady_stokes, a solve on the fixed mesh)."""
-    fd = scene.numerics.fd
-    return MovingFictitiousDomainModel if fd.mesh == "moving" and not fd.steady_stokes else FictitiousDomainModel
+    return MovingFictitiousDomainModel if scene.numerics.fd.moving else FictitiousDomainModel
 
 
 __all__ = ["FictitiousDomainModel", "MovingFictitiousDomainModel", "model_class"]

@@ -37,7 +37,7 @@ def domain_for(scene: Scene, patch_centers=None) -> Domain:
             boxes += (Box(r_max=min(fd.wall_radius * diameter, half_plane.radius), z_min=0.0,
                           z_max=min(fd.wall_layer * diameter, half_plane.height), size=wall_size),)
     spec = HalfPlane(radius=half_plane.radius, height=half_plane.height, fine_size=fine, coarse_size=coarse,
-                     grading=fd.grading, refined=boxes)
+                     grading=fd.resolved("grading"), refined=boxes)
     return Domain(spec=spec, sides=half_plane.sides, inflow_speed=half_plane.inflow_speed, center=half_plane.center,
                   fine_size=fine)
 
