@@ -30,7 +30,7 @@ class FdNumerics:
     cells_per_diameter: float = _setting(8.0, 2.0, 400.0)
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
     # size growth per unit distance from the fine region; unset: the mesh's own, 0.2 on the moving mesh (against
-    # 0.1: case 3, Cd at Re 100 and 200 and ten Cate's peak within 0.2 %, docs/validation.md section 12), 0.1 on the
+    # 0.1: case 3, Cd at Re 100 and 200 and ten Cate's peak within 0.5 %, docs/validation.md section 12), 0.1 on the
     # fixed one (0.2 moves the Stokes drag of tests/test_fd_pair.py 5 %)
     grading: float | None = field(default=None, metadata={"range": (0.01, 2.0, False, False), "unit": ""})
     # the fine region r <= this * D (0.75 would save 15 % of case 3's time at 24 cells/D, its errors within

@@ -6,9 +6,10 @@
 
 On one rank the PETSc matrix shares its values with a dolfinx MatrixCSR of the same sparsity
 (MatCreateSeqAIJWithArrays: no copy), which dolfinx's own assembler fills: PETSc's insertion, a
-MatSetValuesLocal per cell, is the slower part of an assembly (2-3 ms of the fd model's 8 ms step matrix
-at 8.8k unknowns, docs/performance.md).  On several ranks the PETSc matrix is assembled directly (its
-rows are split between a diagonal and an off-diagonal block that a MatrixCSR does not share).
+MatSetValuesLocal per cell, is a quarter of an assembly (2.0 of 7.6 ms for the fd model's step matrix at
+8.8k unknowns, 2.9 of 11.1 ms at 13k; docs/performance.md).  On several ranks the PETSc matrix is
+assembled directly (its rows are split between a diagonal and an off-diagonal block that a MatrixCSR does
+not share).
 """
 from __future__ import annotations
 
