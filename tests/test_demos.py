@@ -33,8 +33,10 @@ PINNED = {
     # surface)
     "tencate_e4": (["peak_speed"], 0.120952, 1e-2),
     # li_case3: 0.350548 before the near-wall correction (issue 11), 0.379102 before the lubricated Hertz
-    # contact (issue 23: the 2 ms impact mean now ends at the Hertz overlap, not 160 um above the wall)
-    "li_case3": (["impact_speed"], 0.392248),
+    # contact (issue 23: the 2 ms impact mean now ends at the Hertz overlap, not 160 um above the wall).  On 2 ranks
+    # 0.392248 from a fresh mesh cache, 0.392304 from a mesh read back from it (another partition): the adaptive
+    # steps follow round-off, as tencate_e4's
+    "li_case3": (["impact_speed"], 0.392248, 5e-4),
     "case7_vorticity": (["Re_I"], 127.259),  # 115.104 before issue 11, 122.423 before issue 23
     # the Python API tutorial (issue 28): case 3, ode model; 0.387954 before the screened inertial drag (issue 42)
     "tutorial": (["ode", "impact_speed"], 0.391346),
