@@ -10,7 +10,7 @@ after the third impact (the preset's run.bounces).
 
     first impact speed (2 ms mean) vs 0.393 m/s, Re of the second impact vs 55 (Table 2)
 
-Run (at the fd default, 12 cells per diameter, on one core; `--toy` about 20 s):
+Run (at the fd default, 8 cells per diameter along the path and 16 on the surface, on one core; `--toy` about 20 s):
 
     mpiexec -n 2 python demos/li_case3.py --out runs/demo-case3
     python demos/li_case3.py --toy
