@@ -5,6 +5,7 @@
     python benchmarks/fd_sensitivity.py --cells 8 --only default   # the default row alone (a ladder: 6, 8, 12, 16)
     python benchmarks/fd_sensitivity.py --variant model=ib    # side by side, one after the other
     python benchmarks/fd_sensitivity.py --fit 6,8,12,16       # order and limit of the ladder's errors (no runs)
+    python benchmarks/fd_sensitivity.py --fit 12,16,24 --fit-set numerics.fd.cfl=0.2   # the same with half the step
 
 Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
 default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
@@ -82,19 +83,22 @@ def default_mesh() -> str:
     return fb.load("li2011-case3").numerics.fd.mesh
 
 
-def fit(cells: list[float]) -> None:
-    """Print the order p and the limit E_0 of E = E_0 + C h^p (h = D / cells, least squares) for each error,
-    through the latest default row at each of `cells` in the history, on the default's mesh."""
+def fit(cells: list[float], setting: str | None = None) -> None:
+    """Print the order p and the limit E_0 of E = E_0 + C h^p (h = D / cells, least squares; exact through three
+    levels) for each error, through the latest default row at each of `cells` in the history, on the default's
+    mesh, or the latest row run with `setting` (comma-separated key=value, as --variant takes it)."""
     from scipy.optimize import curve_fit
 
     latest, mesh = {}, default_mesh()
+    wanted = setting.split(",") if setting else []
     for record in json.loads(RESULTS.read_text()):
         for row in record["rows"]:
-            if row["sweep"] == "default" and "V_i" in row and record.get("mesh", "fixed") == mesh:
+            chosen = row["set"] == wanted if wanted else row["sweep"] == "default"
+            if chosen and "V_i" in row and record.get("mesh", "fixed") == mesh:
                 latest[record["cells_per_diameter"]] = (record["date"], record["reference"], row)
     missing = [n for n in cells if n not in latest]
     if missing:
-        raise SystemExit(f"no default row at {missing} cells/D in {RESULTS}: run --cells N --only default first")
+        raise SystemExit(f"no {setting or 'default'} row at {missing} cells/D in {RESULTS}: run it first")
     h = 1.0 / np.array(cells)
     print("cells/D: " + ", ".join(f"{n:g} ({latest[n][0]})" for n in cells))
     for key in latest[cells[0]][1]:
@@ -115,9 +119,11 @@ def main() -> None:
     parser.add_argument("--no-default", action="store_true", help="skip the default row")
     parser.add_argument("--fit", help="comma-separated cells/D: fit order and limit to the history's default rows "
                         "there (no runs)")
+    parser.add_argument("--fit-set", help="with --fit: the rows run with these settings instead (e.g. "
+                        "numerics.fd.cfl=0.2)")
     args = parser.parse_args()
     if args.fit:
-        return fit([float(n) for n in args.fit.split(",")])
+        return fit([float(n) for n in args.fit.split(",")], args.fit_set)
     names = args.only.split(",") if args.only else ([] if args.variant else list(SWEEPS))
     names = [name for name in names if name != "default"]
     rows = [] if args.no_default else [("default", [])]
