@@ -75,6 +75,8 @@ from .flow import SphereFlow
 from .motion import MeshMotion
 from ...fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 
+REMESH_QUANTUM = 1e-6  # [D] a new mesh is made around the spheres' positions rounded to this (AleModel.remesh)
+
 
 def force_columns(count: int) -> tuple[str, ...]:
     """ale_forces.csv's header for `count` spheres, suffixed as the trajectory's columns (one sphere's
@@ -209,12 +211,18 @@ class AleModel(FlowModel):
             setattr(stats, key, getattr(stats, key) + getattr(flow, key))
 
     def remesh(self, center: np.ndarray, quality: float) -> None:
-        """Mesh around the spheres centred at `center` [m] and carry the flow's history over."""
+        """Mesh around the spheres centred at `center` [m] and carry the flow's history over.
+
+        gmsh meshes the spheres at `center` rounded to REMESH_QUANTUM D (the new mesh then moves to `center`):
+        its triangles change with the last bits of its input, and those differ between a serial run and one on
+        2 ranks (1e-13 m in case 3), whose new meshes then differed by two triangles and their answers by 1e-5."""
         start = time.perf_counter()
         k = self.kinematics
         old_motion, old_flow = self.motion, self.flow
+        quantum = REMESH_QUANTUM * self.scene.sphere.diameter
+        at = np.round(np.asarray(center) / quantum) * quantum
         try:
-            mesh, motion, flow = self.build_mesh(center, cache=False)
+            mesh, motion, flow = self.build_mesh(at, cache=False)
         except Exception as err:  # gmsh raises plain Exception: the run ends as diverged, cleanly
             diameter = self.scene.sphere.diameter
             delta = (center[0] - self.radii[0]) / diameter
@@ -231,7 +239,7 @@ class AleModel(FlowModel):
                 before = old_flow.momentum(old_state)
                 interpolate_from(SerialField(old_state, tolerance), new_state)
                 # the new mesh where its own motion law puts it at that time level (if that is a valid mesh)
-                motion.move_to(k.centers[level] if motion.quality(k.centers[level] - center) > 0.0 else center)
+                motion.move_to(k.centers[level] if motion.quality(k.centers[level] - at) > 0.0 else center)
                 interpolated = flow.momentum(new_state)
                 flow.set_boundary_values(k.velocities[level])
                 if projection is None:
