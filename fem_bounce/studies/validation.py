@@ -47,8 +47,10 @@ class Check:
         return abs(self.error) <= self.tolerance
 
 
-def report(checks: list[Check], stream=sys.stdout) -> bool:
-    """Print one line per check; True when every required check passed."""
+def report(checks: list[Check], stream=None) -> bool:
+    """Print one line per check to `stream` (sys.stdout as it is at the call); True when every required check
+    passed."""
+    stream = sys.stdout if stream is None else stream
     for c in checks:
         verdict = "PASS" if c.passed else ("FAIL" if c.required else "MISS")
         kind = "check " if c.required else "target"
