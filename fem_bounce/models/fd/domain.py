@@ -84,11 +84,12 @@ def time_step(scene: Scene) -> float:
     return min(convective, fd.forcing_number * fine**2 / scene.liquid.kinematic_viscosity)
 
 
-def penalty_rate(scene: Scene) -> float:
+def penalty_rate(scene: Scene, size: float | None = None) -> float:
     """c_B = penalty_strength * max(nu / h^2, U / h, c) [1/s] of numerics.fd.constraint = "implicit"
-    (penalised.PenalisedFlow), c = 3 / (2 dt), h the fine size, U the speed scale: the friction beats viscous
-    diffusion and convection across a fine cell, and the step's own inertia, by that factor."""
+    (penalised.PenalisedFlow), c = 3 / (2 dt), h the size of the triangles the band lies on (`size` [m]; by
+    default the fine size), U the speed scale: the friction beats viscous diffusion and convection across a
+    cell, and the step's own inertia, by that factor."""
     fd = scene.numerics.fd
-    fine = scene.sphere.diameter / fd.cells_per_diameter
-    rates = (scene.liquid.kinematic_viscosity / fine**2, speed_scale(scene, "fd") / fine, 1.5 / time_step(scene))
+    h = scene.sphere.diameter / fd.cells_per_diameter if size is None else size
+    rates = (scene.liquid.kinematic_viscosity / h**2, speed_scale(scene, "fd") / h, 1.5 / time_step(scene))
     return fd.penalty_strength * max(rates)

@@ -30,7 +30,7 @@ from ...integrator import FluidForce
 from ...scene import SceneError
 from ..ale.model import AleModel
 from ..ale.motion import MeshMotion
-from .domain import time_step
+from .domain import penalty_rate, time_step
 from .immersed import ImmersedBodies
 from .penalised import PenalisedFlow
 
@@ -101,9 +101,7 @@ class MovingFictitiousDomainModel(AleModel):
         self.adaptive = fd.resolved("adaptive_step")
         self.step_limits = StepLimits(self.cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"),
                                       fd.gap_fraction)
-        surface = self.domain.surface_size
-        rates = (scene.liquid.kinematic_viscosity / surface**2, speed_scale(scene, "fd") / surface, 1.5 / self.cfl_step)
-        self.penalty_rate = fd.penalty_strength * max(rates)  # as domain.penalty_rate, on the surface's triangles
+        self.penalty_rate = penalty_rate(scene, self.domain.surface_size)  # on the surface's triangles
 
     @property
     def reuses_factors(self) -> bool:
