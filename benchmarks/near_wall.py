@@ -133,20 +133,30 @@ def ladders(case: int, finest: int = 16, surface: float = 1) -> tuple[tuple, int
     return tuple(n for n in MESH_LADDER if n <= top), 16 if case == 3 and surface == 1 else 8
 
 
-def run_name(case: int, cells: int, cfl: float, surface: float = 1) -> str:
-    return f"case{case}-ale{cells}" + (f"s{surface:g}" if surface != 1 else "") + f"-cfl{cfl:g}"
+def run_name(case: int, cells: int, cfl: float, surface: float = 1, collision: float | None = None) -> str:
+    return (f"case{case}-ale{cells}" + (f"s{surface:g}" if surface != 1 else "") + f"-cfl{cfl:g}"
+            + (f"-c{collision:g}" if collision else ""))
+
+
+def collision_steps(collision: float | None) -> dict:
+    """The scene values that resolve each collision in time: adaptive steps down to `collision` times the cfl
+    step near the wall and never longer than it elsewhere (the fall keeps the cfl step); none if None."""
+    if not collision:
+        return {}
+    return {"numerics.ale.adaptive_step": "true", "numerics.ale.max_step_factor": 1,
+            "numerics.ale.min_step_factor": collision}
 
 
 def reference_runs(case: int, cfls=CFL_LADDER, finest: int = 16, surface: float = 1,
-                   mesh_cfl: float = 0.125) -> list[tuple]:
+                   mesh_cfl: float = 0.125, collision: float | None = None) -> list[tuple]:
     """The mesh ladder at `mesh_cfl` and the step ladder (`cfls`) on its mesh, as (name, scene, model,
     changes)."""
     base = {"contact.delta_sl": REFERENCE_DELTA_SL, "run.bounces": 2, **({SURFACE: surface} if surface != 1 else {}),
-            "numerics.ale.factorisation": "every-step"}  # the reference solves every step directly
+            "numerics.ale.factorisation": "every-step", **collision_steps(collision)}  # every step solved directly
     meshes, step_mesh = ladders(case, finest, surface)
-    jobs = [(run_name(case, n, mesh_cfl, surface), f"li2011-case{case}", "ale",
+    jobs = [(run_name(case, n, mesh_cfl, surface, collision), f"li2011-case{case}", "ale",
              {**base, CELLS["ale"]: n, CFL: mesh_cfl}) for n in meshes]
-    jobs += [(run_name(case, step_mesh, c, surface), f"li2011-case{case}", "ale",
+    jobs += [(run_name(case, step_mesh, c, surface, collision), f"li2011-case{case}", "ale",
               {**base, CELLS["ale"]: step_mesh, CFL: c}) for c in cfls if c != mesh_cfl]
     return jobs
 
@@ -158,10 +168,12 @@ def reference_study(args) -> None:
     cases = [int(c) for c in args.cases.split(",")]
     surface = args.surface_refinement
     cfls = CFL_LADDER if surface == 1 else (0.125,)  # with a refined surface: cfl 0.125 and --finer-step only
-    jobs = [job for case in cases for job in reference_runs(case, cfls, args.finer_mesh, surface, args.mesh_cfl)]
+    collision = args.collision_step
+    jobs = [job for case in cases
+            for job in reference_runs(case, cfls, args.finer_mesh, surface, args.mesh_cfl, collision)]
     if args.finer_step:  # the step ladder further down, where the coarser steps moved more than 0.5 %
         jobs += [job for case in cases for cfl in FINER_STEPS if cfl >= args.finer_step
-                 for job in reference_runs(case, (cfl,), args.finer_mesh, surface, args.mesh_cfl)[-1:]]
+                 for job in reference_runs(case, (cfl,), args.finer_mesh, surface, args.mesh_cfl, collision)[-1:]]
     if args.case3_extra:  # a finer step, and delta_sl halved again: is the reference itself converged?
         jobs += reference_runs(3, (0.0625,))[-1:]
         jobs.append(("case3-ale16-cfl0.125-dsl0.025", "li2011-case3", "ale",
@@ -186,9 +198,10 @@ def reference_study(args) -> None:
     by_name = {r["name"]: r for r in rows}
     for case in cases:
         meshes, step_mesh = ladders(case, args.finer_mesh, surface)
-        fine, mid = ([by_name.get(run_name(case, n, args.mesh_cfl, surface), {}) for n in meshes[::-1]] + [{}])[:2]
+        fine, mid = ([by_name.get(run_name(case, n, args.mesh_cfl, surface, collision), {})
+                      for n in meshes[::-1]] + [{}])[:2]
         steps = [by_name[name] for c in FINER_STEPS[::-1] + (0.125, 0.25, 0.5)
-                 if (name := run_name(case, step_mesh, c, surface)) in by_name and "V_i" in by_name[name]]
+                 if (name := run_name(case, step_mesh, c, surface, collision)) in by_name and "V_i" in by_name[name]]
         step_fine, coarse_step = (steps + [{}, {}])[:2]
         ref = measured[case]
         lines.append(
@@ -200,7 +213,7 @@ def reference_study(args) -> None:
             f"{fmt(fine.get('Re_I'), '.1f')} | {fmt(fine.get('Re_II'), '.1f')} | {fmt(fine.get('e_1'), '.3f')} | "
             f"{fmt(change(fine.get('V_i'), ref['V_i_m_per_s']), '+.1f')} % | "
             f"{fmt(change(fine.get('Re_II'), ref['Re_II']), '+.1f')} % |")
-    lines += models_against(by_name, cases, args.finer_mesh, surface, args.mesh_cfl)
+    lines += models_against(by_name, cases, args.finer_mesh, surface, args.mesh_cfl, collision)
     record("reference", rows, "\n".join(lines) + "\n")
 
 
@@ -208,7 +221,8 @@ def reference_study(args) -> None:
 TABLE2_RUNS = ("ode", "fd", "ib", "ale")
 
 
-def models_against(by_name: dict, cases: list[int], finest: int, surface: float, mesh_cfl: float) -> list[str]:
+def models_against(by_name: dict, cases: list[int], finest: int, surface: float, mesh_cfl: float,
+                   collision: float | None) -> list[str]:
     """Each model's Table 2 run (`python benchmarks/table2.py --model M`, the scene defaults) against the
     reference: the error in V_i, Re_II and e_1, in percent."""
     lines = ["", "Each model's Table 2 run (benchmarks/history/table2-M.json) against the reference: V_i, Re_II, "
@@ -220,7 +234,7 @@ def models_against(by_name: dict, cases: list[int], finest: int, surface: float,
             records[name] = {r["case"]: r for r in json.loads(path.read_text())["rows"]}
     for case in cases:
         meshes, _ = ladders(case, finest, surface)
-        ref = by_name.get(run_name(case, meshes[-1], mesh_cfl, surface), {})
+        ref = by_name.get(run_name(case, meshes[-1], mesh_cfl, surface, collision), {})
         cells = []
         for name in TABLE2_RUNS:
             got = records.get(name, {}).get(case, {})
@@ -442,6 +456,10 @@ def main() -> None:
     parser.add_argument("--finer-step", type=float, nargs="?", const=0.0625, default=None, choices=FINER_STEPS,
                         metavar="CFL", help="reference: also the steps down to cfl CFL (0.0625 if no value; one of "
                         f"{FINER_STEPS}) on each case's step-ladder mesh")
+    parser.add_argument("--collision-step", type=float, default=None, metavar="F",
+                        help="reference: adaptive steps that resolve each collision in time, down to F times the "
+                             "cfl step near the wall and never longer than it (the runs' names end in -cF); "
+                             "without it every step has the cfl length, and one step spans a collision")
     parser.add_argument("--models", default="ale,fd,ib", help="insensitivity: resolved models")
     parser.add_argument("--modes", default="correction,blend", help="insensitivity: contact.near_wall values")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
