@@ -152,8 +152,12 @@ def test_speed_accuracy_reference_is_the_finest_level_at_a_shorter_step(tmp_path
     # five runs: the four levels and the reference, 16 cells/D at a quarter of the scene's step
     assert [task[0].numerics.ale.cfl for task in asked] == pytest.approx([cfl, 0.5 * cfl, cfl, 0.5 * cfl,
                                                                           0.25 * cfl])
+    # only the reference resolves each collision in time (registry.ModelInfo.reference_settings)
+    assert [task[0].numerics.ale.adaptive_step for task in asked] == [False] * 4 + [True]
+    collision = {"numerics.ale.adaptive_step": True, "numerics.ale.max_step_factor": 1.0,
+                 "numerics.ale.min_step_factor": 0.05, "numerics.ale.surface_refinement": 3.0}
     assert result["reference"]["setting"] == {"numerics.ale.cells_per_diameter": 16.0,
-                                              "numerics.ale.cfl": pytest.approx(0.25 * cfl)}
+                                              "numerics.ale.cfl": pytest.approx(0.25 * cfl), **collision}
     assert result["reference"]["step_factor"] == pytest.approx(0.25)
     by_label = {r["label"]: r for r in result["rows"]}
     finest = by_label["numerics.ale.cells_per_diameter = 16"]
@@ -172,7 +176,9 @@ def test_speed_accuracy_reference_is_the_finest_level_at_a_shorter_step(tmp_path
     assert all(rec is None or rec["setting"] != result["reference"]["setting"]
                for rec in result["recommendations"].values())
     assert json.loads((tmp_path / "study" / "speed_accuracy.json").read_text())["reference"]["text"] == (
-        f"ale, numerics.ale.cells_per_diameter = 16, numerics.ale.cfl = {0.25 * cfl:g}")
+        f"ale, numerics.ale.cells_per_diameter = 16, numerics.ale.cfl = {0.25 * cfl:g}, numerics.ale.adaptive_step = "
+        "true, numerics.ale.max_step_factor = 1, numerics.ale.min_step_factor = 0.05, "
+        "numerics.ale.surface_refinement = 3")
     assert "reference: ale, numerics.ale.cells_per_diameter = 16" in (tmp_path / "study" / "progress.log").read_text()
     assert (tmp_path / "study" / "speed_accuracy.png").exists()
 

@@ -28,6 +28,11 @@ class ModelInfo:
     ladder: tuple  # the studies' resolutions, coarse to fine
     time_step_key: str | None = None  # its CFL number
     scaled_with_time_step: tuple = ()  # other step limits a time-step study scales alike
+    # (key, value) pairs a study's reference run adds, as near_wall.py's reference has them: the ale model's steps
+    # shortened through each collision (its default keeps one step length, which spans the 50 us contact: case 3's
+    # apex 2.4 % high) and its surface three times finer (at its default D / 16 the apex is 3 % high, finer than
+    # the fd default's D / 24; docs/validation.md section 1)
+    reference_settings: tuple = ()
     checkpoint_every_key: str | None = None  # writes checkpoints (and so restarts) when set
     checkpoint_files: tuple = ()  # the data files every whole checkpoint holds
     serial: bool = False  # a serial computation: under mpiexec rank 0 runs it alone (run._serial_on_root)
@@ -150,6 +155,8 @@ MODELS: dict[str, ModelInfo] = {
         liquid="moving mesh with the sphere as a hole: the accuracy reference", resolved=True,
         resolution_key="numerics.ale.cells_per_diameter", resolution_unit="cells/D",
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.ale.cfl",
+        reference_settings=(("numerics.ale.adaptive_step", True), ("numerics.ale.max_step_factor", 1.0),
+                            ("numerics.ale.min_step_factor", 0.05), ("numerics.ale.surface_refinement", 3.0)),
         checkpoint_every_key="numerics.ale.checkpoint_every", checkpoint_files=("flow.npz",),
         fields_key="numerics.ale.output_every", colour="C3", max_spheres=8,  # one mesh tag per hole (fem.mesh)
         sources=("models/ale", "fem"), max_initial_gap=RESOLVED_MAX_GAP),

@@ -5,10 +5,12 @@
 x = wall time (log), y = relative error (log) of the scene's quantities against (a) a reference run and
 (b) the experiment where one exists; the Pareto front is marked.  The reference is the finest level of the
 highest-fidelity model present, run once more with its time step times `reference_step` (0.25 by
-default; 1 takes the finest level itself): a time-step error that every run of a model shares at its
-default step is then measured, not hidden.  A level VALUE@FACTOR runs the resolution VALUE with the time
-step times FACTOR.  Also writes, per accuracy threshold (1, 2, 5, 10 %), the cheapest setting that
-reaches it on every primary quantity: `fem-bounce run --accuracy 5%` reads these recommendations.
+default; 1 takes the finest level itself) and its model's reference settings (registry.ModelInfo: the
+ale model's steps shortened through each collision and its surface refined): a time-step error that
+every run of a model shares at its default step is then measured, not hidden.  A level VALUE@FACTOR
+runs the resolution VALUE with the time step times FACTOR.  Also writes, per accuracy threshold (1, 2,
+5, 10 %), the cheapest setting that reaches it on every primary quantity: `fem-bounce run --accuracy 5%`
+reads these recommendations.
 """
 from __future__ import annotations
 
@@ -58,7 +60,8 @@ class Level:
 
 def setting_text(setting: dict) -> str:
     """'numerics.ale.cells_per_diameter = 16, numerics.ale.cfl = 0.125'."""
-    return ", ".join(f"{key} = {value:g}" for key, value in setting.items())
+    return ", ".join(f"{key} = {str(value).lower() if isinstance(value, bool) else format(value, 'g')}"
+                     for key, value in setting.items())
 
 
 def describe(model: str, setting: dict) -> str:
@@ -79,7 +82,9 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
     reference_level = Level(finest, 1.0 if ladder.time_step_key is None else reference_step)
     if (reference_model, reference_level) not in plan:
         plan.append((reference_model, reference_level))
-    settings = [level.setting(scene, model) for model, level in plan]
+    settings = [level.setting(scene, model) | (dict(MODELS[model].reference_settings)
+                                               if (model, level) == (reference_model, reference_level) else {})
+                for model, level in plan]
     reference_text = describe(reference_model, settings[plan.index((reference_model, reference_level))])
     study.log(f"reference: {reference_text}" + (f" ({reference_level.step_factor:g} times the scene's step)"
                                                  if ladder.time_step_key else " (a tolerance: no separate step)"))
