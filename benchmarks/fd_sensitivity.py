@@ -43,7 +43,7 @@ SWEEPS = {
     "interface_width": ["numerics.fd.interface_width=1", "numerics.fd.interface_width=4"],
     "delta_sl": ["contact.delta_sl=0.1", "contact.delta_sl=0.3"],
     "far_field": ["numerics.fd.far_field=20"],
-    # the moving mesh's surface triangles as fine as the path's, 1.5 times finer than the default's
+    # the moving mesh's surface triangles 1.5 times coarser (the default before: D / 16) and 1.33 times finer
     "surface": ["numerics.fd.surface_refinement=2", "numerics.fd.surface_refinement=4"],
     # the path's triangles 1.5 times finer, the surface's as the default's (at the default 8 cells/D: D / 24)
     "path": ["numerics.fd.cells_per_diameter=12,numerics.fd.surface_refinement=2"],
