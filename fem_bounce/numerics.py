@@ -43,7 +43,8 @@ class FdNumerics:
     patch_margin: float = _setting(0.75, 0.1, 20.0)
     # "moving" (the default since issue 41): the mesh follows the spheres as the ale model's does (models/fd/moving.py),
     # each sphere's surface a curve of the mesh and its inside meshed and held by the implicit constraint, remade when
-    # a triangle's quality would fall below min_quality; patch, patch_margin and the wall box are then unused.
+    # a triangle's quality would fall below min_quality; patch, patch_margin, radius_offset (the band ends on the
+    # surface) and the wall box are then unused.
     # "fixed": one mesh the spheres move through (patches or the whole path); the one-shot penalty and steady_stokes
     # run on it only
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
