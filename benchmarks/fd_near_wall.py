@@ -38,12 +38,13 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_near_wall.json"
 ROOT = Path("results") / "fd_near_wall"
 DELTAS = (1.0, 0.5, 0.35, 0.25, 0.2, 0.15, 0.1, 0.07, 0.05, 0.04)
+FIXED = {"numerics.fd.mesh": "fixed"}  # the wall box and the band's edge are the fixed mesh's settings
 VARIANTS = {
     "base": {},
-    "wall48": {"numerics.fd.wall_cells_per_diameter": 48},
-    "wall48-band1": {"numerics.fd.wall_cells_per_diameter": 48, "numerics.fd.interface_width": 1.0,
+    "wall48": {**FIXED, "numerics.fd.wall_cells_per_diameter": 48},
+    "wall48-band1": {**FIXED, "numerics.fd.wall_cells_per_diameter": 48, "numerics.fd.interface_width": 1.0,
                      "numerics.fd.radius_offset": 0.25},
-    "wall96-band1": {"numerics.fd.wall_cells_per_diameter": 96, "numerics.fd.interface_width": 1.0,
+    "wall96-band1": {**FIXED, "numerics.fd.wall_cells_per_diameter": 96, "numerics.fd.interface_width": 1.0,
                      "numerics.fd.radius_offset": 0.25},
 }
 

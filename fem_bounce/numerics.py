@@ -44,7 +44,7 @@ class FdNumerics:
     # "moving" (the default since issue 41): the mesh follows the spheres as the ale model's does (models/fd/moving.py),
     # each sphere's surface a curve of the mesh and its inside meshed and held by the implicit constraint, remade when
     # a triangle's quality would fall below min_quality; patch, patch_margin, radius_offset (the band ends on the
-    # surface) and the wall box are then unused.
+    # surface) and the wall box are then unused, and refused when set (models/fd/moving.py FIXED_MESH_ONLY).
     # "fixed": one mesh the spheres move through (patches or the whole path); the one-shot penalty and steady_stokes
     # run on it only
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})

@@ -52,6 +52,18 @@ def test_the_one_shot_penalty_on_the_moving_mesh_is_refused_naming_both_settings
         MovingFictitiousDomainModel(sc, MPI.COMM_WORLD)
 
 
+@pytest.mark.parametrize("key, value", [("radius_offset", 0.25), ("wall_cells_per_diameter", 48.0),
+                                        ("patch", False)])
+def test_a_fixed_mesh_setting_on_the_moving_mesh_is_refused_naming_it(key, value):
+    """The moving mesh does not read these: a value set for them was silently ignored."""
+    sc = scene.load("li2011-case3", {f"numerics.fd.{key}": value})
+    shown = str(value).lower() if isinstance(value, bool) else value
+    with pytest.raises(scene.SceneError, match=f'numerics.fd.{key} = {shown} .*numerics.fd.mesh = "fixed"'):
+        MovingFictitiousDomainModel(sc, MPI.COMM_WORLD)
+    fixed = scene.load("li2011-case3", {f"numerics.fd.{key}": value, "numerics.fd.mesh": "fixed"})
+    assert model_class(fixed) is FictitiousDomainModel  # where it is read
+
+
 @pytest.fixture(scope="module")
 def bounces(tmp_path_factory):
     """Case 3 at 6 cells/D to its first apex with the fd and the ale model at their defaults (the same mesh but

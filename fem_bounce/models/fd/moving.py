@@ -17,6 +17,7 @@ u* - w, w the mesh velocity (models/ale/flow.py).
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 
 import numpy as np
 import ufl
@@ -33,6 +34,10 @@ from ..ale.motion import MeshMotion
 from .domain import penalty_rate, time_step
 from .immersed import ImmersedBodies
 from .penalised import PenalisedFlow
+
+
+# settings of the fixed mesh that the moving one does not read: its patches, its wall box and the band's edge
+FIXED_MESH_ONLY = ("patch", "patch_margin", "wall_cells_per_diameter", "wall_layer", "wall_radius", "radius_offset")
 
 
 class MovingPenalisedFlow(PenalisedFlow):
@@ -96,6 +101,14 @@ class MovingFictitiousDomainModel(AleModel):
             raise SceneError(f'numerics.fd.constraint = "{fd.constraint}" runs on a fixed mesh only: set '
                              'numerics.fd.mesh = "fixed" (it keeps its factors; the moving mesh changes the matrix '
                              'every step)')
+        defaults = {f.name: f.default for f in fields(fd)}
+        for name in FIXED_MESH_ONLY:
+            value = getattr(fd, name)
+            if value != defaults[name]:
+                shown = str(value).lower() if isinstance(value, bool) else value
+                raise SceneError(f"numerics.fd.{name} = {shown} shapes the fixed mesh only; the moving mesh refines "
+                                 "each sphere's surface (surface_refinement) and ends the band on it: unset it, or "
+                                 'set numerics.fd.mesh = "fixed"')
         self.steady = False  # held spheres march (their steady Stokes state: the fixed mesh, models/fd/__init__.py)
         self.dt = self.cfl_step = time_step(scene)
         self.adaptive = fd.resolved("adaptive_step")
