@@ -82,10 +82,10 @@ def run(scene: scenes.Scene, models: list[str], comm, out: Path, levels: dict | 
     reference_level = Level(finest, 1.0 if ladder.time_step_key is None else reference_step)
     if (reference_model, reference_level) not in plan:
         plan.append((reference_model, reference_level))
-    settings = [level.setting(scene, model) | (dict(MODELS[model].reference_settings)
-                                               if (model, level) == (reference_model, reference_level) else {})
-                for model, level in plan]
-    reference_text = describe(reference_model, settings[plan.index((reference_model, reference_level))])
+    settings = [level.setting(scene, model) for model, level in plan]
+    reference_setting = settings[plan.index((reference_model, reference_level))]
+    reference_setting.update(MODELS[reference_model].reference_settings)
+    reference_text = describe(reference_model, reference_setting)
     study.log(f"reference: {reference_text}" + (f" ({reference_level.step_factor:g} times the scene's step)"
                                                  if ladder.time_step_key else " (a tolerance: no separate step)"))
     found = measure_all([(scene.replace(**setting), model, setting_text(setting))
