@@ -86,13 +86,17 @@ class FlowSolver:
         owned = np.sort(dofs[dofs < index_map.size_local])
         return PETSc.IS().createGeneral(owned + index_map.local_range[0], comm=self.mesh.comm)
 
-    def set_time_step(self, dt: float, previous: float | None = None) -> None:
+    def set_time_step(self, dt: float, previous: float | None = None, order: int | None = None) -> None:
         """The coming step's length dt [s] and the one before it (default dt): the BDF and extrapolation
-        coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ).
+        coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ),
+        of a lower `order` than the flow's for a cold start (the older levels then weigh 0).
         The matrix holds c: a solver that keeps its factors (this one) takes one step length only; the
         penalised flow assembles every step."""
         self.dt = dt
-        self.bdf, self.ext = step_coefficients(self.order, dt / previous if previous else 1.0)
+        order = order or self.order
+        bdf, ext = step_coefficients(order, dt / previous if previous else 1.0)
+        padding = (0.0,) * (self.order - order)
+        self.bdf, self.ext = bdf + padding, ext + padding
         self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference(u^n, u^{n-1}, ...))
         self.rates.value[:] = [self.c, *(-alpha / dt for alpha in self.bdf[1:])]
         self.weights.value[:] = self.ext

@@ -24,7 +24,9 @@ The friction is strong enough to move all of the ball |x - X_i| < a_h with the s
 (its slip is 1 / penalty_strength of the speed), so that momentum is rho U_i B_i with B_i = 4/3 pi a_h^3, not
 the phi-weighted rho U_i V_i, V_i = 2 pi int phi_i r dx: weighting it with phi left the band's liquid,
 rho (B_i - V_i), on the sphere as extra mass (0.55 of the displaced mass at 8 cells/D).  With
-I_i(u) = 2 pi int phi_i u_z r dx and the BDF rate c (U_i B_i - J_i) (J_i: the BDF history of U_i B_i):
+I_i(u) = 2 pi int phi_i u_z r dx and the BDF rate c (U_i B_i - J_i) (J_i: the BDF history of the ball's momentum
+/ rho, U_i B_i on the fixed mesh; on the moving mesh B_i times its liquid's mean velocity I_i(u^k) / V_i at each
+past level, as the liquid was, not as the sphere moved: models/fd/moving.py):
 
     F_i(U) = rho c_B (I_i(u) - U_i V_i) + rho c (U_i B_i - J_i),
 
