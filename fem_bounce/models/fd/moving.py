@@ -77,9 +77,12 @@ class MovingPenalisedFlow(PenalisedFlow):
         the launch speed), and each new mesh, whose transfer (interpolated, made divergence-free) moves the inside
         by up to 1 % of its speed (charged to the sphere, case 3's first apex came out 0.1-0.7 % higher, the more the
         coarser the mesh)."""
-        bodies = self.bodies
-        levels = [bodies.interiors(state.x.petsc_vec) / bodies.volumes for state in self.states]
-        return -bodies.ball_volumes * sum(a * v for a, v in zip(self.bdf[1:], levels)) / self.bdf[0]
+        levels = self.inside_velocities()
+        return -self.bodies.ball_volumes * sum(a * v for a, v in zip(self.bdf[1:], levels)) / self.bdf[0]
+
+    def inside_velocities(self) -> list[np.ndarray]:
+        """The mean velocity of the liquid in each ball, I_i(u^k) / V_i [m/s], at each past level, newest first."""
+        return [self.bodies.interiors(state.x.petsc_vec) / self.bodies.volumes for state in self.states]
 
     def commit(self, velocity_change) -> None:
         """The step's field for the velocities U_ref + velocity_change becomes u^n."""
@@ -154,12 +157,8 @@ class MovingFictitiousDomainModel(AleModel):
         """Whether the liquid inside a sphere did not move with it at one of the flow's past levels (its mean
         velocity off the sphere's by more than 1e-3 of either): the start of a sphere launched into liquid at rest,
         or held in a stream, until the levels from before its inside was set moving have left the BDF formula."""
-        flow = self.flow
-        for state, velocities in zip(flow.states, self.kinematics.velocities):
-            inside = flow.bodies.interiors(state.x.petsc_vec) / flow.bodies.volumes
-            if np.any(np.abs(inside - velocities) > 1e-3 * (np.abs(inside) + np.abs(velocities))):
-                return True
-        return False
+        return any(np.any(np.abs(inside - velocities) > 1e-3 * (np.abs(inside) + np.abs(velocities)))
+                   for inside, velocities in zip(self.flow.inside_velocities(), self.kinematics.velocities))
 
     def make_flow(self, mesh, facet_tags, motion: MeshMotion, centers) -> MovingPenalisedFlow:
         """The penalised flow on a new mesh, its spheres' indicators placed once: the mesh moves rigidly inside them."""
