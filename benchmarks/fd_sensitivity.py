@@ -6,6 +6,7 @@
     python benchmarks/fd_sensitivity.py --variant model=ib    # side by side, one after the other
     python benchmarks/fd_sensitivity.py --fit 6,8,12,16       # order and limit of the ladder's errors (no runs)
     python benchmarks/fd_sensitivity.py --fit 12,16,24 --fit-set numerics.fd.cfl=0.2   # the same with half the step
+    python benchmarks/fd_sensitivity.py --fit 8,12,16,24,32 --fit-order 1 --fit-set ...  # the order held at 1
 
 Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
 default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
@@ -84,11 +85,12 @@ def default_mesh() -> str:
     return fb.load("li2011-case3").numerics.fd.mesh
 
 
-def fit(cells: list[float], setting: str | None = None) -> None:
+def fit(cells: list[float], setting: str | None = None, order: float | None = None) -> None:
     """Print the order p and the limit E_0 of E = E_0 + C h^p (h = D / cells, least squares; exact through three
     levels) for each error, through the latest default row at each of `cells` in the history, on the default's
     mesh, or the latest row run with `setting` (comma-separated key=value, as --variant takes it), against the
-    reference as it is now (a row keeps its values, not its errors)."""
+    reference as it is now (a row keeps its values, not its errors).  With `order` p is held there (linear least
+    squares; the largest distance of a level from the line is printed)."""
     from scipy.optimize import curve_fit
 
     latest, mesh = {}, default_mesh()
@@ -106,10 +108,17 @@ def fit(cells: list[float], setting: str | None = None) -> None:
     ref = reference()
     for key in ref:
         errors = np.array([100.0 * (latest[n][1][key] / ref[key] - 1.0) for n in cells])
-        (limit, _, order), _ = curve_fit(lambda x, e0, c, p: e0 + c * (x / h[0]) ** p, h, errors,
-                                             p0=(0.0, errors[0], 1.0), maxfev=20000)
         listed = " / ".join(f"{e:+.2f}" for e in errors)
-        print(f"{key:6s} errors {listed} %: order {order:.2f}, limit {limit:+.2f} %")
+        if order is not None:
+            basis = np.column_stack([np.ones_like(h), (h / h[0]) ** order])
+            (limit, slope), *_ = np.linalg.lstsq(basis, errors, rcond=None)
+            apart = np.abs(basis @ (limit, slope) - errors).max()
+            print(f"{key:6s} errors {listed} %: order {order:g} (held), limit {limit:+.2f} %, levels within "
+                  f"{apart:.3f} % of the line")
+            continue
+        (limit, _, p), _ = curve_fit(lambda x, e0, c, p: e0 + c * (x / h[0]) ** p, h, errors,
+                                     p0=(0.0, errors[0], 1.0), maxfev=20000)
+        print(f"{key:6s} errors {listed} %: order {p:.2f}, limit {limit:+.2f} %")
 
 
 def main() -> None:
@@ -122,11 +131,12 @@ def main() -> None:
     parser.add_argument("--no-default", action="store_true", help="skip the default row")
     parser.add_argument("--fit", help="comma-separated cells/D: fit order and limit to the history's default rows "
                         "there (no runs)")
+    parser.add_argument("--fit-order", type=float, help="with --fit: hold the order there (e.g. 1)")
     parser.add_argument("--fit-set", help="with --fit: the rows run with these settings instead (e.g. "
                         "numerics.fd.cfl=0.2)")
     args = parser.parse_args()
     if args.fit:
-        return fit([float(n) for n in args.fit.split(",")], args.fit_set)
+        return fit([float(n) for n in args.fit.split(",")], args.fit_set, args.fit_order)
     names = args.only.split(",") if args.only else ([] if args.variant else list(SWEEPS))
     names = [name for name in names if name != "default"]
     rows = [] if args.no_default else [("default", [])]
