@@ -135,6 +135,8 @@ def main() -> None:
     parser.add_argument("--fit-set", help="with --fit: the rows run with these settings instead (e.g. "
                         "numerics.fd.cfl=0.2)")
     args = parser.parse_args()
+    if args.fit_order is not None and not args.fit_order > 0:
+        parser.error(f"--fit-order {args.fit_order:g}: the order must be above 0 (e.g. 1)")
     if args.fit:
         return fit([float(n) for n in args.fit.split(",")], args.fit_set, args.fit_order)
     names = args.only.split(",") if args.only else ([] if args.variant else list(SWEEPS))
