@@ -37,11 +37,11 @@ parabolic lubrication profile exactly: the steady force stays within 1 % of Bren
 see.  Nothing is gained: f_sim has no weight there.
 
 Remeshing.  gmsh meshes the half-plane around the spheres' new positions; the flow's BDF
-history is carried over by evaluating each old level on the old mesh where that level lived
-and projecting it onto divergence-free fields (transfer.py), which also keeps the fluid's
-momentum.  Every new vertex is given the past positions x - sum_k (z_k^{n+1} - z_k^j) psi_k(x) e_z
-of the new mesh's own motion law, so the nodal time derivative and the mesh velocity stay
-consistent across the remesh.
+history is carried over by evaluating each old level on the old mesh where that level lived, at
+the new mesh's nodes where they were at that level, and projecting it onto divergence-free fields
+(transfer.py), which also keeps the fluid's momentum.  Every new vertex is given the past positions
+x - sum_k (z_k^{n+1} - z_k^j) psi_k(x) e_z of the new mesh's own motion law, so the nodal time
+derivative and the mesh velocity stay consistent across the remesh.
 
 Held spheres (every body held: motion.mode = "fixed", and fixed upper spheres) are solved for
 their steady state directly: steady Navier-Stokes by Newton in a stream (Cd), steady Stokes when
@@ -237,9 +237,12 @@ class AleModel(FlowModel):
             for level, (old_state, new_state) in enumerate(zip(old_flow.states, flow.states)):
                 old_motion.move_to(k.centers[level])
                 before = old_flow.momentum(old_state)
-                interpolate_from(SerialField(old_state, tolerance), new_state)
-                # the new mesh where its own motion law puts it at that time level (if that is a valid mesh)
+                # the new mesh where its own motion law puts it at that time level (if that is a valid mesh), and
+                # only then the old field sampled at its nodes: sampled where the new mesh was built (at t_n+1),
+                # each level's field came out shifted against its sphere by the step's travel (0.05 D at the fd
+                # default; case 3's fall lost 2 % of its speed over three new meshes at delta_sl 0.1)
                 motion.move_to(k.centers[level] if motion.quality(k.centers[level] - at) > 0.0 else center)
+                interpolate_from(SerialField(old_state, tolerance), new_state)
                 interpolated = flow.momentum(new_state)
                 flow.set_boundary_values(k.velocities[level])
                 if projection is None:
