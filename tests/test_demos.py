@@ -23,9 +23,9 @@ PINNED = {
     # sphere, adaptive steps; brenner_drag's steady Stokes solve stays on the fixed mesh) with the surface three times
     # finer than the path, grading 0.2 and cfl 0.4, the held liquid's momentum history as it is, each new mesh
     # sampling the old field where its nodes were at that level (before, a step ahead: tencate_e4 0.120852, li_case3
-    # 0.390193, case7_vorticity 126.056; before that, as the sphere moved: tencate_e4 0.120606, li_case3 0.390845, case7_vorticity 126.286; with the surface twice finer
-    # than the path: sphere_drag 1.09466, tencate_e4 0.120802, li_case3 0.392305, case7_vorticity 127.259; at
-    # surface_refinement 1, grading 0.1, cfl 0.8: sphere_drag 1.09362,
+    # 0.390193, case7_vorticity 126.056; before that, as the sphere moved: tencate_e4 0.120606, li_case3 0.390845,
+    # case7_vorticity 126.286; with the surface twice finer than the path: sphere_drag 1.09466, tencate_e4 0.120802,
+    # li_case3 0.392305, case7_vorticity 127.259; at surface_refinement 1, grading 0.1, cfl 0.8: sphere_drag 1.09362,
     # tencate_e4 0.119247, li_case3 0.390300, case7_vorticity 123.564).  Before it, on the fixed mesh with the
     # refined patch: sphere_drag 1.18462, tencate_e4 0.117974, li_case3 0.377789, case7_vorticity 122.972; with the
     # one-shot penalty: brenner_drag 1.52733, sphere_drag 1.16389, tencate_e4 0.122589, li_case3 0.386940,
