@@ -7,6 +7,8 @@
     python benchmarks/fd_sensitivity.py --fit 6,8,12,16       # order and limit of the ladder's errors (no runs)
     python benchmarks/fd_sensitivity.py --fit 12,16,24 --fit-set numerics.fd.cfl=0.2   # the same with half the step
     python benchmarks/fd_sensitivity.py --fit 8,12,16,24,32 --fit-order 1 --fit-set ...  # the order held at 1
+    python benchmarks/fd_sensitivity.py --cells 32 --step 1 --only default  # the step held at the reference's
+    python benchmarks/fd_sensitivity.py --fit 8,16,32 --fit-step 1          # the mesh's own order (step held)
 
 Li case 3 to the second impact (run.bounces = 2), serial, with one parameter changed at a time from the fd
 default at a fixed resolution; V_i, Re_II, e_1 and the first apex against the converged ALE reference
@@ -33,6 +35,9 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_sensitivity.json"
 # near_wall.py reference: ALE, 16 cells/D, the surface at D / 96, cfl 0.125, each collision resolved in time
 REFERENCE_ROW = "case3-ale16s6-cfl0.125-c0.05"
+# its step, 0.125 (D / 16) / U, as the fd model's cfl at N cells/D (fd: dt = cfl (D / N) / (1.5 U), domain.time_step)
+REFERENCE_STEP_CFL_PER_CELL = 0.125 * 1.5 / 16
+STILL = 0.02  # [%] errors that move less than this across a ladder have no order to fit
 
 # one parameter at a time: name -> the --set values tried (the fd default is the first row, "default")
 SWEEPS = {
@@ -62,11 +67,14 @@ def reference() -> dict:
     return {"V_i": row["V_i"], "Re_II": row["Re_II"], "e_1": row["e_1"], "apex_1": row["apex_1"]}
 
 
-def measure(cells: float, settings: list[str]) -> dict:
-    """One run; a setting "model=NAME" runs that model at its own default resolution instead of fd at `cells`."""
+def measure(cells: float, settings: list[str], step: float | None = None) -> dict:
+    """One run; a setting "model=NAME" runs that model at its own default resolution instead of fd at `cells`;
+    `step`: the fd step held at that many times the reference's, whatever `cells` (numerics.fd.cfl set to it)."""
     model = next((item.split("=", 1)[1] for item in settings if item.startswith("model=")), "fd")
     settings = [item for item in settings if not item.startswith("model=")]
     resolution = [f"numerics.fd.cells_per_diameter={cells:g}"] if model == "fd" else []
+    if step is not None and model == "fd":
+        resolution.append(f"numerics.fd.cfl={step_cfl(cells, step):.6g}")
     overrides = ["run.bounces=2", *resolution, *settings]  # as --set takes them
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -80,17 +88,24 @@ def measure(cells: float, settings: list[str]) -> dict:
     return row
 
 
+def step_cfl(cells: float, step: float) -> float:
+    """The fd model's cfl at `cells` cells/D whose step is `step` times the reference's."""
+    return step * REFERENCE_STEP_CFL_PER_CELL * cells
+
+
 def default_mesh() -> str:
     """The fd default's numerics.fd.mesh (records before it was a setting are the fixed mesh's)."""
     return fb.load("li2011-case3").numerics.fd.mesh
 
 
-def fit(cells: list[float], setting: str | None = None, order: float | None = None) -> None:
+def fit(cells: list[float], setting: str | None = None, order: float | None = None,
+        step: float | None = None) -> None:
     """Print the order p and the limit E_0 of E = E_0 + C h^p (h = D / cells, least squares; exact through three
     levels) for each error, through the latest default row at each of `cells` in the history, on the default's
     mesh, or the latest row run with `setting` (comma-separated key=value, as --variant takes it), against the
     reference as it is now (a row keeps its values, not its errors).  With `order` p is held there (linear least
-    squares; the largest distance of a level from the line is printed)."""
+    squares; the largest distance of a level from the line is printed).  With `step` only the rows run with the
+    step held at that many times the reference's (--step), without it only the rows run at their cfl."""
     from scipy.optimize import curve_fit
 
     latest, mesh = {}, default_mesh()
@@ -98,17 +113,22 @@ def fit(cells: list[float], setting: str | None = None, order: float | None = No
     for record in json.loads(RESULTS.read_text()):
         for row in record["rows"]:
             chosen = row["set"] == wanted if wanted else row["sweep"] == "default"
-            if chosen and "V_i" in row and record.get("mesh", "fixed") == mesh:
+            if (chosen and "V_i" in row and record.get("mesh", "fixed") == mesh
+                    and record.get("step_of_reference") == step):
                 latest[record["cells_per_diameter"]] = (record["date"], row)
     missing = [n for n in cells if n not in latest]
     if missing:
-        raise SystemExit(f"no {setting or 'default'} row at {missing} cells/D in {RESULTS}: run it first")
+        held = "" if step is None else f" with the step at {step:g} times the reference's"
+        raise SystemExit(f"no {setting or 'default'} row{held} at {missing} cells/D in {RESULTS}: run it first")
     h = 1.0 / np.array(cells)
     print("cells/D: " + ", ".join(f"{n:g} ({latest[n][0]})" for n in cells))
     ref = reference()
     for key in ref:
         errors = np.array([100.0 * (latest[n][1][key] / ref[key] - 1.0) for n in cells])
         listed = " / ".join(f"{e:+.2f}" for e in errors)
+        if np.ptp(errors) < STILL:  # nothing to fit an order to
+            print(f"{key:6s} errors {listed} %: moves by {np.ptp(errors):.3f} % across the levels (below {STILL} %)")
+            continue
         if order is not None:
             basis = np.column_stack([np.ones_like(h), (h / h[0]) ** order])
             (limit, slope), *_ = np.linalg.lstsq(basis, errors, rcond=None)
@@ -134,25 +154,38 @@ def main() -> None:
     parser.add_argument("--fit-order", type=float, help="with --fit: hold the order there (e.g. 1)")
     parser.add_argument("--fit-set", help="with --fit: the rows run with these settings instead (e.g. "
                         "numerics.fd.cfl=0.2)")
+    parser.add_argument("--step", type=float, help="hold the fd step at this many times the reference's (0.125 D / "
+                        "16 / U) at any --cells: numerics.fd.cfl = step * 0.1875 * cells / 16")
+    parser.add_argument("--fit-step", type=float, help="with --fit: the rows run with --step at this value")
     args = parser.parse_args()
+    for name, value in (("--step", args.step), ("--fit-step", args.fit_step)):
+        if value is not None and not value > 0:
+            parser.error(f"{name} {value:g}: the step factor must be above 0 (1: the reference's step)")
     if args.fit_order is not None and not args.fit_order > 0:
         parser.error(f"--fit-order {args.fit_order:g}: the order must be above 0 (e.g. 1)")
     if args.fit:
-        return fit([float(n) for n in args.fit.split(",")], args.fit_set, args.fit_order)
+        return fit([float(n) for n in args.fit.split(",")], args.fit_set, args.fit_order, args.fit_step)
     names = args.only.split(",") if args.only else ([] if args.variant else list(SWEEPS))
     names = [name for name in names if name != "default"]
     rows = [] if args.no_default else [("default", [])]
     rows += [(name, setting.split(",")) for name in names for setting in SWEEPS[name]]
     rows += [("variant", variant.split(",")) for variant in args.variant]
+    if args.step is not None:
+        clash = [",".join(settings) for _, settings in rows if any(s.startswith("numerics.fd.cfl=") for s in settings)]
+        if clash:
+            parser.error(f"--step holds numerics.fd.cfl (at {step_cfl(args.cells, args.step):.4g} here): drop the "
+                         f"rows that set it ({'; '.join(clash)}), e.g. --only with other sweeps")
     ref = reference()
     record = {**stamp(), "load_1min": os.getloadavg()[0], "cells_per_diameter": args.cells, "mesh": default_mesh(),
               "reference": ref, "rows": []}
+    if args.step is not None:
+        record["step_of_reference"] = args.step
     print(f"reference (ALE {REFERENCE_ROW}): " + ", ".join(f"{k} {v:.4g}" for k, v in ref.items()))
     print(f"{'sweep':16s} {'setting':48s} " + " ".join(f"{k:>7s}" for k in ("V_i", "Re_II", "e_1", "apex", "steps"))
           + f" {'wall':>7s}")
     for name, settings in rows:
         start = time.perf_counter()
-        row = measure(args.cells, settings)
+        row = measure(args.cells, settings, args.step)
         row["sweep"] = name
         record["rows"].append(row)
         errors = [100.0 * (row[k] / ref[k] - 1.0) if k in row else float("nan") for k in ref]
