@@ -41,18 +41,18 @@ STILL = 0.02  # [%] errors that move less than this across a ladder have no orde
 
 # one parameter at a time: name -> the --set values tried (the fd default is the first row, "default")
 SWEEPS = {
-    "cfl": ["numerics.fd.cfl=0.8", "numerics.fd.cfl=0.2"],
+    "cfl": ["numerics.fd.cfl=1.6", "numerics.fd.cfl=0.4"],  # the step doubled and halved (the default: 0.8)
     "mesh": ["numerics.fd.mesh=fixed"],  # the fixed mesh at the same fine size (the default before the moving one)
     "collision_steps": ["numerics.fd.min_step_factor=0.0125", "numerics.fd.gap_fraction=0.2"],
-    "constant_step": ["numerics.fd.adaptive_step=false", "numerics.fd.adaptive_step=false,numerics.fd.cfl=0.2"],
+    "constant_step": ["numerics.fd.adaptive_step=false", "numerics.fd.adaptive_step=false,numerics.fd.cfl=0.4"],
     "penalty_strength": ["numerics.fd.penalty_strength=1e4", "numerics.fd.penalty_strength=1e6"],
     "interface_width": ["numerics.fd.interface_width=1", "numerics.fd.interface_width=4"],
     "delta_sl": ["contact.delta_sl=0.1", "contact.delta_sl=0.3"],
     "far_field": ["numerics.fd.far_field=20"],
-    # the moving mesh's surface triangles 1.5 times coarser (the default before: D / 16) and 1.33 times finer
-    "surface": ["numerics.fd.surface_refinement=2", "numerics.fd.surface_refinement=4"],
-    # the path's triangles 1.5 times finer, the surface's as the default's (at the default 8 cells/D: D / 24)
-    "path": ["numerics.fd.cells_per_diameter=12,numerics.fd.surface_refinement=2"],
+    # the moving mesh's surface triangles 1.25 times coarser and 1.2 times finer (the default 5: D / 40)
+    "surface": ["numerics.fd.surface_refinement=4", "numerics.fd.surface_refinement=6"],
+    # the path's triangles 1.5 times finer, the surface's as the default's (at the default 8 cells/D: D / 40)
+    "path": ["numerics.fd.cells_per_diameter=12,numerics.fd.surface_refinement=3.33333"],
     "grading": ["numerics.fd.grading=0.1"],  # the moving mesh's growth away from the fine region, as the fixed one's
     # the one-shot penalty, the default before issue 41 (its own sweeps: forcing_number, cfl, radius_offset)
     "penalty": ["numerics.fd.mesh=fixed,numerics.fd.constraint=penalty,numerics.fd.patch=false"],

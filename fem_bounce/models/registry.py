@@ -31,7 +31,7 @@ class ModelInfo:
     # (key, value) pairs a study's reference run adds, as near_wall.py's reference has them: the ale model's steps
     # shortened through each collision (its default keeps one step length, which spans the 50 us contact: case 3's
     # apex 2.4 % high) and its surface three times finer (its default's D / 16, coarser than the fd default's
-    # D / 24, puts the apex 3 % high; docs/validation.md section 1)
+    # D / 40, puts the apex 3 % high; docs/validation.md section 1)
     reference_settings: tuple = ()
     checkpoint_every_key: str | None = None  # writes checkpoints (and so restarts) when set
     checkpoint_files: tuple = ()  # the data files every whole checkpoint holds
