@@ -177,9 +177,7 @@ def main() -> None:
                          f"rows that set it ({'; '.join(clash)}), e.g. --only with other sweeps")
     ref = reference()
     record = {**stamp(), "load_1min": os.getloadavg()[0], "cells_per_diameter": args.cells, "mesh": default_mesh(),
-              "reference": ref, "rows": []}
-    if args.step is not None:
-        record["step_of_reference"] = args.step
+              "reference": ref, "rows": [], **({} if args.step is None else {"step_of_reference": args.step})}
     print(f"reference (ALE {REFERENCE_ROW}): " + ", ".join(f"{k} {v:.4g}" for k, v in ref.items()))
     print(f"{'sweep':16s} {'setting':48s} " + " ".join(f"{k:>7s}" for k in ("V_i", "Re_II", "e_1", "apex", "steps"))
           + f" {'wall':>7s}")
