@@ -53,7 +53,7 @@ class FdNumerics:
     # the surface's size, not the path's: converged in the step, case 3 with D / 12 on the surface is the same
     # within 0.3 % with D / 8, 10 or 12 along the path; the rebound asks for a finer surface than the impact: case
     # 3's first apex is +4.1 / +2.8 / +2.3 / +2.0 % off the reference at 2 / 3 / 4 / 5 (D / 16 to D / 40; cfl 0.4), and
-    # at 5 with cfl 0.8 (the default) every error is within 1.9 % in 0.85 times the ib model's time
+    # at 5 with cfl 0.8 (the default) every error is within 1.9 % in 0.82-0.91 times the ib model's time
     # (docs/validation.md section 12)
     surface_refinement: float = _setting(5.0, 1.0, 16.0)
     min_quality: float = _setting(0.3, 0.01, 0.9)

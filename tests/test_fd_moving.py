@@ -115,7 +115,7 @@ def test_a_launched_sphere_slows_as_the_boundary_fitted_one(tmp_path):
     at once and then slows monotonically, the penalised sphere as the no-slip hole on the same mesh within 1 %
     (measured 0.4 %).  The liquid inside it starts at rest: charged to the sphere, that liquid's momentum took 6 %
     of its speed, and BDF2 across the liquid's jump then left it 3 % too fast (models/fd/moving.py); started at the
-    cfl step, the default's cfl 0.8 took the first 3 ms in one step, 1.3 % too fast (AleModel.first_step)."""
+    cfl step, the default's cfl 0.8 took the first 3 ms in one step, 1.3 % too fast (moving.py first_step)."""
     sc = scene.load("li2011-case3", {"gravity": 0.0, "initial_velocity": -0.3, "initial_gap": 0.03,
                                      "run.end_time": 0.003, "numerics.fd.cells_per_diameter": 6,
                                      "numerics.ale.cells_per_diameter": 6, "numerics.ale.cfl": 0.125})
