@@ -55,6 +55,7 @@ CASES = {
     "ode-pair": ("yang-hunt2006-pair", "ode", {}),
     "ode-pair-wall": ("pair-settling-wall", "ode", {}),
     "fd-pair": ("yang-hunt2006-pair", "fd", {"numerics.fd.cells_per_diameter": 12, "numerics.fd.constraint": "penalty",
+                                              "numerics.fd.mesh": "fixed",
                                               "numerics.fd.checkpoint_every": 0}),
     "ale-pair": ("yang-hunt2006-pair", "ale", {"numerics.ale.cells_per_diameter": 6}),
     # three spheres (issue 25): through the first wall and pair collisions
@@ -188,7 +189,8 @@ def main() -> int:
     if args.found:
         found = {name: run for name, run in json.loads(args.found.read_text()).items() if name in names}
     else:
-        found = {name: fingerprint(name) for name in names}
+        # through JSON as a record is, so that a tuple compares with the list a record holds
+        found = json.loads(json.dumps({name: fingerprint(name) for name in names}))
     if args.compare is None:
         print(json.dumps(found, indent=1))
         return 0

@@ -27,31 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .bodies import scene_bodies
-from .integrator import FluidForce
-
-
-@dataclass(frozen=True)
-class Prediction:
-    """Where the bodies will be at the end of the coming fluid step: from their gaps now, the step and
-    their mean velocities over the step, 1.5 V_n - 0.5 V_{n-1} (Adams-Bashforth 2) [SI].
-
-    Every per-body value is an array over the bodies on the axis, sphere 1 (the lowest) first: each
-    one's lowest point above z = 0 and its velocity; `flow_gaps` says where a resolved flow places them."""
-
-    time: float  # t_n [s]
-    gaps_now: np.ndarray  # h_i(t_n) [m]
-    velocities_now: np.ndarray  # V_i(t_n) [m/s]
-    dt: float  # [s]
-    mean_velocities: np.ndarray  # over [t_n, t_n + dt] [m/s]
-
-    @property
-    def gaps(self) -> np.ndarray:
-        """h_i(t_n + dt) [m]."""
-        return self.gaps_now + self.dt * self.mean_velocities
-
-    def centers(self, radii) -> np.ndarray:
-        """The sphere centres' heights at t_n + dt [m], for the spheres' `radii` [m]."""
-        return np.asarray(radii, dtype=float) + self.gaps_now + self.dt * self.mean_velocities
+from .kinematics import FluidForce, Prediction
 
 
 def flow_gaps(gaps, diameters, holds, held=None) -> np.ndarray:

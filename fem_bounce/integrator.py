@@ -23,7 +23,7 @@ the paper's blend, f_sl = H f_thr + (1 - H) f_sim.  A held ("fixed") or prescrib
 motion (bodies.Body.prescribed).
 
 Everything is one implicit system G(t, y, y') = 0 with y = [h_1, V_1, s_1, V_2, s_2, V_3, ..., z_1...,
-z_2..., ...] for an adaptive Rosenbrock-W integrator (TSROSW) whose steps sub-cycle inside a fluid step:
+z_2..., ...] (the layout is kinematics.AxisKinematics's, read nowhere else) for an adaptive Rosenbrock-W integrator (TSROSW) whose steps sub-cycle inside a fluid step:
 the elastic contact lasts tens of microseconds, a fluid step a millisecond.  The gaps, not the heights,
 are integrated so that the relative tolerance governs them near contact (an error of rtol h_2 would
 exceed the film).  Its Jacobian is exact, assembled from each force term's own derivatives (ForceTerms);
@@ -56,6 +56,7 @@ from .bounces import BounceRecord, Impact, Rebound
 from .contact import ContactModel
 from .ehd import FilmError
 from .errors import RunDiverged
+from .kinematics import AxisKinematics, FluidForce
 from .pair_contact import PairContactModel
 from .scene import Scene
 from .theory import TheoryForces
@@ -69,15 +70,6 @@ STALL_FRACTION = 1e-3  # of the launch speed: a sphere without gravity slower th
 # zero.  One sphere's run ends when it rests (ContactLaw.resting), so its rate is watched as it is.
 TURNING_OFFSET = 1e-9
 RESTART_STEP = 1e-7  # time units: the first step after an event, a film collision's jump or a step PETSc left at 0
-
-
-@dataclass(frozen=True)
-class FluidForce:
-    """A resolved model's forces on the N bodies over one fluid step [N, kg]:
-    f_sim,i = explicit_i - sum_j added_mass_ij dV_j/dt, `explicit` of shape (N,), `added_mass` (N, N)."""
-
-    explicit: np.ndarray
-    added_mass: np.ndarray
 
 
 class PenetrationError(RuntimeError):
@@ -96,11 +88,7 @@ class Contact:
     model: ContactModel | PairContactModel
     record: BounceRecord
     name: str
-
-    @property
-    def gap_index(self) -> int:
-        """Where its gap is in the state y."""
-        return 2 * self.upper
+    gap_index: int  # where its gap is in the state y (AxisKinematics.gap_index of `upper`)
 
     @property
     def law(self):
@@ -158,6 +146,7 @@ class BodyIntegrator:
         self.resolved = resolved  # f_sim comes from a flow solver (else f_sim = f_thr)
         self.bodies: tuple[Body, ...] = scene_bodies(scene)
         count = len(self.bodies)
+        self.kinematics = layout = AxisKinematics([b.diameter for b in self.bodies])
         self.free = np.array([b.free for b in self.bodies])
         self.held = np.array([b.held for b in self.bodies])  # its gap does not change
         self.masses = np.array([b.mass for b in self.bodies])
@@ -169,30 +158,29 @@ class BodyIntegrator:
         self.uses_theory = not resolved or scene.near_wall_law == "blend"  # f_thr enters the balance
         # the history modes of each sphere (none with a resolved flow: its flow carries the history)
         self.n_history = tuple(th.n_history if self.uses_theory else 0 for th in self.theories)
-        ends = 2 * count + np.cumsum(self.n_history, dtype=int)  # in y, after the gaps and velocities
+        ends = layout.size + np.cumsum(self.n_history, dtype=int)  # in y, after the gaps and velocities
         self._mode_slices = [slice(int(end) - modes, int(end)) for end, modes in zip(ends, self.n_history)]
         self._drag_scaled_history = scene.contact.history_wall_factor == "drag-scaled"
         self._pause_history = scene.contact.history_across_contact == "pause"
-        self.fluid = FluidForce(np.zeros(count), np.zeros((count, count)))
+        self.fluid = FluidForce.none(count)
         self.observers: list[Callable[[dict], None]] = []
         self.contacts: list[Contact] = []
         for k in range(count - 1):
             pair = PairContactModel(scene, resolved, lower=k)
             name = "pair" if count == 2 else f"pair_{k + 1}{k + 2}"
             self.contacts.append(Contact(k, k + 1, pair, BounceRecord(
-                scene, pair, stop_after_impacts, numbers=pair.numbers, separating=True), name))
+                scene, pair, stop_after_impacts, numbers=pair.numbers, separating=True), name, layout.gap_index(k + 1)))
         if self.contact is not None:
             # without gravity a rebound ends where the gap passes delta_sl outward
             self.contacts.append(Contact(None, 0, self.contact, BounceRecord(
-                scene, self.contact, stop_after_impacts, separating=scene.gravity == 0.0), "wall"))
+                scene, self.contact, stop_after_impacts, separating=scene.gravity == 0.0), "wall",
+                layout.gap_index(0)))
         self.wall = self.contacts[-1] if self.contact is not None else None
         self.pair_contacts = [c for c in self.contacts if c.lower is not None]  # bottom up: pair k below sphere k + 1
         # what the force terms and the residual reuse at every call (ForceTerms, forces, residual)
         self._terms = ForceTerms(count)
-        self._diameters = [b.diameter for b in self.bodies]
         self._rate_slope_array = np.where(self.held, 0.0, 1.0)  # d(dh_k/dt)/dV_k
         self._rate_slopes = self._rate_slope_array.tolist()
-        self._gap_columns, self._velocity_columns = np.arange(0, 2 * count, 2), np.arange(1, 2 * count, 2)
         self._adjacent_pairs = [[j for j in (k - 1, k) if 0 <= j < count - 1] for k in range(count)]
         self._wall_films: list[tuple] = [()] * count  # each sphere's (gap, share, d gap, d share) of the last `forces`
         self._pair_films: list[tuple] = [()] * max(count - 1, 0)  # each pair's
@@ -212,7 +200,7 @@ class BodyIntegrator:
     @property
     def n(self) -> int:
         """The number of unknowns: a gap and a velocity per sphere, and the history modes."""
-        return 2 * len(self.bodies) + sum(self.n_history)
+        return self.kinematics.size + sum(self.n_history)
 
     @property
     def pairs(self) -> list[PairContactModel]:
@@ -227,11 +215,9 @@ class BodyIntegrator:
 
     # -- the implicit system ------------------------------------------------------------
     def _build_ts(self) -> None:
-        opts, n = self.scene.numerics.ode, self.n
-        start = []
-        for k, body in enumerate(self.bodies):
-            gap = body.initial_gap if k == 0 else body.sphere.gap
-            start += [gap, body.start_velocity]
+        opts, n, layout = self.scene.numerics.ode, self.n, self.kinematics
+        start = layout.state([body.initial_gap if k == 0 else body.sphere.gap for k, body in enumerate(self.bodies)],
+                             [body.start_velocity for body in self.bodies])
         self.y = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
         self.y.setArray(np.r_[start, np.zeros(n - len(start))])
         self._residual_out = np.zeros(n)
@@ -240,9 +226,10 @@ class BodyIntegrator:
         # history modes, and the modes' diagonal.  Sparse, so that LU (nested dissection) eliminates the
         # modes at no fill: a dense LU of five spheres' 180 unknowns cost 15 times more per step.
         pattern = np.zeros((n, n), dtype=bool)
-        pattern[:2 * len(self.bodies), :2 * len(self.bodies)] = True
+        pattern[:layout.size, :layout.size] = True
         for k, modes in enumerate(self._mode_slices):
-            pattern[2 * k + 1, modes] = pattern[modes, 2 * k + 1] = True
+            velocity = layout.velocity_index(k)
+            pattern[velocity, modes] = pattern[modes, velocity] = True
             pattern[modes, modes] = np.eye(modes.stop - modes.start, dtype=bool)
         rows, columns = np.nonzero(pattern)
         indptr = np.r_[0, np.cumsum(pattern.sum(axis=1))].astype(PETSc.IntType)
@@ -315,14 +302,7 @@ class BodyIntegrator:
 
     def _rates(self, y) -> np.ndarray:
         """dh_i/dt: a held sphere's gap stays (its surface may still move: motion.mode = "fixed")."""
-        return self._rate_slope_array * y[1:2 * len(self.bodies):2]
-
-    def _heights(self, y) -> np.ndarray:
-        """Each sphere's lowest point above z = 0 [m] from the state's gaps."""
-        heights = [y[0]]
-        for k in range(1, len(self.bodies)):
-            heights.append(heights[-1] + self.bodies[k - 1].diameter + y[2 * k])
-        return np.array(heights)
+        return self._rate_slope_array * self.kinematics.velocities(y)
 
     def forces(self, t: float, y) -> ForceTerms:
         """Every force term at the state y [SI] with its derivatives (ForceTerms; the object is reused: read it
@@ -333,26 +313,23 @@ class BodyIntegrator:
         The last state's terms are kept: the Rosenbrock step evaluates its Jacobian and its first stage at
         the state it starts from, which the previous step's trajectory row has seen (4 evaluations a step
         instead of 6).  The forces depend on y and on what each contact fixed when it began, not on t."""
-        f, count = self._terms, len(self.bodies)
+        f, count, layout = self._terms, len(self.bodies), self.kinematics
         contact_states = tuple(contact.record.engaged_now for contact in self.contacts)
         state = y.tobytes()
         if contact_states == self._forces_engaged and state == self._forces_state:
             return f
         self._forces_engaged = None  # until the terms below are whole
         f.clear()
-        v = f.velocities = y[1:2 * count:2].tolist()
+        v = f.velocities = layout.velocities(y).tolist()
         rate_slopes = self._rate_slopes  # dr_k/dV_k: 0 for a held sphere, whose gap stays
         rates = [v[k] * rate_slopes[k] for k in range(count)]
-        heights = f.heights
-        heights[0] = float(y[0])
-        for k in range(1, count):
-            heights[k] = heights[k - 1] + self._diameters[k - 1] + float(y[2 * k])
+        heights = f.heights = layout.heights(y)
         wall = self.wall
         if self.resolved:  # f_sim from the flow, f_thr only in the paper's blend on sphere 1
             f.blend = [0.0] * count
             if self.uses_theory and self.contact is not None:
                 f.blend[0], slope = self.contact.blend_slope(heights[0])
-                f.blend_slopes.append((0, 0, slope))
+                f.blend_slopes.append((0, layout.gap_index(0), slope))
         slopes = f.theory_slopes
         for k, theory in enumerate(self.theories):
             # the wall as this sphere sees it: (gap, share of the lubrication left, their d/d height)
@@ -362,7 +339,7 @@ class BodyIntegrator:
                 film = (heights[k], 1.0, 1.0, 0.0)
             self._wall_films[k] = film
             gap, share, gap_slope, share_slope = film
-            velocity = 2 * k + 1  # V_k's column
+            velocity = layout.velocity_index(k)
             drag, d_gap, d_share, d_velocity = theory.drag_slopes(gap, v[k], share)
             f.drag[k] = drag
             d_height = d_gap * gap_slope + d_share * share_slope
@@ -391,9 +368,11 @@ class BodyIntegrator:
             gap, share, gap_slope, share_slope = self._wall_films[0]
             force, mass, d_gap, d_share, d_velocity, d_mass = self.contact.correction_slopes(gap, v[0], share)
             f.correction[0] += force
-            f.other_slopes += [(0, 0, d_gap * gap_slope + d_share * share_slope), (0, 1, d_velocity)]
+            gap_column, velocity_column = layout.gap_index(0), layout.velocity_index(0)
+            f.other_slopes += [(0, gap_column, d_gap * gap_slope + d_share * share_slope),
+                               (0, velocity_column, d_velocity)]
             f.correction_mass[0] += mass
-            f.correction_mass_slopes.append((0, 0, d_mass * gap_slope))
+            f.correction_mass_slopes.append((0, gap_column, d_mass * gap_slope))
         self._forces_state, self._forces_engaged = state, contact_states
         return f
 
@@ -404,7 +383,7 @@ class BodyIntegrator:
         pair, both = contact.model, (lower, upper)
         film = self._pair_films[lower] = pair.law.film_slopes(gap, contact.record.engaged_now)
         gap, share, gap_slope, share_slope = film
-        velocities = (2 * lower + 1, 2 * upper + 1)  # columns of V_lower, V_upper
+        velocities = (self.kinematics.velocity_index(lower), self.kinematics.velocity_index(upper))
         values, d_gap, d_share, d_velocity = pair.interaction_slopes(gap, v[lower], v[upper], share)
         for i, k in enumerate(both):
             f.pair[k] += values[i]
@@ -458,21 +437,21 @@ class BodyIntegrator:
                                                                       + (resistance[side] - 1.0) * share_slope)))
         f.history[k] = -factor * memory
         f.theory[k] -= factor * memory
-        f.theory_slopes.append((k, 2 * k + 1, -factor * memory_slope))
+        f.theory_slopes.append((k, self.kinematics.velocity_index(k), -factor * memory_slope))
         f.history_factors[k] = factor
 
     def _contact_force(self, f: ForceTerms, contact: Contact, gap: float, rates: list, engaged: float) -> None:
         """A contact's elastic force (ContactLaw.force), pushing its two surfaces apart, into f."""
-        lower, upper = contact.lower, contact.upper
+        lower, upper, layout = contact.lower, contact.upper, self.kinematics
         push, d_gap, d_rate = contact.law.force_slopes(gap, contact.rate(rates), engaged)
         for k, sign in ((upper, 1.0), (lower, -1.0)):  # equal and opposite
             if k is None:
                 continue
             f.elastic[k] += sign * push
             f.other_slopes += [(k, contact.gap_index, sign * d_gap),
-                               (k, 2 * upper + 1, sign * d_rate * self._rate_slopes[upper])]
+                               (k, layout.velocity_index(upper), sign * d_rate * self._rate_slopes[upper])]
             if lower is not None:
-                f.other_slopes.append((k, 2 * lower + 1, -sign * d_rate * self._rate_slopes[lower]))
+                f.other_slopes.append((k, layout.velocity_index(lower), -sign * d_rate * self._rate_slopes[lower]))
 
     def _balance(self, t: float, f: ForceTerms) -> tuple[np.ndarray, np.ndarray]:
         """(M, R): the equations of motion read M dV/dt = R (a held or prescribed sphere's row: its
@@ -494,14 +473,15 @@ class BodyIntegrator:
         """G(t, y, y') of the implicit system (module docstring): the gaps' rates, the equations of motion
         M dV/dt - R and the history modes z' - dV/dt + z / T.  Returns the integrator's own array, rewritten by
         the next call."""
-        count = len(self.bodies)
+        layout = self.kinematics
         mass, rhs = self._balance(t, self.forces(t, y))
         out, rates = self._residual_out, self._rates(y)
-        accelerations = ydot[1:2 * count:2]
-        out[0:2 * count:2] = ydot[0:2 * count:2] - rates
-        out[2:2 * count:2] += rates[:-1]  # a pair gap's rate is the upper sphere's less the lower's
-        out[1:2 * count:2] = mass @ accelerations - rhs
-        modes = slice(2 * count, None)  # every sphere's, each z' - dV/dt + z / T
+        gaps, velocities = layout.gap_slice, layout.velocity_slice
+        accelerations = ydot[velocities]
+        out[gaps] = ydot[gaps] - rates
+        out[layout.gap_columns[1:]] += rates[:-1]  # a pair gap's rate is the upper sphere's less the lower's
+        out[velocities] = mass @ accelerations - rhs
+        modes = slice(layout.size, None)  # every sphere's, each z' - dV/dt + z / T
         taken_in = accelerations if not self._pause_history else self._remembering() * accelerations
         out[modes] = ydot[modes] - taken_in[self._mode_owners] + y[modes] / self._all_mode_times
         return out
@@ -521,13 +501,13 @@ class BodyIntegrator:
         """dG/dy + shift dG/dy' at (t, y, y'), exact: the gaps' and the history modes' rows are linear; the
         equations of motion's are the force terms' own derivatives (ForceTerms) and the added masses'
         d(M dV/dt)/dy.  Dense (n, n); the solver keeps only its nonzero pattern."""
-        count, n = len(self.bodies), self.n
+        count, n, layout = len(self.bodies), self.n, self.kinematics
         f = self.forces(t, y)
         mass, _ = self._balance(t, f)
-        accelerations = np.asarray(ydot[1:2 * count:2]).tolist()
+        accelerations = np.asarray(layout.velocities(ydot)).tolist()
         blend = f.blend
         # d(M dV/dt - R)/dy of the velocity rows, R = blend f_thr + (1 - blend) f_sim + the rest
-        motion = np.zeros((count, 2 * count))
+        motion = np.zeros((count, layout.size))
         for k, column, slope in f.theory_slopes:
             motion[k, column] -= blend[k] * slope
         for k, column, slope in f.other_slopes:
@@ -543,23 +523,24 @@ class BodyIntegrator:
                 motion[k, column] += slope * ((theory_mass - added_mass[k]) @ accelerations
                                               - (f.theory[k] - explicit[k]))
         for k in range(count):  # through the sphere's height, every gap below it
-            motion[k, 0:2 * k + 1:2] += blend[k] * (f.theory_mass_height_slopes[k] * accelerations[k]
+            motion[k, layout.gaps_below(k)] += blend[k] * (f.theory_mass_height_slopes[k] * accelerations[k]
                                                     - f.theory_height_slopes[k])
         motion[self._imposed] = 0.0
         jac = np.zeros((n, n))
-        gaps, velocities = self._gap_columns, self._velocity_columns
+        gaps, velocities = layout.gap_columns, layout.velocity_columns
         jac[gaps, gaps] = shift
         jac[gaps, velocities] = -self._rate_slope_array
         jac[gaps[1:], velocities[:-1]] = self._rate_slope_array[:-1]
-        jac[velocities, :2 * count] = motion
+        jac[velocities, :layout.size] = motion
         jac[np.ix_(velocities, velocities)] += shift * mass
         remember = self._remembering()
         for k, modes in enumerate(self._mode_slices):
             if modes.stop > modes.start:
+                velocity = layout.velocity_index(k)
                 if self.free[k]:  # -dR/dz: R holds blend f_H = -blend K c . z
-                    jac[2 * k + 1, modes] = blend[k] * f.history_factors[k] * self.theories[k].history_coefficients(
+                    jac[velocity, modes] = blend[k] * f.history_factors[k] * self.theories[k].history_coefficients(
                         f.velocities[k])
-                jac[modes, 2 * k + 1] = -shift * remember[k]
+                jac[modes, velocity] = -shift * remember[k]
                 jac[modes, modes] = np.diag(shift + 1.0 / self._mode_times[k])
         return jac
 
@@ -584,7 +565,8 @@ class BodyIntegrator:
         for contact in self.contacts:
             moving = [k for k in (contact.lower, contact.upper) if k is not None and self.free[k]]
             if not moving and contact.lower is None:  # an imposed path that reaches the wall is an error in it
-                events.append((contact, "path", lambda y, rates: y[0] / self.bodies[0].diameter, -1, True))
+                events.append((contact, "path", lambda y, rates, i=contact.gap_index: y[i] / self.bodies[0].diameter,
+                               -1, True))
             if not moving:
                 continue
             length, law, index = contact.model.diameter, contact.law, contact.gap_index  # D or 2a*
@@ -690,7 +672,7 @@ class BodyIntegrator:
             decay = np.exp(-duration / taus)
             remembered = 0.0 if self._pause_history else (v_end - v) * taus / duration * (1.0 - decay)
             state[history] = state[history] * decay + remembered
-        state[0], state[1] = h_end, v_end
+        state[self.wall.gap_index], state[self.kinematics.velocity_index(0)] = h_end, v_end
         self.y.setArray(state)
         # A fresh TS: PETSc 3.18's event handler keeps the interval of the terminated event, and a solve
         # resumed at a later time bisected it forever (dt stuck at 3e-9 s, measured).
@@ -741,9 +723,9 @@ class BodyIntegrator:
             reason = f"{everyone} came to rest on the wall at t = {t:.6g} s"
         elif all(abs(c.rate(rates)) < self._stall_speed and not c.record.in_contact
                  and y[c.gap_index] < c.model.blend_gap for c in contacts):
-            reason = (f"the sphere stalled in the lubrication film at t = {t:.6g} s (gap "
-                      f"{y[0] / self.bodies[0].diameter:.3g} D, speed below {STALL_FRACTION:g} of its launch "
-                      "speed, no gravity to bring it back)")
+            gap = y[self.wall.gap_index] / self.bodies[0].diameter
+            reason = (f"the sphere stalled in the lubrication film at t = {t:.6g} s (gap {gap:.3g} D, speed below "
+                      f"{STALL_FRACTION:g} of its launch speed, no gravity to bring it back)")
         else:
             return
         for c in contacts:
@@ -752,7 +734,8 @@ class BodyIntegrator:
 
     def _inertia(self, y) -> np.ndarray:
         """Each sphere's mass and added mass at the state y [kg]."""
-        return self.masses + np.array([th.added_mass(h)[0] for th, h in zip(self.theories, self._heights(y))])
+        return self.masses + np.array([th.added_mass(h)[0] for th, h in zip(self.theories,
+                                                                              self.kinematics.heights(y))])
 
     def _landing(self, contact: Contact, y, speed: float) -> bool:
         """Whether the wall contact entered at `speed` [m/s] is the free column settling onto the wall
@@ -836,12 +819,12 @@ class BodyIntegrator:
     @property
     def gaps(self) -> np.ndarray:
         """Each sphere's lowest point above z = 0 [m], sphere 1 first."""
-        return self._heights(self._state())
+        return np.array(self.kinematics.heights(self._state()))
 
     @property
     def velocities(self) -> np.ndarray:
         """Each sphere's velocity, positive upward [m/s]."""
-        return self._state()[1:2 * len(self.bodies):2].copy()
+        return self.kinematics.velocities(self._state()).copy()
 
     def _report(self, t: float, y) -> None:
         """Hand the observers the row of the state y at t."""

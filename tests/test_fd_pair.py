@@ -9,7 +9,7 @@ import pytest
 from mpi4py import MPI
 
 from fem_bounce import pair_theory, scene
-from fem_bounce.flow_model import Prediction
+from fem_bounce.kinematics import Prediction
 from fem_bounce.models.fd.model import FictitiousDomainModel
 
 

@@ -9,7 +9,8 @@ import pytest
 from mpi4py import MPI  # noqa: F401  (loads MPI before PETSc)
 
 from fem_bounce import scene as scenes
-from fem_bounce.integrator import BodyIntegrator, FluidForce
+from fem_bounce.integrator import BodyIntegrator
+from fem_bounce.kinematics import FluidForce
 
 D = 0.0095  # the presets' sphere diameter [m]
 FLOW_1 = FluidForce(np.array([0.01]), np.array([[0.002]]))

@@ -29,6 +29,7 @@ LAYERS = {
     "fem_bounce.scene": SCENE,
     "fem_bounce.motion": BODIES,
     "fem_bounce.bodies": BODIES,
+    "fem_bounce.kinematics": BODIES,
     # the liquid's theory, the contact law, the film collision
     "fem_bounce.theory": PHYSICS,
     "fem_bounce.pair_theory": PHYSICS,

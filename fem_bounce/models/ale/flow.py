@@ -51,7 +51,7 @@ dF_i/dU_j = -2 pi a(x_unit,j, phi_i), an N x N matrix.  The stress integral over
 as a diagnostic.
 
 Per-sphere quantities (velocities, forces) are arrays over the spheres, sphere 1 (the lowest) first,
-as in the FlowModel interface (flow_model.Prediction).
+as in the FlowModel interface (kinematics.Prediction).
 
 Boundaries are named by the mesh's facet tags: "no-slip", "slip", "inflow" (u = (0, U_in)),
 "outflow" (do nothing); the axis has u_r = 0.  When every side fixes the normal velocity

@@ -64,8 +64,8 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import SPHERE_TAGS, check_size, create_mesh
 from ...fem.solver import SolverError
 from ...errors import RunDiverged
-from ...flow_model import FlowModel, Prediction, flow_gaps, nearest_gap
-from ...integrator import FluidForce
+from ...flow_model import FlowModel, flow_gaps, nearest_gap
+from ...kinematics import FluidForce, Prediction
 from ...output import CheckpointError, body_array, per_body, segment_path
 from ...motion import is_stream
 from ...scene import pair_diameter

@@ -39,11 +39,11 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import check_size, create_mesh
 from ...fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel, Prediction, StepLimits, flow_gaps, nearest_gap, steps_to
+from ...flow_model import FlowModel, StepLimits, flow_gaps, nearest_gap, steps_to
+from ...kinematics import FluidForce, Prediction
 from ...motion import is_stream
 from ...output import CheckpointError, body_array, per_body, segment_path
 from ...scene import SceneError, pair_diameter
-from ...integrator import FluidForce
 from . import coupling
 from .domain import Domain, domain_for, patch_center, penalty_rate, time_step
 from .fields import FieldWriter

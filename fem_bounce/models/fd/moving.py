@@ -27,7 +27,7 @@ from mpi4py import MPI
 from ...fem.domain import speed_scale
 from ...fem.mesh import SPHERE_TAGS
 from ...flow_model import StepLimits
-from ...integrator import FluidForce
+from ...kinematics import FluidForce
 from ...scene import SceneError
 from ..ale.model import AleModel
 from ..ale.motion import MeshMotion

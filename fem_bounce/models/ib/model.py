@@ -43,11 +43,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from ...errors import RunDiverged
-from ...flow_model import FlowModel, Prediction
+from ...flow_model import FlowModel
+from ...kinematics import FluidForce, Prediction
 from ...motion import is_free, is_held, series_speed
 from ...output import CheckpointError
 from ...scene import SceneError
-from ...integrator import FluidForce
 from .body import SphereSurface
 from .delta import SUPPORT, interpolation_matrix
 from .domain import build_grid
