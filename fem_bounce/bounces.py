@@ -1,7 +1,7 @@
 """The run's account of the bounces: the sphere integrator's events (the gap crossing the contact gap
 and delta_sl, the velocity changing sign) turned into Impact and Rebound records, with the step log the
-paper's 2 ms means are taken from.  The equations of motion (integrator.py) read only the contact state
-(in contact? what the contact fixed when it began: contact.ContactLaw.engage) from here.
+paper's 2 ms means are taken from, and the list of collisions.  The equations of motion (equations.py) read
+only the contact state (in contact? what the contact fixed when it began: contact.ContactLaw.engage) from here.
 """
 from __future__ import annotations
 
@@ -10,6 +10,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from .pair_contact import PairContactModel
 
 IMPACT_WINDOW = 2e-3  # s: the paper's impact speed is the mean over the 2 ms before the minimum gap
 
@@ -311,3 +313,49 @@ def state_error(state: dict) -> tuple[str, str] | None:
                 if (wrong := _kind_error(row[key], kind)) is not None:
                     return f"{entry}[{k}].{key}", f"= {row[key]!r} {wrong}"
     return None
+
+
+def collisions(contacts) -> list[dict]:
+    """Every collision, in time order: kind (the contact's name: "pair" or "wall"; "pair_12", ... for
+    three spheres or more), time of the minimum gap, min_gap, the relative impact speed, Re and St of
+    it, and the restitution e.
+
+    A pair's e and impact speed are taken where the pair gap passes delta_sl 2a* (on the way in, and
+    out after the collision): e = separation speed / approach speed there, 0 when the gap does not
+    open beyond delta_sl 2a* before the next collision or the end (docs/physics.md section 6: the 2 ms
+    means of the wall, also given as *_2ms, lie inside the contact layer at a pendulum's speeds).
+    A wall collision's are the wall's 2 ms means (bounces.Rebound).  A pair that comes to rest in
+    contact still has minima of its gap; one that did not come in through delta_sl 2a* since the
+    previous minimum belongs to the collision before it and is not listed.  `contacts`: the
+    integrator's (equations.Contact), each with its record, model, name and `lower` body."""
+    found = []
+    for contact in contacts:
+        record, two_spheres = contact.record, contact.lower is not None
+        for k, impact in enumerate(record.impacts):
+            if two_spheres and k > 0 and not any(
+                    c["direction"] == "in" and record.impacts[k - 1].time < c["time"] <= impact.time
+                    for c in record.blend_crossings):
+                continue
+            entry = {"kind": contact.name, **dataclasses.asdict(impact)}
+            if k < len(record.rebounds):
+                entry.update(dataclasses.asdict(record.rebounds[k]))
+            if two_spheres:
+                following = record.impacts[k + 1].time if k + 1 < len(record.impacts) else math.inf
+                _at_blend_gap(entry, record.blend_crossings, following, contact.model)
+            found.append(entry)
+    return sorted(found, key=lambda c: c["time"])
+
+
+def _at_blend_gap(entry: dict, crossings: list[dict], following: float, pair: PairContactModel) -> None:
+    """Speeds, St, Re and e of a pair collision where its gap passes delta_sl 2a* (collisions)."""
+    before = [c for c in crossings if c["direction"] == "in" and c["time"] <= entry["time"]]
+    after = [c for c in crossings if c["direction"] == "out" and entry["time"] < c["time"] < following]
+    for key in ("impact_speed", "Re", "St", "restitution"):
+        entry[f"{key}_2ms"] = entry.get(key)
+    if not before:  # it started inside delta_sl 2a*: the 2 ms means stand
+        return
+    approach = before[-1]["speed"]
+    entry["impact_speed"] = approach
+    entry["Re"], entry["St"] = pair.numbers(approach)
+    entry["separation_speed"] = after[0]["speed"] if after else 0.0
+    entry["restitution"] = entry["separation_speed"] / approach

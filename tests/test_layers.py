@@ -39,6 +39,7 @@ LAYERS = {
     "fem_bounce.pair_contact": PHYSICS,
     # the bodies' equations of motion and their bounce records
     "fem_bounce.bounces": INTEGRATOR,
+    "fem_bounce.equations": INTEGRATOR,
     "fem_bounce.integrator": INTEGRATOR,
     # the interface every model implements, and how time advances through it
     "fem_bounce.flow_model": FLOW,
