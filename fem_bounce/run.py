@@ -383,160 +383,187 @@ def simulate(scene, model_name: str, comm, out_dir: Path | None = None, *, force
     if info.serial and comm.size > 1:
         return _serial_on_root(scene, model_name, comm, out_dir, force=force, restart=restart, command=command,
                                progress=progress, plots=plots, interrupts=interrupts, on_start=on_start)
-    # Everything that can refuse the run comes before anything is written.
-    models.check_scene(info, scene)
-    cachedir.checked_root()  # where the resolved models' meshes go
-    model_cls = models.flow_model_class(info, scene)
-    root = comm.rank == 0
-    interrupts = interrupts or Interrupts.active
-    out_dir = None if out_dir is None else Path(out_dir)
-    if restart:
-        if not info.restarts:
-            raise models.ModelError(f"the {model_name} model writes no checkpoints, so it cannot --restart: run it "
-                                    "again")
-        if out_dir is None:
-            raise output.OutputError("a restart needs the run directory it continues")
-    flow_model = model_cls(scene, comm)
-    integrator = RunIntegrator(scene, resolved=model_cls.resolved)
-    guards = _Safeguards(scene, integrator, info, flow_model.resolved_top())
-    if root:
-        if guards.light:
-            fate = ("buoyancy slows the launched sphere, which may turn back before the wall; if it does, the run"
-                    if guards.launched_down else "the sphere rises and never reaches the wall; the run")
-            warnings.warn(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
-                          f"{scene.liquid.density:g} kg/m3: {fate} "
-                          f"stops when it has {guards.where} (gap {guards.ceiling / scene.sphere.diameter:.3g} D)",
-                          stacklevel=2)
-        for message in info.scene_warnings(scene):
-            warnings.warn(message, stacklevel=2)
-    run_dir, resumed = None, None  # resumed: the checkpoint a restart continues (rank 0 checks it)
-    files: dict[str, output.TrajectoryWriter] = {}  # trajectory.csv and the model's side files (rank 0)
-    if out_dir is not None:
-        run_dir = output.RunDirectory(out_dir)
+    run = _Run(scene, info, comm, None if out_dir is None else Path(out_dir), interrupts or Interrupts.active)
+    run.prepare(force, restart, progress, on_start)
+    return run.conclude(*run.advance(on_start if restart and comm.rank == 0 else None), command, plots)
+
+
+class _Run:
+    """One run in three steps, each owning what it opens: `prepare` (everything that can refuse the run, before
+    anything is written; then the run directory and its files), `advance` (the Controller; how it ended) and
+    `conclude` (the stop reason, the summary, the audit and the figures; the outcome raised or returned)."""
+
+    def __init__(self, scene, info, comm, out_dir: Path | None, interrupts: Interrupts | None):
+        self.scene, self.info, self.comm, self.out_dir, self.interrupts = scene, info, comm, out_dir, interrupts
+        self.run_dir: output.RunDirectory | None = None
+        self.resumed: output.Checkpoint | None = None  # the checkpoint a restart continues (rank 0 checks it)
+        self.files: dict[str, output.TrajectoryWriter] = {}  # trajectory.csv and the model's side files (rank 0)
+
+    def prepare(self, force: bool, restart: bool, progress: bool, on_start) -> None:
+        scene, info, comm, out_dir = self.scene, self.info, self.comm, self.out_dir
+        model_name = info.name
+        # Everything that can refuse the run comes before anything is written.
+        models.check_scene(info, scene)
+        cachedir.checked_root()  # where the resolved models' meshes go
+        model_cls = models.flow_model_class(info, scene)
+        root = comm.rank == 0
         if restart:
-            resumed = comm.bcast(on_root(comm, lambda: check_checkpoint(
-                run_dir.resume(scene, model_name, info.checkpoint_files), integrator)), 0)
-        else:
-            on_root(comm, lambda: run_dir.prepare(force, scene))
-        interval_key = info.trajectory_interval_key
-        interval = info.setting(scene, interval_key) if interval_key else 0.0
-        columns = output.trajectory_columns(len(scene.spheres))
+            if not info.restarts:
+                raise models.ModelError(f"the {model_name} model writes no checkpoints, so it cannot --restart: run "
+                                        "it again")
+            if out_dir is None:
+                raise output.OutputError("a restart needs the run directory it continues")
+        self.flow_model = flow_model = model_cls(scene, comm)
+        self.integrator = integrator = RunIntegrator(scene, resolved=model_cls.resolved)
+        self.guards = guards = _Safeguards(scene, integrator, info, flow_model.resolved_top())
+        if root:
+            if guards.light:
+                fate = ("buoyancy slows the launched sphere, which may turn back before the wall; if it does, the run"
+                        if guards.launched_down else "the sphere rises and never reaches the wall; the run")
+                warnings.warn(f"sphere.density = {scene.sphere.density:g} kg/m3 is below liquid.density = "
+                              f"{scene.liquid.density:g} kg/m3: {fate} "
+                              f"stops when it has {guards.where} (gap {guards.ceiling / scene.sphere.diameter:.3g} D)",
+                              stacklevel=3)
+            for message in info.scene_warnings(scene):
+                warnings.warn(message, stacklevel=3)
+        if out_dir is not None:
+            self.run_dir = run_dir = output.RunDirectory(out_dir)
+            if restart:
+                self.resumed = comm.bcast(on_root(comm, lambda: check_checkpoint(
+                    run_dir.resume(scene, model_name, info.checkpoint_files), integrator)), 0)
+            else:
+                on_root(comm, lambda: run_dir.prepare(force, scene))
+            interval_key = info.trajectory_interval_key
+            interval = info.setting(scene, interval_key) if interval_key else 0.0
+            columns = output.trajectory_columns(len(scene.spheres))
 
-        def open_files():
-            run_dir.reserve()
-            files = {"trajectory.csv": run_dir.trajectory(interval, columns)}
-            return {**files, **{name: run_dir.trajectory(0.0, side_columns, name)
-                                for name, side_columns in flow_model.side_files().items()}}
+            def open_files():
+                run_dir.reserve()
+                files = {"trajectory.csv": run_dir.trajectory(interval, columns)}
+                return {**files, **{name: run_dir.trajectory(0.0, side_columns, name)
+                                    for name, side_columns in flow_model.side_files().items()}}
 
-        try:
-            files = on_root(comm, open_files) or {}  # refused for want of room: nothing left behind
-        except output.OutputError:
-            on_root(comm, run_dir.abandon)
-            raise
-    if root and on_start is not None and not restart:
-        on_start()
-    earlier_wall = resumed.wall_time_s if resumed is not None else []  # [s], one per earlier segment
-    writer = files.get("trajectory.csv")
-    sides = {name: each for name, each in files.items() if name != "trajectory.csv"}
-    record = _RunRecord(scene, model_name, files, earlier_wall)
-    integrator.record = record
-    if writer is not None:
-        integrator.observers.append(writer)
-    integrator.observers.append(guards)
-    bar = ProgressBar(scene.run.end_time, [body.diameter for body in integrator.bodies], enabled=progress and root)
-    monitor = Monitor(bar, comm, interrupts, list(record.writers.values()), scene.time_unit)
+            try:
+                self.files = on_root(comm, open_files) or {}  # refused for want of room: nothing left behind
+            except output.OutputError:
+                on_root(comm, run_dir.abandon)
+                raise
+        if root and on_start is not None and not restart:
+            on_start()
+        self.earlier_wall = self.resumed.wall_time_s if self.resumed is not None else []  # [s], one per segment
+        writer = self.files.get("trajectory.csv")
+        self.record = _RunRecord(scene, model_name, self.files, self.earlier_wall)
+        integrator.record = self.record
+        if writer is not None:
+            integrator.observers.append(writer)
+        integrator.observers.append(guards)
+        self.bar = ProgressBar(scene.run.end_time, [body.diameter for body in integrator.bodies],
+                               enabled=progress and root)
+        self.monitor = Monitor(self.bar, comm, self.interrupts, list(self.record.writers.values()), scene.time_unit)
 
-    def close_files() -> None:
-        for each in record.writers.values():
+    def _close_files(self) -> None:
+        for each in self.record.writers.values():
             each.close()
 
-    status, message, signum = "completed", "", 0
-    result: dict = {}
-    try:
-        result = Controller(flow_model, info, integrator, monitor, run_dir, sides).run(
-            resumed, started=on_start if restart and root else None)
-    except output.CheckpointError:
-        # the restart could not load its checkpoint: no summary for a run that never continued, and DIR as it was
-        bar.close()
-        with contextlib.suppress(output.OutputError):
-            close_files()
-        if run_dir is not None:
-            on_root(comm, run_dir.release)
-        raise
-    except (PenetrationError, FloatingPointError, RunDiverged) as err:
-        status, message = f"diverged: {err}", str(err)
-    except RunInterrupted as err:
-        status, message, signum = "interrupted", str(err), err.signum
-    except KeyboardInterrupt as err:  # a second signal, or Ctrl-C with no Interrupts installed
-        signum = getattr(err, "signum", signal.SIGINT)
-        status, message = "interrupted", f"interrupted by {signal_name(signum)} at t = {integrator.time:.6g} s"
-    except (RunFailed, output.OutputError) as err:
-        status, message = f"failed: {err}", str(err)
-    bar.close()
-    try:
-        close_files()
-    except output.OutputError as err:
-        if status == "completed":
-            status, message = f"failed: {err}", str(err)
-    # rank 0 alone writes, so rank 0's account of how the run ended is every rank's
-    status, message, signum = comm.bcast((status, message, signum), root=0)
-
-    if status != "completed":
-        stop_reason = message
-    elif guards.stop_reason is not None:
-        stop_reason = guards.stop_reason
-    elif integrator.done:
-        stop_reason = integrator.stop_reason or f"the bounce limit (run.bounces = {scene.run.bounces})"
-    else:
-        stop_reason = f"run.end_time = {scene.run.end_time:g} s"
-    integrator.finish()
-    wall = record.elapsed()
-    extra = {**(result.get("extra") or {}), "stop_reason": stop_reason}
-    if earlier_wall:
-        extra["wall_time_segments_s"] = earlier_wall + [wall]
-    data = output.summary(scene, model_name, integrator, sum(earlier_wall) + wall,
-                          result.get("steps", monitor.steps or integrator.steps), comm.size, command, status=status,
-                          sizes=result.get("sizes"), extra=extra)
-    integrator.destroy()
-    unwritten = ""
-    if run_dir is not None:
-        def write_outputs() -> str:
-            trajectory = None  # read once, for the audit and the figures
-            with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
-                trajectory = output.read_trajectory(out_dir)
-                unaudited = losses.annotate(data, trajectory)
-                if unaudited and status == "completed":  # (an unfinished run's rows may end before an impact's)
-                    warnings.warn(unaudited, stacklevel=2)
-            run_dir.commit_summary(data)
-            if plots and (status == "completed" or status.startswith("diverged")):
-                try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
-                    _draw(out_dir, trajectory, data)
-                    if interrupts is not None and interrupts.signum:  # a signal while drawing only set its flag
-                        raise StopNow(interrupts.signum)
-                except KeyboardInterrupt as err:  # Ctrl-C with no Interrupts installed (the API), or the above
-                    stopped = getattr(err, "signum", signal.SIGINT)
-                    reason = f"interrupted by {signal_name(stopped)} while drawing the figures"
-                    run_dir.commit_summary({**data, "status": "interrupted", "stop_reason": reason})
-                    raise RunInterrupted(f"{reason}; the run itself {status} (summary.json, trajectory.csv)",
-                                         stopped) from None
-            return _interruption_note(run_dir, info) if status == "interrupted" else ""
-
+    def advance(self, started) -> tuple[str, str, int, dict]:
+        """(status, message, signal number, the controller's result), the same on every rank."""
+        integrator, comm = self.integrator, self.comm
+        sides = {name: each for name, each in self.files.items() if name != "trajectory.csv"}
+        status, message, signum = "completed", "", 0
+        result: dict = {}
         try:
-            message += on_root(comm, write_outputs) or ""  # rank 0's note; only rank 0 prints it
+            result = Controller(self.flow_model, self.info, integrator, self.monitor, self.run_dir, sides).run(
+                self.resumed, started=started)
+        except output.CheckpointError:
+            # the restart could not load its checkpoint: no summary for a run that never continued, and DIR as it was
+            self.bar.close()
+            with contextlib.suppress(output.OutputError):
+                self._close_files()
+            if self.run_dir is not None:
+                on_root(comm, self.run_dir.release)
+            raise
+        except (PenetrationError, FloatingPointError, RunDiverged) as err:
+            status, message = f"diverged: {err}", str(err)
+        except RunInterrupted as err:
+            status, message, signum = "interrupted", str(err), err.signum
+        except KeyboardInterrupt as err:  # a second signal, or Ctrl-C with no Interrupts installed
+            signum = getattr(err, "signum", signal.SIGINT)
+            status, message = "interrupted", f"interrupted by {signal_name(signum)} at t = {integrator.time:.6g} s"
+        except (RunFailed, output.OutputError) as err:
+            status, message = f"failed: {err}", str(err)
+        self.bar.close()
+        try:
+            self._close_files()
         except output.OutputError as err:
             if status == "completed":
-                raise RunFailed(str(err)) from None
-            unwritten = f" ({err})"
-        finally:
-            on_root(comm, run_dir.release)
-    if status == "completed":
-        return data
-    if status == "interrupted":
-        raise RunInterrupted(message + unwritten, signum)
-    kept = f"; outputs kept in {out_dir}" if out_dir is not None else ""
-    if status.startswith("diverged"):
-        raise RunDiverged(f"{status}{kept}{unwritten}")
-    raise RunFailed(f"{message}{kept}{unwritten}")
+                status, message = f"failed: {err}", str(err)
+        # rank 0 alone writes, so rank 0's account of how the run ended is every rank's
+        status, message, signum = comm.bcast((status, message, signum), root=0)
+        return status, message, signum, result
+
+    def _stop_reason(self, status: str, message: str) -> str:
+        scene, integrator = self.scene, self.integrator
+        if status != "completed":
+            return message
+        if self.guards.stop_reason is not None:
+            return self.guards.stop_reason
+        if integrator.done:
+            return integrator.stop_reason or f"the bounce limit (run.bounces = {scene.run.bounces})"
+        return f"run.end_time = {scene.run.end_time:g} s"
+
+    def conclude(self, status: str, message: str, signum: int, result: dict, command: str, plots: bool) -> dict:
+        scene, integrator, comm, out_dir, run_dir = self.scene, self.integrator, self.comm, self.out_dir, self.run_dir
+        stop_reason = self._stop_reason(status, message)
+        integrator.finish()
+        wall, earlier_wall = self.record.elapsed(), self.earlier_wall
+        extra = {**(result.get("extra") or {}), "stop_reason": stop_reason}
+        if earlier_wall:
+            extra["wall_time_segments_s"] = earlier_wall + [wall]
+        data = output.summary(scene, self.info.name, integrator, sum(earlier_wall) + wall,
+                              result.get("steps", self.monitor.steps or integrator.steps), comm.size, command,
+                              status=status, sizes=result.get("sizes"), extra=extra)
+        integrator.destroy()
+        unwritten = ""
+        if run_dir is not None:
+            try:
+                message += on_root(comm, lambda: self._write_outputs(data, status, plots)) or ""  # rank 0's note
+            except output.OutputError as err:
+                if status == "completed":
+                    raise RunFailed(str(err)) from None
+                unwritten = f" ({err})"
+            finally:
+                on_root(comm, run_dir.release)
+        if status == "completed":
+            return data
+        if status == "interrupted":
+            raise RunInterrupted(message + unwritten, signum)
+        kept = f"; outputs kept in {out_dir}" if out_dir is not None else ""
+        if status.startswith("diverged"):
+            raise RunDiverged(f"{status}{kept}{unwritten}")
+        raise RunFailed(f"{message}{kept}{unwritten}")
+
+    def _write_outputs(self, data: dict, status: str, plots: bool) -> str:
+        """The summary with its loss audit and the figures (rank 0); a note for an interrupted run."""
+        out_dir, run_dir, interrupts = self.out_dir, self.run_dir, self.interrupts
+        trajectory = None  # read once, for the audit and the figures
+        with contextlib.suppress(OSError, ValueError, KeyError):  # a trajectory that cannot be read: no audit
+            trajectory = output.read_trajectory(out_dir)
+            unaudited = losses.annotate(data, trajectory)
+            if unaudited and status == "completed":  # (an unfinished run's rows may end before an impact's)
+                warnings.warn(unaudited, stacklevel=2)
+        run_dir.commit_summary(data)
+        if plots and (status == "completed" or status.startswith("diverged")):
+            try:  # not after an interruption (OpenMPI kills 1 s after its SIGTERM) nor a failure
+                _draw(out_dir, trajectory, data)
+                if interrupts is not None and interrupts.signum:  # a signal while drawing only set its flag
+                    raise StopNow(interrupts.signum)
+            except KeyboardInterrupt as err:  # Ctrl-C with no Interrupts installed (the API), or the above
+                stopped = getattr(err, "signum", signal.SIGINT)
+                reason = f"interrupted by {signal_name(stopped)} while drawing the figures"
+                run_dir.commit_summary({**data, "status": "interrupted", "stop_reason": reason})
+                raise RunInterrupted(f"{reason}; the run itself {status} (summary.json, trajectory.csv)",
+                                     stopped) from None
+        return _interruption_note(run_dir, self.info) if status == "interrupted" else ""
 
 
 def _serial_on_root(scene, model_name: str, comm, out_dir: Path | None, *, on_start=None, **options) -> dict:
