@@ -38,7 +38,7 @@ import numpy as np
 from .bodies import Body, scene_bodies, sphere_scene
 from .bounces import BounceRecord
 from .contact import ContactModel
-from .kinematics import AxisKinematics, FluidForce
+from .kinematics import AxisKinematics, FluidForce, pair_name
 from .pair_contact import PairContactModel
 from .scene import Scene
 from .theory import TheoryForces
@@ -131,7 +131,7 @@ class BodyEquations:
         self.contacts: list[Contact] = []
         for k in range(count - 1):
             pair = PairContactModel(scene, resolved, lower=k)
-            name = "pair" if count == 2 else f"pair_{k + 1}{k + 2}"
+            name = pair_name(k, count)
             self.contacts.append(Contact(k, k + 1, pair, BounceRecord(
                 scene, pair, stop_after_impacts, numbers=pair.numbers, separating=True), name, layout.gap_index(k + 1)))
         if self.contact is not None:

@@ -58,6 +58,12 @@ class Prediction:
         return np.asarray(radii, dtype=float) + self.gaps_now + self.dt * self.mean_velocities
 
 
+def pair_name(lower: int, count: int) -> str:
+    """The name of the contact between bodies `lower` and `lower` + 1 (from 0) of `count`, in checkpoints,
+    collisions and the trajectory's columns: "pair" when there are two, else "pair_12", "pair_23", ..."""
+    return "pair" if count == 2 else f"pair_{lower + 1}{lower + 2}"
+
+
 class AxisKinematics:
     """The layout of N bodies on the axis: per body a gap and a velocity, interleaved (module docstring)."""
 

@@ -52,27 +52,25 @@ from . import cachedir
 from . import scene as scenes
 from ._version import __version__
 from .errors import CheckpointError, OutputError
+from .kinematics import pair_name
 
-TRAJECTORY_COLUMNS = ("t", "gap", "velocity", "acceleration", "f_drag", "f_lubrication", "f_history", "f_added_mass",
-                      "f_theory", "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
-# A pair (scene.second_sphere): one row per instant, both spheres side by side (suffix _1: sphere 1, the
-# lower one; _2: the second sphere); gap_i is sphere i's lowest point above z = 0, pair_gap the distance
-# between the two surfaces, f_pair_i the pair's Stokes interaction in the theory force (docs/usage.md).
-EACH_SPHERE_COLUMNS = ("gap", "velocity", "acceleration", "f_drag", "f_lubrication", "f_pair", "f_added_mass",
-                       "f_theory", "f_sim", "f_liquid", "f_elastic", "f_correction")
-PAIR_TRAJECTORY_COLUMNS = ("t", "pair_gap", *(f"{name}_{k}" for k in (1, 2) for name in EACH_SPHERE_COLUMNS))
+# One scheme for any number of spheres: the time, each neighbouring pair's surface gap (named after its contact,
+# kinematics.pair_name: pair_gap for two spheres, pair_gap_12, pair_gap_23, ... for more), then each sphere's
+# columns, suffixed _1, _2, ... (sphere 1 the lowest) when there are several.  gap is a sphere's lowest point
+# above z = 0; f_pair, the pairs' Stokes interaction in the theory force, is there only with pairs (docs/usage.md).
+SPHERE_COLUMNS = ("gap", "velocity", "acceleration", "f_drag", "f_lubrication", "f_history", "f_pair", "f_added_mass",
+                  "f_theory", "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
 
 
 def trajectory_columns(spheres: int) -> tuple:
-    """The trajectory's columns for this many spheres: TRAJECTORY_COLUMNS for one, PAIR_TRAJECTORY_COLUMNS
-    for two, and for three or more the pair's scheme with each neighbouring pair's gap (pair_gap_12,
-    pair_gap_23, ...: the distance between the surfaces of spheres 1 and 2, 2 and 3, ...)."""
+    """The trajectory's columns for this many spheres (SPHERE_COLUMNS)."""
     if spheres == 1:
-        return TRAJECTORY_COLUMNS
-    if spheres == 2:
-        return PAIR_TRAJECTORY_COLUMNS
-    gaps = tuple(f"pair_gap_{k}{k + 1}" for k in range(1, spheres))
-    return ("t", *gaps, *(f"{name}_{k}" for k in range(1, spheres + 1) for name in EACH_SPHERE_COLUMNS))
+        return ("t", *(name for name in SPHERE_COLUMNS if name != "f_pair"))
+    gaps = tuple(pair_name(k, spheres).replace("pair", "pair_gap") for k in range(spheres - 1))
+    return ("t", *gaps, *(f"{name}_{k}" for k in range(1, spheres + 1) for name in SPHERE_COLUMNS))
+
+
+TRAJECTORY_COLUMNS = trajectory_columns(1)  # one sphere's
 
 
 MARKER = cachedir.RUN_MARKER  # defined there, as the cache refuses to lie in a run directory

@@ -103,7 +103,7 @@ def whole_rows(path: Path) -> np.ndarray:
     text = Path(path).read_text()
     assert text.endswith("\n"), "the trajectory ends in a half-written row"
     rows = list(csv.reader(text.splitlines()))
-    assert tuple(rows[0]) in (output.TRAJECTORY_COLUMNS, output.PAIR_TRAJECTORY_COLUMNS)  # one sphere or a pair
+    assert tuple(rows[0]) in (output.trajectory_columns(1), output.trajectory_columns(2))  # one sphere or a pair
     assert all(len(row) == len(rows[0]) for row in rows)
     return np.array(rows[1:], dtype=float)
 

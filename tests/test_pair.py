@@ -278,7 +278,7 @@ def test_cli_runs_the_pair_preset_and_writes_its_outputs(tmp_path, capsys, monke
     assert cli.main(["run", PRESET, "--model", "ode", "--out", str(out), "--quiet"]) == 0
     assert "collision 1 (pair)" in capsys.readouterr().out
     trajectory = output.read_trajectory(out)
-    assert tuple(trajectory) == output.PAIR_TRAJECTORY_COLUMNS
+    assert tuple(trajectory) == output.trajectory_columns(2)
     # the CSV keeps 10 significant digits: 3e-12 m on the 0.06 m heights the difference is taken from
     assert np.allclose(trajectory["pair_gap"], trajectory["gap_2"] - trajectory["gap_1"] - 0.0127, rtol=0, atol=2e-11)
     summary = output.read_summary(out)
