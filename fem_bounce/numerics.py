@@ -22,54 +22,45 @@ class OdeNumerics:
 
 @dataclass(frozen=True)
 class FdNumerics:
-    """The fictitious-domain model (fem_bounce.models.fd).  Sizes are per sphere diameter D."""
+    """The fictitious-domain model (fem_bounce.models.fd).  Sizes are per sphere diameter D; what each default
+    buys and costs is measured in docs/validation.md section 12 and docs/performance.md."""
 
     # fine triangle size D / this along the spheres' paths (and on their surfaces, surface_refinement times finer,
-    # with mesh = "moving"): case 3 within 1.7 % of the reference at 8, 3.2 % with half the step
-    # (docs/validation.md section 12); mesh = "fixed" needs 24-48 (its first apex -5.0 / -2.4 %)
+    # on the moving mesh); the fixed mesh needs several times more for the same rebound
     cells_per_diameter: float = _setting(8.0, 2.0, 400.0)
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
-    # size growth per unit distance from the fine region; unset: the mesh's own, 0.2 on the moving mesh (against
-    # 0.1: case 3, Cd at Re 100 and 200 and ten Cate's peak within 0.5 %, docs/validation.md section 12), 0.1 on the
-    # fixed one (0.2 moves the Stokes drag of tests/test_fd_pair.py 5 %)
+    # size growth per unit distance from the fine region; unset: the mesh's own, 0.2 on the moving mesh (its fine
+    # surface carries the accuracy), 0.1 on the fixed one (the band's neighbourhood does)
     grading: float | None = field(default=None, metadata={"range": (0.01, 2.0, False, False), "unit": ""})
-    # the fine region r <= this * D (0.75 would save 15 % of case 3's time at 24 cells/D, its errors within
-    # 0.4 %, but puts Cd at Re 200 3.5 % high, against 2.4 % at 1: docs/validation.md section 12)
-    refined_radius: float = _setting(1.0, 0.5, 100.0)
-    # patch: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
-    # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the
-    # patch's (models/fd/model.py); false, or every sphere held: along the whole path
+    refined_radius: float = _setting(1.0, 0.5, 100.0)  # the fine region r <= this * D (the wake needs the width)
+    # fixed mesh: the fine region only around each sphere, z within patch_margin D of its surface (down to the wall
+    # once it is that near), moved with a new mesh when a sphere's centre strays half the margin from the patch's
+    # (models/fd/model.py); false, or every sphere held: along the whole path
     patch: bool = True
     patch_margin: float = _setting(0.75, 0.1, 20.0)
-    # "moving" (the default since issue 41): the mesh follows the spheres as the ale model's does (models/fd/moving.py),
-    # each sphere's surface a curve of the mesh and its inside meshed and held by the implicit constraint, remade when
-    # a triangle's quality would fall below min_quality; patch, patch_margin, radius_offset (the band ends on the
-    # surface) and the wall box are then unused, and refused when set (models/fd/moving.py FIXED_MESH_ONLY).
-    # "fixed": one mesh the spheres move through (patches or the whole path); the one-shot penalty and steady_stokes
-    # run on it only
+    # "moving": the mesh follows the spheres as the ale model's does (models/fd/moving.py), each sphere's surface a
+    # curve of the mesh and its inside meshed and held by the implicit constraint, remade when a triangle's quality
+    # would fall below min_quality; the fixed mesh's settings (patch, patch_margin, radius_offset, the wall box) are
+    # refused with it (models/fd/moving.py FIXED_MESH_ONLY).  "fixed": one mesh the spheres move through (patches or
+    # the whole path); the one-shot penalty and steady_stokes run on it only
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
-    # mesh = "moving": as numerics.ale's (the surface's triangles this many times finer; remeshing; the gap a
-    # remeshed gap keeps triangles across; the gap / D at which the mesh stops following a sphere).  The error follows
-    # the surface's size, not the path's: converged in the step, case 3 with D / 12 on the surface is the same
-    # within 0.3 % with D / 8, 10 or 12 along the path; the rebound asks for a finer surface than the impact: case
-    # 3's first apex is +4.1 / +2.8 / +2.3 / +2.0 % off the reference at 2 / 3 / 4 / 5 (D / 16 to D / 40; cfl 0.4), and
-    # at 5 with cfl 0.8 (the default) every error is within 1.9 % in 0.82-0.91 times the ib model's time
-    # (docs/validation.md section 12)
+    # moving mesh, as numerics.ale's: the surface's triangles this many times finer than the path's (the error
+    # lives in the surface's triangles, the rebound more than the impact); remeshing below min_quality; a remeshed
+    # gap keeps min_gap_cells triangles across; the mesh stops following a sphere at the gap hold_delta D
     surface_refinement: float = _setting(5.0, 1.0, 16.0)
     min_quality: float = _setting(0.3, 0.01, 0.9)
     min_gap_cells: float = _setting(2.0, 0.5, 100.0)
     hold_delta: float = _setting(0.02, 0.0, 0.5)
     wake_length: float = _setting(2.0, 0.0, 100.0)  # fine region beyond the sphere, downstream, in D
     far_field: float = _setting(10.0, 2.0, 200.0)  # unbounded domain: radius and headroom, in D
-    # the gap under the sphere's path: triangles D / wall_cells_per_diameter (0: no wall box) in
+    # fixed mesh: the gap under the sphere's path, triangles D / wall_cells_per_diameter (0: no wall box) in
     # r <= wall_radius D, z <= wall_layer D, where the squeeze flow lives
     wall_cells_per_diameter: float = _setting(0.0, 0.0, 800.0)
     wall_layer: float = _setting(0.25, 0.01, 5.0)
     wall_radius: float = _setting(0.6, 0.05, 10.0)
     # dt <= cfl * fine size / (1.5 speed scale); unset: the constraint's own, 0.2 for "penalty" (its convection is
-    # explicit: stable at Re 200, not at 0.3), for "implicit" an accuracy choice: 0.8 on the moving mesh (case 3's
-    # errors move by at most 0.35 % from 0.8 to 0.4 at the default surface), 0.4 on the fixed one
-    # (docs/validation.md section 12)
+    # explicit, and this is its stability bound), for "implicit" an accuracy choice (no step bound): 0.8 on the
+    # moving mesh, 0.4 on the fixed one, whose band needs the finer step
     cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
     # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
     # approach to a contact (a step closes at most gap_fraction of the gap) and the changes of the sphere's velocity
@@ -80,14 +71,13 @@ class FdNumerics:
     max_step_factor: float = _setting(2.0, 1.0, 50.0)
     gap_fraction: float = _setting(0.5, 0.001, 1.0)
     forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
-    # "implicit" (the default since issue 41): the friction rho c_B phi (u - U) in the step's matrix, with
-    # convection implicit, factorised every step (models/fd/penalised.py): no step bound from either, the interior
-    # rigid through a collision.  "penalty" (the default before): the one-shot forcing rho c phi (U - u~),
-    # c = 3 / (2 dt), on a matrix factorised once, rigid only under forcing_number; its effective surface moves
-    # with dt (docs/validation.md section 12), placed by radius_offset 0.5 at its default step
+    # "implicit": the friction rho c_B phi (u - U) in the step's matrix, with convection implicit, factorised every
+    # step (models/fd/penalised.py): no step bound from either, the interior rigid through a collision.
+    # "penalty": the one-shot forcing rho c phi (U - u~), c = 3 / (2 dt), on a matrix factorised once, rigid only
+    # under forcing_number; its effective surface moves with dt, so radius_offset places it at its default step
     constraint: str = field(default="implicit", metadata={"choices": ("implicit", "penalty")})
-    # implicit: c_B over the viscous, convective and step rates; the steady drag near a wall (Brenner 1961) comes
-    # out 10 % low at 1e3, within 1.6 % at 1e5 (8 and 16 cells/D; the penalisation's error ~ strength^-1/2)
+    # implicit: c_B over the viscous, convective and step rates; the penalisation's error falls as strength^-1/2
+    # (Angot, Bruneau & Fabrie 1999), so the default is large
     penalty_strength: float = _setting(1e5, 1.0, 1e8)
     time_order: int = _setting(2, 1, 3)  # BDF/extrapolation order of the flow
     # "direct": MUMPS LU, factorised once; "fieldsplit": GMRES with a Schur field split and algebraic multigrid
@@ -175,11 +165,10 @@ class AleNumerics:
     # reuse: factorise again when a step's GMRES iterations exceed their average since the last factorisation
     # with a factorisation counted as this many iterations (a renewal rule, fem.solver.ReusedFactorOperator),
     # or when one solve needs more than reuse_iterations
-    factorisation_cost: float = _setting(20.0, 0.0, 1000.0)  # measured 18-21 back-solves (benchmarks/ale_speed.py)
+    factorisation_cost: float = _setting(20.0, 0.0, 1000.0)  # in back-solves, as measured (docs/performance.md)
     reuse_iterations: int = _setting(30, 1, 100)
-    # reuse: GMRES stops at |b - A x| <= this |b| without the Dirichlet rows; against every-step: case 3 at 8
-    # cells/D within 2e-6 (1e-5 gives 1e-6, 1e-4 2e-5), the drag of a fixed sphere marched in a Re 100 stream at
-    # 6 cells/D within 1e-4 (1e-6 gives 2e-3, 1e-5 1e-2: the force is a small residual of the stream's terms)
+    # reuse: GMRES stops at |b - A x| <= this |b| without the Dirichlet rows; tight, because the force on the sphere
+    # is a small residual of the stream's terms (docs/performance.md gives what looser values cost in accuracy)
     krylov_rtol: float = _setting(1e-7, 1e-14, 1e-3)
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(100, 0, 10**9)  # 0: no checkpoints
