@@ -114,12 +114,9 @@ def _parser() -> argparse.ArgumentParser:
     stab.add_argument("--model", required=True)
     stab.add_argument("--sweeps", default=None,
                       help="comma-separated subset of density_ratio,cfl,cells_per_gap,delta_sl")
-    rest_study = kinds.add_parser("restitution", help="e against St over the Table 3 sets (paper Fig. 13-14)")
-    rest_study.add_argument("--model", required=True)
-    rest_study.add_argument("--points", type=int, default=12)
     figs = kinds.add_parser("figures", help="the paper's Fig. 9-12 from a model")
     figs.add_argument("--model", required=True)
-    for kind in (conv, speed, stab, rest_study, figs):
+    for kind in (conv, speed, stab, figs):
         kind.add_argument("--out", default=None, help="study directory (default results/study-...)")
         kind.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                           help="override a value of every scene the study runs")
@@ -369,8 +366,6 @@ def _study(args, comm, runner) -> int:
         sweeps = _stability_sweeps(args.sweeps, args.model)
         studies.stability.run(scenes.load(args.scene, {"run.bounces": 1, **changes}), args.model, comm, out, sweeps,
                               runner=runner)
-    elif args.kind == "restitution":
-        studies.restitution.run(args.model, comm, out, args.points, overrides=changes, runner=runner)
     else:
         studies.figures.run(args.model, comm, out, overrides=changes, runner=runner)
     if comm.rank == 0:
@@ -455,6 +450,10 @@ def main(argv: list[str] | None = None) -> int:
     # SIGTERM with MPI_Abort)
     from .run import Interrupts, signal_name
 
+    if list(sys.argv[1:] if argv is None else argv)[:2] == ["study", "restitution"]:  # the sweep's old spelling
+        say("error: `fem-bounce study restitution` is now `fem-bounce restitution` (the same sweep, cached and "
+            "resumable: --model, --points, --st-min, --st-max, --out, --set, --jobs, --executor)")
+        return 2
     args = _parser().parse_args(argv)
     command = {"run": _cmd_run, "scenes": _cmd_scenes, "restitution": _cmd_restitution,
                "study": _cmd_study, "compare": _cmd_compare}[args.command]

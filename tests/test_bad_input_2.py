@@ -272,7 +272,7 @@ def _state(pid: int) -> str:
     (["study", "convergence", "li2011-case3", "--model", "ode", "--levels", "nan,inf"], "--levels 'nan,inf': expected"),
     (["study", "convergence", "li2011-case3", "--model", "fd", "--cfls", "0,-1"], "--cfls '0,-1': expected"),
     (["restitution", "--set", "sphere.densty=5"], "unknown key sphere.densty"),
-    (["study", "restitution", "--model", "ode", "--points", "0"], "--points 0: allowed 2 to 1000"),
+    (["study", "restitution", "--model", "ode", "--points", "0"], "is now `fem-bounce restitution`"),
     (["restitution", "--points", "0"], "need --points >= 2"),
     (["restitution", "--points", "1000000000"], "--points 1000000000: allowed 2 to 1000"),
     (["restitution", "--set", "initial_gap=5"], "--set initial_gap: the restitution sweep sets initial_gap"),

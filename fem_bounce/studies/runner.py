@@ -1,8 +1,8 @@
 """How a study's runs are spread: the runs of a study are independent, so they can go to several
 processes at once; the run cache (fem_bounce.cache) makes the result the same whichever way they go.
 
-    fem-bounce study restitution --model fd --jobs 2          # 2 processes on this machine
-    mpiexec -n 9 python -m mpi4py.futures -m fem_bounce study restitution --model fd --executor mpi
+    fem-bounce restitution --model fd --jobs 2               # 2 processes on this machine
+    mpiexec -n 9 python -m mpi4py.futures -m fem_bounce restitution --model fd --executor mpi
                                                               # 8 workers over an MPI allocation
 
 - jobs = 1 (the default): one run after the other on the study's communicator; under plain `mpiexec`
