@@ -1,4 +1,4 @@
-"""The ale model's speed at its 1 % setting (issue 24): case 3 with both factorisation paths side by side.
+"""The ale model's speed at its 1 % setting: case 3 with both factorisation paths side by side.
 
     python benchmarks/ale_speed.py                  # serial
     mpiexec -n 2 python benchmarks/ale_speed.py      # two ranks

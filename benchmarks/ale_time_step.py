@@ -1,4 +1,4 @@
-"""The ale model's time-step error on case 3 at its 1 % mesh (issue 24 item 3): the constant step at cfl 0.5,
+"""The ale model's time-step error on case 3 at its 1 % mesh: the constant step at cfl 0.5,
 0.25, 0.125 and 0.0625 and the adaptive step (numerics.ale.adaptive_step), side by side.
 
     python benchmarks/ale_time_step.py            # about 6 minutes serial on a quiet core, 10 under load

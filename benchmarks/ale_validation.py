@@ -1,4 +1,4 @@
-"""Validation of the boundary-fitted ALE model (`--model ale`, issue 6), one study per subcommand.
+"""Validation of the boundary-fitted ALE model (`--model ale`), one study per subcommand.
 
     python benchmarks/ale_validation.py brenner        # wall drag lambda(delta) at 8, 16, 32 cells/D   ~1 min
     python benchmarks/ale_validation.py drag           # Cd(100), Cd(200), meshes and domain size        ~3 min

@@ -1,4 +1,4 @@
-"""How the lubricated Hertz contact's results move with its inputs (issue 23, item 6): reported, not tuned.
+"""How the lubricated Hertz contact's results move with its inputs: reported, not tuned.
 
     python benchmarks/contact_sensitivity.py          # ODE model, about 3 minutes on one core
 

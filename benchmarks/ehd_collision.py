@@ -1,4 +1,4 @@
-"""The film during case 3's first collision (contact.model = "ehd", issue 26 "Verified"): its pressure,
+"""The film during case 3's first collision (contact.model = "ehd"): its pressure,
 thickness and the surfaces' deformation at five instants, and its gaps, force and speed against time.
 
     PYTHONPATH=. python benchmarks/ehd_collision.py              # 10-26 s on one core (two ODE runs, four films)

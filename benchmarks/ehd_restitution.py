@@ -1,4 +1,4 @@
-"""The elastohydrodynamic film's restitution against the Stokes number (issue 26, first part).
+"""The elastohydrodynamic film's restitution against the Stokes number.
 
     PYTHONPATH=. python benchmarks/ehd_restitution.py               # 6-7 min on one core (timed under load)
     PYTHONPATH=. python benchmarks/ehd_restitution.py --quick       # 85 % glycerol only, ~2 min

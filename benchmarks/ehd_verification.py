@@ -1,4 +1,4 @@
-"""The elastohydrodynamic film's verification (issue 26 "Verified"): its two limits and its convergence.
+"""The elastohydrodynamic film's verification: its two limits and its convergence.
 
     PYTHONPATH=. python benchmarks/ehd_verification.py   # ~2 min on one core
 

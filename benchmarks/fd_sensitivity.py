@@ -1,4 +1,4 @@
-"""Which numerical parameter the fd model's error on case 3 follows (issue 41, item 1).
+"""Which numerical parameter the fd model's error on case 3 follows.
 
     python benchmarks/fd_sensitivity.py                       # every sweep at the default 8 cells/D (~3 minutes)
     python benchmarks/fd_sensitivity.py --cells 12 --only cfl,collision_steps
@@ -54,7 +54,7 @@ SWEEPS = {
     # the path's triangles 1.5 times finer, the surface's as the default's (at the default 8 cells/D: D / 40)
     "path": ["numerics.fd.cells_per_diameter=12,numerics.fd.surface_refinement=3.33333"],
     "grading": ["numerics.fd.grading=0.1"],  # the moving mesh's growth away from the fine region, as the fixed one's
-    # the one-shot penalty, the default before issue 41 (its own sweeps: forcing_number, cfl, radius_offset)
+    # the one-shot penalty on the fixed mesh (its own sweeps: forcing_number, cfl, radius_offset)
     "penalty": ["numerics.fd.mesh=fixed,numerics.fd.constraint=penalty,numerics.fd.patch=false"],
 }
 

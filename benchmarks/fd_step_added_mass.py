@@ -1,4 +1,4 @@
-"""The numerical added mass of one fd step against the step's length (issue 41, docs/validation.md section 12).
+"""The numerical added mass of one fd step against the step's length (docs/validation.md section 12).
 
     python benchmarks/fd_step_added_mass.py            # 16 cells/D, a few seconds
 

@@ -1,4 +1,4 @@
-"""The fd model's speed targets of issue 12, each run and recorded with its history.
+"""The fd model's speed targets, each run and recorded with its history.
 
     mpiexec -n 2 python benchmarks/fd_targets.py case3 --cells 12       # case 3 to the second apex
     python benchmarks/fd_targets.py glycerol [--set numerics.fd.constraint=implicit]

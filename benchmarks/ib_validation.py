@@ -1,4 +1,4 @@
-"""Validation and cost of the immersed-boundary model (issue 4), at full resolution.
+"""Validation and cost of the immersed-boundary model, at full resolution.
 
     .venv/bin/python benchmarks/ib_validation.py                 # every check (~40 min on 2 cores)
     .venv/bin/python benchmarks/ib_validation.py drag case3      # some of them

@@ -1,4 +1,4 @@
-"""The history force across an impact, judged by the resolved flow (issue 35, item 3).
+"""The history force across an impact, judged by the resolved flow.
 
     PYTHONPATH=. python benchmarks/impact_history.py          # ~10 min serial on the first call (ale runs
                                                               # cached in results/impact_history/; ode: s)

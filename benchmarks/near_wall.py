@@ -1,4 +1,4 @@
-"""The near-wall force (issue 11): a converged resolved reference, insensitivity to delta_sl, Fig. 7, delta_ss.
+"""The near-wall force: a converged resolved reference, insensitivity to delta_sl, Fig. 7, delta_ss.
 
     python benchmarks/near_wall.py reference --surface-refinement 3 --finer-step   # ALE, delta_sl = 0.05,
         mesh and dt ladders for cases 1, 3, 4, 7 (--cases), the sphere's surface 3 times finer  ~1.5 h
@@ -32,7 +32,7 @@ from provenance import commit
 ROOT = Path("results") / "near_wall"
 HISTORY = Path(__file__).parent / "history" / "near_wall.json"
 CFL = "numerics.ale.cfl"
-# the paper's spring with the package's correction and additive f_thr: the default contact before issue 23
+# the paper's spring with the package's correction and additive f_thr: the paper's contact as the package first ran it
 SPRING = {"contact.model": "li2011", "contact.near_wall": "correction", "contact.inertial_factor": "additive"}
 SURFACE = "numerics.ale.surface_refinement"
 CELLS = {"ale": "numerics.ale.cells_per_diameter", "fd": "numerics.fd.cells_per_diameter",

@@ -1,4 +1,4 @@
-"""The approach to the wall at finite Re: the resolved (ALE) force against the reduced model's terms (issue 42).
+"""The approach to the wall at finite Re: the resolved (ALE) force against the reduced model's terms.
 
     PYTHONPATH=. python benchmarks/near_wall_map.py --fit    # ~20 min serial the first time (runs reused from
                                                               # results/near_wall/map/runs/; --force redoes them)
@@ -13,7 +13,7 @@ Two families of paths, each resolved by the ALE model at 12 and 16 cells/D:
 - **free**: case 3 falling from rest in MU = 0.05, 0.07, 0.12, 0.18 Pa s (first impact at St 64, 44, 24, 14), the
   hold at delta_sl = 0.05 so that the flow is resolved down to 0.05 D (below it f_liquid is the held flow plus
   the Stokes increment, which is the theory's own; only gaps >= 0.05 D are mapped), and with the ALE model's
-  defaults (hold at 0.2 D, the cfl step: the runs issue 42 measured).
+  defaults (hold at 0.2 D, the cfl step).
 
 The prescribed and the first free runs take steps that move the sphere by at most 5 % of its gap: at the cfl
 step the ALE model's rebound is not converged below St ~ 25 (e 10 % high at St 14, docs/physics.md 3.7).
@@ -43,7 +43,7 @@ FREE_MU = (0.05, 0.07, 0.12, 0.18)  # Pa s
 CELLS = (12, 16)
 GAPS = (2.0, 1.0, 0.7, 0.5, 0.35, 0.25, 0.2, 0.15, 0.1, 0.07, 0.05, 0.03, 0.02)  # h / D
 START, END = 4.0, 0.012  # the prescribed paths' first and last gap / D
-# the reduced model's variants evaluated along each path: its law before issue 42, its default, and the default
+# the reduced model's variants evaluated along each path: the unscreened law, its default, and the default
 # with the exact potential-flow added mass (Milne-Thomson's image sum) in place of the first image
 LAWS = {"additive": {"contact.inertial_factor": "additive"}, "screened": {"contact.inertial_factor": "screened"},
         "screened+exact": {"contact.inertial_factor": "screened", "contact.added_mass": "exact"}}

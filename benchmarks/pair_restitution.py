@@ -1,4 +1,4 @@
-"""Restitution of a head-on pair against the binary Stokes number, with the ODE model (issue 14, item 4).
+"""Restitution of a head-on pair against the binary Stokes number, with the ODE model.
 
     PYTHONPATH=. python benchmarks/pair_restitution.py            # ~45 s of CPU (100 s on the loaded machine)
     PYTHONPATH=. python benchmarks/pair_restitution.py --model ale [--jobs N]   # + the ALE points, ~2 min

@@ -1,5 +1,5 @@
 """Steady Stokes drag of two spheres on their line of centres, resolved models against the exact theory
-(issue 14, validation item 4, its first two bullets):
+(the pair's Stokes validation):
 
   together  two equal spheres moving at the same velocity U: the drag on each, F = -6 pi mu a U lambda,
             against Stimson & Jeffery (1926) (pair_theory.stimson_jeffery);

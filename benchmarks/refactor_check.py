@@ -58,7 +58,7 @@ CASES = {
                                               "numerics.fd.mesh": "fixed",
                                               "numerics.fd.checkpoint_every": 0}),
     "ale-pair": ("yang-hunt2006-pair", "ale", {"numerics.ale.cells_per_diameter": 6}),
-    # three spheres (issue 25): through the first wall and pair collisions
+    # three spheres: through the first wall and pair collisions
     "ode-three": ("three-spheres-wall", "ode", {"run.end_time": 0.09}),
     "fd-three": ("three-spheres-wall", "fd", {"numerics.fd.cells_per_diameter": 12, "run.end_time": 0.09,
                                               "numerics.fd.checkpoint_every": 0}),
@@ -137,7 +137,7 @@ def compare(before: dict, found: dict, rtol: float) -> list[str]:
 
 
 # What a branch on a special case looks like: an if, elif, while, conditional expression or comprehension
-# filter whose condition names one of these (issue 25 counts them).
+# filter whose condition names one of these (the package's size counts them).
 SPECIAL_CASES = {"pair": {"pair"}, "second_sphere": {"second_sphere"}, "mode": {"mode", "modes"}}
 
 

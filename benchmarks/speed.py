@@ -5,7 +5,7 @@
 
 Each case is timed in-process (imports excluded) and appended to
 benchmarks/history/YYYY-MM-DD-MACHINE.json, which is committed (a record taken on a busy machine is not:
-each case keeps the load average before and after it).  The ode cases are issue 38's targets, serial on a
+each case keeps the load average before and after it).  The ode cases are the ode model's speed targets, serial on a
 quiet machine: case 3 to the third impact under 1 s, `fem-bounce restitution --points 40 --jobs 2` under
 20 s, three-spheres-wall under 10 s, a column of five spheres to 0.2 s and pair-settling-wall with a
 500 kg/m3 upper sphere under 30 s each.

@@ -13,7 +13,7 @@ from pathlib import Path
 from fem_bounce import reference, scene
 from fem_bounce.integrator import BodyIntegrator
 
-# the paper's spring with the package's additive f_thr: the default contact before issue 23
+# the paper's spring with the package's additive f_thr: the paper's contact as the package first ran it
 SPRING = {"contact.model": "li2011", "contact.near_wall": "correction", "contact.inertial_factor": "additive"}
 VARIANTS = [
     ("defaults", {}),

@@ -769,7 +769,7 @@ def per_body(values: np.ndarray):
 
 
 def body_array(values) -> np.ndarray:
-    """Per-body values read back (from a checkpoint) as an array; one sphere's were numbers before issue 25."""
+    """Per-body values read back (from a checkpoint) as an array; one sphere's may be a plain number."""
     return np.atleast_1d(np.asarray(values, dtype=float))
 
 
@@ -784,7 +784,7 @@ def _versions() -> dict:
 
 def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: int, command: str,
             status: str = "completed", sizes: dict | None = None, extra: dict | None = None) -> dict:
-    """The summary.json contract (issue 2, section 7) plus cost and state details."""
+    """The summary.json contract (docs/usage.md) plus cost and state details."""
     return {
         "scene": scenes.to_dict(scene),
         "model": model,

@@ -1,4 +1,4 @@
-"""The contact model of a head-on pair of spheres on the axis (issue 14; docs/physics.md section 6).
+"""The contact model of a head-on pair of spheres on the axis (docs/physics.md section 6).
 
 The wall's contact law (contact.ContactLaw, written once) with the pair's quantities: the reduced
 radius a* = a1 a2 / (a1 + a2), the reduced mass m* = m1 m2 / (m1 + m2) (m* = m1 when the second sphere

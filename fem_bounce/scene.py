@@ -255,8 +255,8 @@ class Contact:
       f_sl = H f_thr + (1 - H) f_sim;  "auto": the model's own (correction; blend for li2011 with one
       sphere, Scene.near_wall_law).  The ODE
       model uses f_thr everywhere under either.
-    inertial_factor: "auto" is "screened" (lubricated-hertz, ehd) or "schiller-naumann" (li2011); "additive" is
-      the default before issue 42: theory.py, docs/physics.md 3.7.
+    inertial_factor: "auto" is "screened" (lubricated-hertz, ehd) or "schiller-naumann" (li2011); "additive" adds
+      the inertial excess to the wall's unscreened: theory.py, docs/physics.md 3.7.
     delta_ss: the paper's elastic layer, li2011 only.
     "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
       ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)

@@ -7,9 +7,9 @@ choice is named by a scene key of `[contact]` so its effect can be measured:
 - `wall_drag`: lambda(delta) = Brenner (1961) exact series ("brenner"), or
   1 + 1/(2 delta) ("simple").
 - `inertial_factor`: the Schiller & Naumann (1933) factor phi(Re) = 1 + 0.15 Re^0.687 and Brenner's lambda:
-  "screened" (the default since issue 42) lambda + phi - 1 - Delta, where Delta is the part of the inertial
+  "screened" (the default) lambda + phi - 1 - Delta, where Delta is the part of the inertial
   excess phi - 1 that the wall takes (`wall_screening`, calibrated on the ALE model's force map);
-  "additive" (the default before) lambda + phi - 1: the wall's excess is lubrication, viscous at gap
+  "additive" lambda + phi - 1: the wall's excess is lubrication, viscous at gap
   Reynolds numbers rho V h / mu -> 0, which inertia corrects only at O(Re_gap) (Cox & Brenner 1967);
   "schiller-naumann" multiplies them, lambda phi (the paper's); or "none".
 - `added_mass`: the wall excess W of C_M = (1 + 3 W) / 2, first image

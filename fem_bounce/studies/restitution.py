@@ -44,7 +44,7 @@ from .runner import Runner
 NO_REBOUND_BELOW_ST = 10.0  # Joseph et al. (2001); the paper's runs 25-29
 DRY_ABOVE_ST = 500.0  # Joseph et al. (2001): e close to the dry value above St ~ 500
 LEGENDRE_CONSTANT = 35.0  # Legendre et al. (2006): e / e_d = exp(-35 / St*)
-COMPARED_ST = (10.0, 1000.0)  # where the fit is compared with (issue 23: rms < 0.1, no point off by > 0.2)
+COMPARED_ST = (10.0, 1000.0)  # where the fit is compared with (the targets: rms < 0.1, no point off by > 0.2)
 
 
 def legendre_fit(stokes: float, density_ratio: float, dry_restitution: float = 0.97) -> float:
