@@ -37,6 +37,8 @@ LAYERS = {
     "fem_bounce.cavitation": PHYSICS,
     "fem_bounce.contact": PHYSICS,
     "fem_bounce.pair_contact": PHYSICS,
+    "fem_bounce.wall_tangential": PHYSICS,
+    "fem_bounce.tangential_contact": PHYSICS,
     # the bodies' equations of motion and their bounce records
     "fem_bounce.bounces": INTEGRATOR,
     "fem_bounce.equations": INTEGRATOR,
