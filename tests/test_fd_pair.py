@@ -136,8 +136,8 @@ def test_held_pair_drag_follows_stimson_and_jeffery(constraint):
     far field 50 D; without the interaction it would be +35 %), equal on both spheres within 1 %
     (measured 0.2 %, the domain is not symmetric about the pair).  The isolated sphere's own drag is
     6 pi mu a U within 5 % (measured +2.0 %, mostly the slip sides 20 D away).  The implicit penalty's
-    sharper surface depends more on where the cells cut it: 12 cells/D (+2.7 % on lambda, 0.8 % between
-    the spheres, +4.4 % on the isolated drag; at 6 and 8 cells/D the spheres differ by 1.7 and 1.5 %)."""
+    sharper surface depends more on where the cells cut it: 12 cells/D (+2.3 to +2.7 % on lambda, up to 1.1 %
+    between the spheres, +4.4 % on the isolated drag; at 6 and 8 cells/D the spheres differ by 1.7 and 1.5 %)."""
     changes = {"numerics.fd.cells_per_diameter": 6 if constraint == "penalty" else 12, "numerics.fd.far_field": 20.0,
                "numerics.fd.steady_stokes": True, "wall.present": False, "initial_gap": 0.2,
                "numerics.fd.constraint": constraint}
@@ -147,7 +147,10 @@ def test_held_pair_drag_follows_stimson_and_jeffery(constraint):
     forces = steady_force(pair)
     a = single.sphere.radius
     ratio = forces / alone
-    assert ratio[0] == pytest.approx(ratio[1], rel=0.01)
+    # the implicit penalty's two spheres differ by how the cells cut each surface, and gmsh's mesh changes with the
+    # last bits of its input (a gap 1e-15 larger or smaller gives anywhere between -1.1 % and +1.1 % at 12 cells/D):
+    # 2.5 % covers that and still fails a sphere treated unlike the other (the interaction alone is 35 %)
+    assert ratio[0] == pytest.approx(ratio[1], rel=0.01 if constraint == "penalty" else 0.025)
     assert np.mean(ratio) == pytest.approx(pair_theory.stimson_jeffery(a, 2 * a), rel=0.04)
     stokes = 6 * math.pi * single.liquid.viscosity * a * abs(single.motion.velocity)
     assert alone / stokes == pytest.approx(1.0, rel=0.05)
