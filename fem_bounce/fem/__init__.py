@@ -1,7 +1,8 @@
 """Finite-element building blocks shared by the mesh-based models (fd and ale).
 
 - `mesh`: the axisymmetric meridian half-plane, meshed by gmsh on rank 0 and cached.
-- `forms`: pure functions returning the r-weighted UFL forms of axisymmetric flow.
+- `geometry`: the flow's geometry as an object (axisymmetric, Cartesian): its weighted measure, the forms
+  built on it and the MPI reduction of an integral.
 - `solver`: a factorise-once, back-solve-many linear solver owning its PETSc objects.
 - `functions`: partition-independent save/load of finite-element functions.
 - `transfer`: a flow carried onto a new mesh; `vertex_fields`: a state as P1 fields for the field files.

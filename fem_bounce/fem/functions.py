@@ -1,6 +1,6 @@
 """Finite-element functions saved by dof coordinates, so a checkpoint does not depend on the partition.
 
-    data = gather_values(u)              # on rank 0: {component: (coordinates (n, 2), values (n,))}
+    data = gather_values(u)              # on rank 0: {component: (coordinates (n, gdim), values (n,))}
     scatter_values(u, data)              # on every rank, for the same mesh on any number of ranks
 
 Each scalar component of a (mixed, vector) space is stored as the coordinates of
@@ -36,7 +36,7 @@ def _local_dofs(sub):
     """(parent dof indices, coordinates) of the owned dofs of a scalar sub-space."""
     collapsed, parent = collapse(sub)
     owned = collapsed.dofmap.index_map.size_local
-    coordinates = collapsed.tabulate_dof_coordinates()[:owned, :2]
+    coordinates = collapsed.tabulate_dof_coordinates()[:owned, :collapsed.mesh.geometry.dim]
     return parent[:owned], coordinates
 
 
@@ -60,7 +60,7 @@ def scatter_values(function, data: dict, tolerance: float) -> None:
             raise CheckpointMismatch(f"component {name} is missing from the checkpoint")
         coordinates, values = data[name]
         collapsed, parent = collapse(sub)
-        local = collapsed.tabulate_dof_coordinates()[:, :2]
+        local = collapsed.tabulate_dof_coordinates()[:, :collapsed.mesh.geometry.dim]
         distance, index = cKDTree(coordinates).query(local)
         if local.size and distance.max() > tolerance:
             raise CheckpointMismatch(f"component {name}: a dof lies {distance.max():.3g} m from every stored one")

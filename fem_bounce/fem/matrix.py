@@ -20,12 +20,12 @@ from petsc4py import PETSc
 
 class FormMatrix:
     """The matrix of `form` (a compiled dolfinx form) with the Dirichlet conditions `bcs` (rows and columns
-    zeroed, 1 on the diagonal)."""
+    zeroed, `diagonal` on the diagonal: fem.geometry.Geometry.dirichlet_diagonal for the weighted forms)."""
 
-    def __init__(self, form, bcs):
-        self.form, self.bcs = form, bcs
+    def __init__(self, form, bcs, diagonal: float = 1.0):
+        self.form, self.bcs, self.diagonal = form, bcs, diagonal
         if form.mesh.comm.size == 1:
-            self._csr = fem.assemble_matrix(form, bcs=bcs)
+            self._csr = fem.assemble_matrix(form, bcs=bcs, diag=diagonal)
             # PETSc keeps pointers to these arrays: they must live as long as the matrix
             self._rows = self._csr.indptr.astype(PETSc.IntType)
             self._columns = self._csr.indices.astype(PETSc.IntType)
@@ -34,17 +34,17 @@ class FormMatrix:
                                                          comm=PETSc.COMM_SELF)
         else:
             self._csr = None
-            self.petsc = assemble_matrix(form, bcs=bcs)
+            self.petsc = assemble_matrix(form, bcs=bcs, diag=diagonal)
         self.petsc.assemble()
 
     def assemble(self) -> PETSc.Mat:
         """Assemble the form again into the same matrix (its new state tells a solver to factorise again)."""
         if self._csr is None:
             self.petsc.zeroEntries()
-            assemble_matrix(self.petsc, self.form, bcs=self.bcs)
+            assemble_matrix(self.petsc, self.form, bcs=self.bcs, diag=self.diagonal)
         else:
             self._csr.set_value(0.0)
-            fem.assemble_matrix(self._csr, self.form, bcs=self.bcs)
+            fem.assemble_matrix(self._csr, self.form, bcs=self.bcs, diag=self.diagonal)
         self.petsc.assemble()
         return self.petsc
 

@@ -194,7 +194,7 @@ class ReusedFactorOperator(FactorizedOperator):
     preconditioned on the right (the residual it tests is the true one) by the LU factors of A as it was at
     the last factorisation.  A solve is converged when |b - A x| <= rtol |b_free|, starting from the
     solution vector's values (an initial guess); b_free is b without the rows `fixed_rows` (this rank's
-    local indices of Dirichlet rows: identity rows whose values, velocities of order 1, would otherwise
+    local indices of Dirichlet rows: diagonal rows whose values, velocities of order 1, would otherwise
     set the scale for the finite-element rows, whose entries carry cell areas and are many orders
     smaller).  A guess meeting the Dirichlet values leaves no residual in those rows.
 

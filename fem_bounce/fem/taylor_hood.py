@@ -76,23 +76,24 @@ def pressure_pin(W, mesh):
     return fem.dirichletbc(fem.Function(Q), dofs, W.sub(1))
 
 
-def lifted_rhs(b: PETSc.Vec, L, a, bcs) -> PETSc.Vec:
+def lifted_rhs(b: PETSc.Vec, L, a, bcs, diagonal: float = 1.0) -> PETSc.Vec:
     """b = assemble(L) (nothing when L is None) lifted by the Dirichlet values of `bcs` through the
-    bilinear form a, ghosts accumulated and the boundary rows set: ready for a back-solve."""
+    bilinear form a, ghosts accumulated and the boundary rows set to `diagonal` times their values (the
+    diagonal the matrix has on those rows, fem.matrix.FormMatrix): ready for a back-solve."""
     with b.localForm() as local:
         local.set(0.0)
     if L is not None:
         assemble_vector(b, L)
     apply_lifting(b, [a], [bcs])
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    set_bc(b, bcs)
+    set_bc(b, bcs, alpha=diagonal)
     return b
 
 
 def taylor_hood_space(mesh) -> fem.FunctionSpace:
     """The mixed space of (u, p): continuous P2 velocity (r, z) and P1 pressure."""
     cell = mesh.basix_cell()
-    velocity = basix.ufl.element("Lagrange", cell, 2, shape=(2,))
+    velocity = basix.ufl.element("Lagrange", cell, 2, shape=(mesh.geometry.dim,))
     return fem.functionspace(mesh, basix.ufl.mixed_element([velocity, basix.ufl.element("Lagrange", cell, 1)]))
 
 

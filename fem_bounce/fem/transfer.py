@@ -11,17 +11,17 @@ value.
 
 Interpolation leaves a field that is not discretely divergence-free on the new mesh; the
 next step's pressure would remove that in one step, as a force spike on the sphere.
-`DivergenceFreeProjection` instead takes the (r-weighted) L2-closest discretely
-divergence-free field with the right boundary values,
+`DivergenceFreeProjection` instead takes the L2-closest (in the physical volume, fem.geometry's
+weighted measure) discretely divergence-free field with the right boundary values,
 
-    (u, v)_r - (p, div v)_r = (u_interpolated, v)_r,    (q, div u)_r = 0,   u = g on Dirichlet sides,
+    (u, v) - (p, div v) = (u_interpolated, v),    (q, div u) = 0,   u = g on Dirichlet sides,
 
 one saddle-point solve.  That also conserves momentum: in a closed domain (every side
 fixing the normal velocity, as in every moving-sphere scene) a discretely divergence-free
 field has exactly the momentum its boundary values dictate, because the P1 pressure space
-contains q = z and (q, div u)_r = 0 with q = z is
+contains q = z and (q, div u) = 0 with q = z is
 
-    int u_z r dx = int_boundary z (u . n) r ds    (= -(sphere volume / 2 pi) U on the sphere),
+    int u_z dV = int_boundary z (u . n) dS    (= -(sphere volume) U on the sphere),
 
 so the fluid's momentum after the transfer equals its momentum before, up to the small
 difference between the two meshes' polygonal sphere volumes.  model.py reports both.
@@ -36,9 +36,9 @@ from dolfinx import mesh as dmesh
 from dolfinx.fem.petsc import create_vector
 from mpi4py import MPI
 
-from . import forms
 from .compat import collapse, geometry_cells
 from .functions import gather_values, scatter_values
+from .geometry import Axisymmetric
 from .matrix import FormMatrix
 from .solver import FactorizedOperator, ReusedFactorOperator
 from .taylor_hood import lifted_rhs, owned_dirichlet_rows
@@ -105,21 +105,23 @@ def interpolate_from(source: SerialField, target: fem.Function) -> None:
 
 
 class DivergenceFreeProjection:
-    """The r-weighted L2 projection onto discretely divergence-free fields meeting `bcs`, on the mesh as it is.
+    """The L2 projection (weighted: fem.geometry.Axisymmetric) onto discretely divergence-free fields meeting
+    `bcs`, on the mesh as it is.
 
     `reuse`: after the mesh moved, `reassemble` and project with the first factors preconditioning flexible
     GMRES (fem.solver.ReusedFactorOperator, to |b - A x| <= rtol |b|) instead of factorising again."""
 
     def __init__(self, W, bcs: list, prefix: str = "ale_projection_", reuse: bool = False, rtol: float = 1e-7):
-        mesh = W.mesh
-        r = forms.radial_coordinate(mesh)
-        dx = ufl.Measure("dx", domain=mesh)
+        geometry = Axisymmetric(W.mesh)
         (u, p), (v, q) = ufl.TrialFunctions(W), ufl.TestFunctions(W)
         self.field = fem.Function(W)
-        self.a = fem.form(forms.stokes_operator(u, p, v, q, 1.0, 0.0, r, dx))
-        self.L = fem.form(forms.source(ufl.split(self.field)[0], v, r, dx))
+        self.a = fem.form(geometry.stokes_operator(u, p, v, q, 1.0, 0.0))
+        self.L = fem.form(geometry.source(ufl.split(self.field)[0], v))
         self.bcs = bcs
-        self.assembler = FormMatrix(self.a, bcs)
+        # the fixed rows scaled with the weighted forms: a reused factorisation's GMRES starts from the interpolated
+        # field, off the new mesh's Dirichlet values, and weighs those rows against the others as before
+        self.diagonal = geometry.dirichlet_diagonal
+        self.assembler = FormMatrix(self.a, bcs, self.diagonal)
         self.matrix = self.assembler.petsc
         self.rhs = create_vector(W)
         self.solver = ReusedFactorOperator(self.matrix, prefix + "reuse_", rtol=rtol,
@@ -137,7 +139,7 @@ class DivergenceFreeProjection:
     def project(self, function: fem.Function) -> None:
         """Replace the velocity of the mixed (u, p) `function` by its projection (its pressure is kept)."""
         self.field.x.array[:] = function.x.array
-        b = lifted_rhs(self.rhs, self.L, self.a, self.bcs)
+        b = lifted_rhs(self.rhs, self.L, self.a, self.bcs, self.diagonal)
         self.solver.solve(b, self.field.x.petsc_vec)
         self.field.x.scatter_forward()
         _, velocity = collapse(function.function_space.sub(0))

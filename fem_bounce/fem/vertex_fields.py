@@ -16,7 +16,7 @@ import basix.ufl
 import ufl
 from dolfinx import fem, la
 
-from . import forms
+from .geometry import Axisymmetric
 
 
 class VertexFields:
@@ -24,14 +24,16 @@ class VertexFields:
 
     def __init__(self, W):
         mesh = W.mesh
-        vectors = basix.ufl.element("Lagrange", mesh.basix_cell(), 1, shape=(2,))
+        vectors = basix.ufl.element("Lagrange", mesh.basix_cell(), 1, shape=(mesh.geometry.dim,))
         self.velocity = fem.Function(fem.functionspace(mesh, vectors), name="velocity")
         scalars = fem.functionspace(mesh, ("Lagrange", 1))
         self.pressure = fem.Function(scalars, name="pressure")
         self.vorticity = fem.Function(scalars, name="vorticity")
         self.state = fem.Function(W)
         z = ufl.TestFunction(scalars)
-        self._forms = (fem.form(z * ufl.dx), fem.form(forms.vorticity(ufl.split(self.state)[0]) * z * ufl.dx))
+        vorticity = Axisymmetric(mesh).vorticity(ufl.split(self.state)[0])
+        # plain dx, not the weighted measure: each vertex's value is the area-weighted mean of the curl around it
+        self._forms = (fem.form(z * ufl.dx), fem.form(vorticity * z * ufl.dx))
 
     @property
     def functions(self) -> tuple:

@@ -41,14 +41,14 @@ N + 1 back-solves with one factorisation.
 The force on the sphere is the consistent variational (reaction) force: with phi the
 finite-element function equal to e_z on the sphere and 0 at every other node,
 
-    F_z = -2 pi R(x; phi),   R(x; v) = a(x, v) - L(v)  the step's residual,
+    F_z = -R(x; phi),   R(x; v) = a(x, v) - L(v)  the step's residual,
 
 which is the surface integral of the traction for the exact solution (Green's formula)
 and converges faster than the integrated discrete stress (Babuska & Miller 1984,
 CMAME 45; Brummelen et al. 2012).  R is affine in x, so F(U) = F(U_ref) + (U - U_ref) dF/dU
-with dF/dU = -2 pi a(x_unit, phi); phi_i is e_z on sphere i only, F_i = -2 pi R(x; phi_i) and
-dF_i/dU_j = -2 pi a(x_unit,j, phi_i), an N x N matrix.  The stress integral over the surface is kept
-as a diagnostic.
+with dF/dU = -a(x_unit, phi); phi_i is e_z on sphere i only, F_i = -R(x; phi_i) and
+dF_i/dU_j = -a(x_unit,j, phi_i), an N x N matrix (every form is fem.geometry's, weighted to the physical
+volume: no factor here).  The stress integral over the surface is kept as a diagnostic.
 
 Per-sphere quantities (velocities, forces) are arrays over the spheres, sphere 1 (the lowest) first,
 as in the FlowModel interface (kinematics.Prediction).
@@ -59,18 +59,16 @@ the pressure is pinned at the far corner.  SI units throughout.
 """
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, create_vector, set_bc
-from mpi4py import MPI
 from petsc4py import PETSc
 
-from ...fem import forms
 from ...fem.compat import collapse
+from ...fem.geometry import Axisymmetric
 from ...fem.matrix import FormMatrix
 from ...fem.mesh import AXIS, SPHERE
 from ...fem.solver import FactorizedOperator, ReusedFactorOperator
@@ -116,9 +114,7 @@ class SphereFlow:
         self.phis = [fem.Function(self.W) for _ in self.sphere_tags]  # e_z on sphere k, 0 elsewhere
         self._boundary_conditions(facet_tags, sides)
 
-        r = forms.radial_coordinate(mesh)
-        self.r = r
-        self.dx = dx = ufl.Measure("dx", domain=mesh)
+        self.geometry = geometry = Axisymmetric(mesh)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         # the numbers of a scene and of the step as Constants, not literals: one compiled form for every
@@ -138,18 +134,20 @@ class SphereFlow:
         past = [ufl.split(state)[0] for state in self.states]
         extrapolated = sum(beta * u_j for beta, u_j in zip(ext, past))
         history = -rho * inverse_dt * sum(alpha * u_j for alpha, u_j in zip(bdf[1:], past))
-        a = (forms.stokes_operator(u, p, v, q, rho * bdf[0] * inverse_dt, mu, r, dx)
-             + rho * forms.convection(extrapolated - mesh_velocity, u, v, r, dx))
-        L = forms.source(history, v, r, dx)
+        a = (geometry.stokes_operator(u, p, v, q, rho * bdf[0] * inverse_dt, mu)
+             + rho * geometry.convection(extrapolated - mesh_velocity, u, v))
+        L = geometry.source(history, v)
         self.a, self.L = fem.form(a), fem.form(L)
-        self.force_forms = [fem.form(-2.0 * math.pi * (ufl.action(ufl.action(a, self.solution), phi)
-                                                       - ufl.action(L, phi))) for phi in self.phis]
-        self.force_slope_forms = [[fem.form(-2.0 * math.pi * ufl.action(ufl.action(a, unit), phi))
-                                   for unit in self.units] for phi in self.phis]
-        self.surface_force_forms = [fem.form(surface_force(self.solution, self.mu, r, ds(tag)))
+        self.force_forms = [fem.form(-(ufl.action(ufl.action(a, self.solution), phi) - ufl.action(L, phi)))
+                            for phi in self.phis]
+        self.force_slope_forms = [[fem.form(-ufl.action(ufl.action(a, unit), phi)) for unit in self.units]
+                                  for phi in self.phis]
+        self.surface_force_forms = [fem.form(surface_force(geometry, self.solution, self.mu, ds(tag)))
                                     for tag in self.sphere_tags]
 
-        self.assembler = FormMatrix(self.a, self.bcs)
+        # the fixed rows scaled with the weighted forms, so that "reuse"'s GMRES weighs them against the others
+        # as with the plain forms (Geometry.dirichlet_diagonal)
+        self.assembler = FormMatrix(self.a, self.bcs, geometry.dirichlet_diagonal)
         self.matrix = self.assembler.petsc
         self.operator: FactorizedOperator | ReusedFactorOperator | None = None
         self.rhs = create_vector(self.W)
@@ -271,7 +269,7 @@ class SphereFlow:
         return getattr(self.operator, "iterations", 0)
 
     def _solve(self, with_history: bool, out: fem.Function) -> None:
-        b = lifted_rhs(self.rhs, self.L if with_history else None, self.a, self.bcs)
+        b = lifted_rhs(self.rhs, self.L if with_history else None, self.a, self.bcs, self.geometry.dirichlet_diagonal)
         start = time.perf_counter()
         self.operator.solve(b, out.x.petsc_vec)  # "reuse": out holds the initial guess
         self.solve_s += time.perf_counter() - start
@@ -300,43 +298,42 @@ class SphereFlow:
         self._solve(True, self.solution)
         if reused:
             self.operator.end_step()
-        forces = np.array([self.assemble(form) for form in self.force_forms])
-        slopes = np.array([[self.assemble(form) for form in row] for row in self.force_slope_forms])
+        integrate = self.geometry.integrate
+        forces = np.array([integrate(form) for form in self.force_forms])
+        slopes = np.array([[integrate(form) for form in row] for row in self.force_slope_forms])
         return forces, slopes
-
-    def assemble(self, form) -> float:
-        return self.mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
 
     def surface_force(self):
         """The traction integrated over each sphere, of the last committed field [N] (a diagnostic)."""
-        return np.array([self.assemble(form) for form in self.surface_force_forms])
+        return np.array([self.geometry.integrate(form) for form in self.surface_force_forms])
 
     def momentum(self, state: fem.Function) -> float:
-        """The fluid's axial momentum 2 pi rho int u_z r dx of a (u, p) function on this mesh [kg m/s]."""
-        return self.assemble(fem.form(2.0 * math.pi * self.rho * ufl.split(state)[0][1] * self.r * ufl.dx))
+        """The fluid's axial momentum rho int u_z dV of a (u, p) function on this mesh [kg m/s]."""
+        return self.geometry.integrate(self.geometry.weighted(self.rho * ufl.split(state)[0][1]))
 
     def fluid_volume(self) -> float:
-        """2 pi int r dx: the volume of liquid the mesh holds [m^3]."""
-        return self.assemble(fem.form(2.0 * math.pi * self.r * ufl.dx(domain=self.mesh)))
+        """int dV: the volume of liquid the mesh holds [m^3]."""
+        return self.geometry.integrate(self.geometry.weighted(1.0))
 
     # -- steady states (a held sphere) -----------------------------------------------------------
     def steady(self, sphere_velocity, convection: bool, rtol: float = 1e-10, max_iterations: int = 30, log=None):
         """Solve the steady Stokes (or Navier-Stokes, by Newton from the Stokes state) problem with the
         spheres' surfaces at sphere_velocity [m/s]; set every history level to it; return the force on
         each sphere [N]."""
-        rho, mu, r, dx = self.rho, self.mu, self.r, self.dx
+        rho, mu, geometry = self.rho, self.mu, self.geometry
+        diagonal = geometry.dirichlet_diagonal
         (u_trial, p_trial), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         x = self.solution
         u, p = ufl.split(x)
-        stokes = forms.stokes_operator(u_trial, p_trial, v, q, 0.0, mu, r, dx)
+        stokes = geometry.stokes_operator(u_trial, p_trial, v, q, 0.0, mu)
         residual = ufl.action(stokes, x)
         if convection:
-            residual = residual + rho * forms.convection(u, u, v, r, dx)
+            residual = residual + rho * geometry.convection(u, u, v)
         jacobian = ufl.derivative(residual, x)
-        force_forms = [fem.form(-2.0 * math.pi * ufl.action(residual, phi)) for phi in self.phis]
+        force_forms = [fem.form(-ufl.action(residual, phi)) for phi in self.phis]
         self.set_boundary_values(sphere_velocity)
         J, F = fem.form(jacobian), fem.form(residual)
-        A = assemble_matrix(J, bcs=self.bcs)
+        A = assemble_matrix(J, bcs=self.bcs, diag=diagonal)
         A.assemble()
         solver = FactorizedOperator(A, self.prefix + "steady_")
         correction = fem.Function(self.W)
@@ -346,7 +343,7 @@ class SphereFlow:
             for iteration in range(max_iterations if convection else 1):
                 if iteration > 0:
                     A.zeroEntries()
-                    assemble_matrix(A, J, bcs=self.bcs)
+                    assemble_matrix(A, J, bcs=self.bcs, diag=diagonal)
                     A.assemble()
                     solver.refactor()
                 # Newton: J dx = -F(x), with dx = g - x on Dirichlet rows so x + dx meets the conditions
@@ -356,7 +353,7 @@ class SphereFlow:
                 apply_lifting(b, [J], [self.bcs], x0=[x.x.petsc_vec], alpha=-1.0)
                 b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
                 b.scale(-1.0)
-                set_bc(b, self.bcs, x.x.petsc_vec, 1.0)
+                set_bc(b, self.bcs, x.x.petsc_vec, diagonal)
                 solver.solve(b, correction.x.petsc_vec)
                 correction.x.scatter_forward()
                 x.x.array[:] += correction.x.array
@@ -376,7 +373,7 @@ class SphereFlow:
             state.x.array[:] = x.x.array
         for unit in self.units:
             unit.x.array[:] = 0.0
-        return np.array([self.assemble(form) for form in force_forms])
+        return np.array([geometry.integrate(form) for form in force_forms])
 
     @property
     def unknowns(self) -> int:
@@ -389,13 +386,11 @@ class SphereFlow:
         self.rhs.destroy()
 
 
-def surface_force(state: fem.Function, viscosity, r, ds_sphere):
-    """-2 pi int_S (sigma n)_z r ds, n the fluid's outward normal: the z-force on the sphere (a UFL form);
-    viscosity [Pa s] a float or a Constant.
+def surface_force(geometry, state: fem.Function, viscosity, ds_sphere):
+    """-int_S (sigma n)_z dS, n the fluid's outward normal: the z-force on the sphere (a UFL form, weighted by
+    the geometry to the whole surface of revolution); viscosity [Pa s] a float or a Constant.
 
-    sigma = -p I + mu (grad u + grad u^T); only its (r, z) block enters the axial force."""
+    sigma = -p I + mu (grad u + grad u^T); only its (r, z) block enters the axial force (Axisymmetric.stress)."""
     u, p = ufl.split(state)
-    n = ufl.FacetNormal(state.function_space.mesh)
-    strain = ufl.grad(u) + ufl.grad(u).T
-    traction_z = -p * n[1] + viscosity * (strain[1, 0] * n[0] + strain[1, 1] * n[1])
-    return -2.0 * math.pi * traction_z * r * ds_sphere
+    traction = geometry.traction(u, p, viscosity, ufl.FacetNormal(geometry.mesh))
+    return -geometry.weighted(traction[1], ds_sphere)

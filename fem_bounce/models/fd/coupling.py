@@ -6,7 +6,8 @@ for each sphere j, the response y1_j to the unit forcing rho c phi_j e_z.  The s
 
     u = u~ + y0 + sum_j s_j y1_j,   force density f = rho c sum_i phi_i (s_i e_z - u~) on the fluid.
 
-With the weighted interior integral I_i(w) = 2 pi int phi_i w_z r dx, V_i = 2 pi int phi_i r dx and
+With the interior integral I_i(w) = int phi_i w_z dV, V_i = int phi_i dV (dV the physical volume element,
+fem.geometry's weighted measure) and
 G_ij = I_i(y1_j) (the interior response of sphere i to a unit amplitude at sphere j; symmetric, as the
 step's matrix is), the amplitudes make each interior move with its own sphere on average:
 
@@ -42,7 +43,7 @@ import numpy as np
 
 @dataclass(frozen=True)
 class InteriorIntegrals:
-    """The 2 pi-weighted integrals of each sphere's smoothed indicator in one step."""
+    """The integrals over the physical volume of each sphere's smoothed indicator in one step."""
 
     volume: np.ndarray  # V_i [m^3], shape (N,)
     predicted: np.ndarray  # I_i(u~) [m^4/s]

@@ -3,9 +3,9 @@
     rho (3 u^{n+1} - 4 u^n + u^{n-1}) / (2 dt) + rho N(u*) - mu Lap u^{n+1} + grad p^{n+1} = f,
     div u^{n+1} = 0,      u* = 2 u^n - u^{n-1}  (EXT2),
 
-with N the convective term (fem.forms.convection, advective form).  Only the
+with N the convective term (fem.geometry's convection, advective form).  Only the
 right-hand side changes from step to step, so the Taylor-Hood P2/P1 saddle
-point A = [rho c M + mu K, -B^T; -B, 0] (c = 3 / (2 dt), r-weighted) is
+point A = [rho c M + mu K, -B^T; -B, 0] (c = 3 / (2 dt), the geometry's weighted forms) is
 assembled and factorised once; a step, or the response to a body force, is one
 back-solve (Karniadakis, Israeli & Orszag 1991 for the BDF2/EXT2 pair).
 Gravity is not in the fluid: the hydrostatic pressure does no work on a rigid
@@ -22,8 +22,8 @@ from dolfinx import fem
 from dolfinx.fem.petsc import create_vector, set_bc
 from petsc4py import PETSc
 
-from ...fem import forms
 from ...fem.compat import collapse
+from ...fem.geometry import Axisymmetric
 from ...fem.matrix import FormMatrix
 from ...fem.mesh import AXIS
 from ...fem.solver import FactorizedOperator, FieldSplitOperator
@@ -56,8 +56,7 @@ class FlowSolver:
         self.inflow_speed = inflow_speed
         self.bcs = self._boundary_conditions(facet_tags, sides)
 
-        self.r = forms.radial_coordinate(mesh)
-        self.dx = ufl.Measure("dx", domain=mesh)
+        self.geometry = Axisymmetric(mesh)
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         self.test_velocity = v
         past = [ufl.split(state)[0] for state in self.states]
@@ -65,7 +64,7 @@ class FlowSolver:
         history = density * sum(self.rates[j + 1] * u_j for j, u_j in enumerate(past))
         a, L = self.step_forms(u, p, v, q, extrapolated, history)
         self.a, self.L_history = fem.form(a), fem.form(L)
-        self.assembler = FormMatrix(self.a, self.bcs)
+        self.assembler = FormMatrix(self.a, self.bcs, self.geometry.dirichlet_diagonal)
         A = self.matrix = self.assembler.petsc
         if solver == "fieldsplit":
             velocity, pressure = (self._field_indices(k) for k in (0, 1))
@@ -103,9 +102,9 @@ class FlowSolver:
 
     def step_forms(self, u, p, v, q, extrapolated, history):
         """The step's bilinear and linear forms (UFL): convection extrapolated, so the matrix is fixed."""
-        r, dx, rho = self.r, self.dx, self.density
-        return (forms.stokes_operator(u, p, v, q, rho * self.rates[0], self.viscosity, r, dx),
-                forms.source(history, v, r, dx) - rho * forms.convection(extrapolated, extrapolated, v, r, dx))
+        geometry, rho = self.geometry, self.density
+        return (geometry.stokes_operator(u, p, v, q, rho * self.rates[0], self.viscosity),
+                geometry.source(history, v) - rho * geometry.convection(extrapolated, extrapolated, v))
 
     # -- boundary conditions ---------------------------------------------------------------
     def _boundary_conditions(self, facet_tags, sides):
@@ -136,7 +135,7 @@ class FlowSolver:
 
     def predictor_rhs(self) -> PETSc.Vec:
         """b(u^n, u^{n-1}, ...): history and extrapolated convection, boundary values set."""
-        return lifted_rhs(self.rhs, self.L_history, self.a, self.bcs)
+        return lifted_rhs(self.rhs, self.L_history, self.a, self.bcs, self.geometry.dirichlet_diagonal)
 
     def force_rhs(self, force: PETSc.Vec) -> PETSc.Vec:
         """An assembled body-force vector made ready for a response with homogeneous boundary

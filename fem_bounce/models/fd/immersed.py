@@ -14,13 +14,13 @@ step (and further out as dt falls: docs/validation.md section 12); hence the one
 penalty's a_h = a + h/2 (numerics.FdNumerics.radius_offset, the same in cells at every
 resolution).  The implicit penalisation (penalised.py) holds the whole band: a_h = a.
 
-Only phi, b_phi = assemble(phi e_z . v r dx), V_phi and the forcing vector
-assemble(-rho c phi u~ . v r dx) change with the sphere's position.  They are
+Only phi, b_phi = assemble(phi e_z . v dV), V_phi and the forcing vector
+assemble(-rho c phi u~ . v dV) change with the sphere's position (dV: the flow's weighted measure,
+fem.geometry, the physical volume's as in every form of the step).  They are
 assembled here by a small vectorised loop over the cells that meet the sphere
-(`BandAssembler`), with phi evaluated exactly at the quadrature points; the UFL
-forms of the same quantities (`indicator`, `reference_forms`) are the plain
-reference the tests compare it with.  I(w) = 2 pi b_phi . w is every weighted
-interior integral.
+(`BandAssembler`, weighted by the geometry's `weight_at`), with phi evaluated exactly at the quadrature
+points; the UFL forms of the same quantities (`indicator`, `reference_forms`) are the plain
+reference the tests compare it with.  I(w) = b_phi . w is every weighted interior integral.
 
 Every sphere on the axis has its own indicator phi_i (ImmersedSphere) and unit response y1_i; the
 forcing of -u~ is one vector over all of them, with one response y0 (ImmersedBodies; the algebra is
@@ -66,22 +66,22 @@ def smooth_step(depth: np.ndarray) -> np.ndarray:
 
 def reference_forms(flow: FlowSolver, center, radius: float, width: float) -> dict:
     """UFL forms of b_phi, the forcing vector and V_phi: the plain reference for BandAssembler."""
-    mesh = flow.mesh
+    mesh, geometry = flow.mesh, flow.geometry
     phi = indicator(ufl.SpatialCoordinate(mesh), center, radius, width)
     dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": QUADRATURE_DEGREE})
-    v, r = flow.test_velocity, flow.r
+    v = flow.test_velocity
     predicted = ufl.split(flow.predicted)[0]
-    return {"indicator": fem.form(phi * v[1] * r * dx),
-            "forcing": fem.form(-flow.density * flow.c * phi * ufl.inner(predicted, v) * r * dx),
-            "volume": fem.form(2.0 * math.pi * phi * r * dx)}
+    return {"indicator": fem.form(geometry.weighted(phi * v[1], dx)),
+            "forcing": fem.form(geometry.weighted(-flow.density * flow.c * phi * ufl.inner(predicted, v), dx)),
+            "volume": fem.form(geometry.weighted(phi, dx))}
 
 
 class BandAssembler:
     """Assembles the indicator integrals over the owned cells that meet a ball centred on the axis.
 
-    P2 velocity on affine triangles: per cell the quadrature points and r-weighted
-    Jacobian weights are computed once; a placement selects the cells within reach of
-    the ball and evaluates phi there."""
+    P2 velocity on affine triangles: per cell the quadrature points and weighted Jacobian
+    weights (the flow geometry's `weight_at`) are computed once; a placement selects the cells
+    within reach of the ball and evaluates phi there."""
 
     def __init__(self, flow: FlowSolver, radius: float, width: float):
         mesh = flow.mesh
@@ -96,7 +96,7 @@ class BandAssembler:
         jacobian = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=2)  # (c, 2, 2)
         self.points = corners[:, None, 0, :] + np.einsum("cij,qj->cqi", jacobian, points)  # (c, q, 2)
         det = np.abs(np.linalg.det(jacobian))
-        self.weights = det[:, None] * weights[None, :] * self.points[:, :, 0]  # r dx per point
+        self.weights = det[:, None] * weights[None, :] * flow.geometry.weight_at(self.points)  # dV per point
         centroid = corners.mean(axis=1)
         self.centroid_r, self.centroid_z = centroid[:, 0], centroid[:, 1]
         self.reach = np.linalg.norm(corners - centroid[:, None, :], axis=2).max(axis=1)
@@ -106,7 +106,7 @@ class BandAssembler:
         self.phi = self.phi_weights = np.zeros((0, len(weights)))
 
     def place(self, center: float) -> None:
-        """Select the cells that meet the ball and tabulate phi * r * dx at their quadrature points."""
+        """Select the cells that meet the ball and tabulate phi dV at their quadrature points."""
         distance = np.hypot(self.centroid_r, self.centroid_z - center)
         self.cells = np.flatnonzero(distance - self.reach < self.radius)
         p = self.points[self.cells]
@@ -115,12 +115,12 @@ class BandAssembler:
         self.phi_weights = self.phi * self.weights[self.cells]
 
     def indicator(self, local: np.ndarray) -> float:
-        """Add the cells' part of b_phi into a W-vector's local array; return their part of V_phi / (2 pi)."""
+        """Add the cells' part of b_phi into a W-vector's local array; return their part of V_phi."""
         np.add.at(local, self.dofs_z[self.cells], self.phi_weights @ self.basis)
         return float(self.phi_weights.sum())
 
     def forcing(self, local: np.ndarray, velocity: np.ndarray, scale: float) -> None:
-        """Add scale * int phi u . v r dx (u: a W-function's local array) into a W-vector's local array."""
+        """Add scale * int phi u . v dV (u: a W-function's local array) into a W-vector's local array."""
         for dofs in (self.dofs_r[self.cells], self.dofs_z[self.cells]):
             at_points = velocity[dofs] @ self.basis.T  # (c, q)
             np.add.at(local, dofs, scale * (self.phi_weights * at_points) @ self.basis)
@@ -149,11 +149,11 @@ class ImmersedSphere:
             local.set(0.0)
             part = self.band.indicator(local.array)
         self.b_phi.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self.volume = 2.0 * math.pi * self.flow.mesh.comm.allreduce(part, op=MPI.SUM)
+        self.volume = self.flow.geometry.total(part)
 
     def interior(self, vector: PETSc.Vec) -> float:
-        """I(w) = 2 pi int phi w_z r dx of a mixed-space vector [m^4/s for a velocity]."""
-        return 2.0 * math.pi * self.b_phi.dot(vector)
+        """I(w) = int phi w_z dV of a mixed-space vector [m^4/s for a velocity]."""
+        return self.b_phi.dot(vector)
 
     @property
     def unit_stale(self) -> bool:
@@ -203,7 +203,7 @@ class ImmersedBodies:
 
     @property
     def volumes(self) -> np.ndarray:
-        """V_phi = 2 pi int phi r dx of each sphere [m^3]."""
+        """V_phi = int phi dV of each sphere [m^3]."""
         return np.array([sphere.volume for sphere in self.spheres])
 
     @property

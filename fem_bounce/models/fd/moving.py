@@ -16,13 +16,10 @@ u* - w, w the mesh velocity (models/ale/flow.py).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import fields
 
 import numpy as np
 import ufl
-from dolfinx import fem
-from mpi4py import MPI
 
 from ...fem.domain import speed_scale
 from ...fem.mesh import SPHERE_TAGS
@@ -94,9 +91,8 @@ class MovingPenalisedFlow(PenalisedFlow):
         """Nothing: the matrix is factorised every step."""
 
     def momentum(self, state) -> float:
-        """The liquid's axial momentum 2 pi rho int u_z r dx, the spheres' insides included [kg m/s]."""
-        form = fem.form(2.0 * math.pi * self.density * ufl.split(state)[0][1] * self.r * self.dx)
-        return self.mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+        """The liquid's axial momentum rho int u_z dV, the spheres' insides included [kg m/s]."""
+        return self.geometry.integrate(self.geometry.weighted(self.density * ufl.split(state)[0][1]))
 
     def surface_force(self) -> np.ndarray:
         return np.full(len(self.bodies.spheres), np.nan)  # no surface to integrate over

@@ -16,15 +16,16 @@ The matrix changes every step (the indicator moves, and convection is linearised
 the ale model: no convective step bound either), so it is assembled and factorised every step (MUMPS; a
 factorisation costs about 15 back-solves on this stack, docs/performance.md).  The flow is affine in the
 spheres' velocities, u(U) = x_0 + sum_j U_j x_j with x_0 = A^-1 b(u^n, u^{n-1}) and x_j = A^-1 (rho c_B b_j), b_j the
-assembled int phi_j e_z . v r dx: one pass over the factors per step for all of them.
+assembled int phi_j e_z . v dV (dV: fem.geometry's weighted measure, as in every form of the step): one pass over
+the factors per step for all of them.
 
 The force of the liquid on sphere i is the reaction to its penalty plus the rate of change of the
 momentum of the liquid in the region the penalty holds (Uhlmann 2005, J. Comput. Phys. 209, 448, eq. 12).
 The friction is strong enough to move all of the ball |x - X_i| < a_h with the sphere, the band included
 (its slip is 1 / penalty_strength of the speed), so that momentum is rho U_i B_i with B_i = 4/3 pi a_h^3, not
-the phi-weighted rho U_i V_i, V_i = 2 pi int phi_i r dx: weighting it with phi left the band's liquid,
+the phi-weighted rho U_i V_i, V_i = int phi_i dV: weighting it with phi left the band's liquid,
 rho (B_i - V_i), on the sphere as extra mass (0.55 of the displaced mass at 8 cells/D).  With
-I_i(u) = 2 pi int phi_i u_z r dx and the BDF rate c (U_i B_i - J_i) (J_i: the BDF history of the ball's momentum
+I_i(u) = int phi_i u_z dV and the BDF rate c (U_i B_i - J_i) (J_i: the BDF history of the ball's momentum
 / rho, U_i B_i on the fixed mesh; on the moving mesh B_i times its liquid's mean velocity I_i(u^k) / V_i at each
 past level, as the liquid was, not as the sphere moved: models/fd/moving.py):
 
@@ -47,7 +48,6 @@ import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_matrix
 
-from ...fem import forms
 from ...fem.solver import FactorizedOperator
 from .coupling import Linearised
 from .fluid import FlowSolver
@@ -80,11 +80,15 @@ class PenalisedFlow(FlowSolver):
 
     def step_forms(self, u, p, v, q, extrapolated, history):
         """Convection linearised about u* and the friction rho c_B phi u . v in the matrix."""
-        r, dx, rho = self.r, self.dx, self.density
-        a = (forms.stokes_operator(u, p, v, q, rho * self.rates[0], self.viscosity, r, dx)
-             + rho * forms.convection(self.convecting(extrapolated), u, v, r, dx)
-             + rho * self.penalty_rate * self.indicator * ufl.inner(u, v) * r * self.dx_indicator)
-        return a, forms.source(history, v, r, dx)
+        geometry, rho = self.geometry, self.density
+        a = (geometry.stokes_operator(u, p, v, q, rho * self.rates[0], self.viscosity)
+             + rho * geometry.convection(self.convecting(extrapolated), u, v)
+             + self.friction(rho * self.penalty_rate, u, v))
+        return a, geometry.source(history, v)
+
+    def friction(self, coefficient, u, v) -> ufl.Form:
+        """int coefficient phi u . v dV at the band's quadrature points (coefficient [kg/(m^3 s)], rho c_B)."""
+        return self.geometry.weighted(coefficient * self.indicator * ufl.inner(u, v), self.dx_indicator)
 
     def place(self, bodies, centers) -> None:
         """Put the spheres (immersed.ImmersedBodies) at z = centers [m] and phi into the matrix's indicator."""
@@ -140,10 +144,9 @@ class PenalisedFlow(FlowSolver):
         derivative, no convection: mu K + rho c_B Phi, one factorisation); every history level is set to it.
         Returns the forces F_i = rho c_B (I_i(u) - U_i V_i) [N]."""
         (u, p), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
-        r, dx = self.r, self.dx
-        form = fem.form(forms.stokes_operator(u, p, v, q, 0.0, self.viscosity, r, dx)
-                        + self.density * self.penalty_rate * self.indicator * ufl.inner(u, v) * r * self.dx_indicator)
-        A = assemble_matrix(form, bcs=self.bcs)
+        form = fem.form(self.geometry.stokes_operator(u, p, v, q, 0.0, self.viscosity)
+                        + self.friction(self.density * self.penalty_rate, u, v))
+        A = assemble_matrix(form, bcs=self.bcs, diag=self.geometry.dirichlet_diagonal)
         A.assemble()
         operator = FactorizedOperator(A, "fd_steady_")
         try:

@@ -4,7 +4,7 @@ For held spheres (mode = "fixed") at Re -> 0 the time loop converges to a
 fixed point of its own step map, but only after a viscous time (domain size)^2 / nu,
 hundreds of thousands of steps at the time step the immersed forcing needs.  The
 fixed point can be written down instead.  With S = A - rho c M the steady Stokes
-operator (A the step's matrix, M the r-weighted velocity mass), the step
+operator (A the step's matrix, M the velocity mass, fem.geometry's weighted forms as in A), the step
 
     u~ = A^-1 (rho c M u),  f = rho c sum_i Phi_i (s_i e_z - u~),  u = u~ + A^-1 f
 
@@ -36,7 +36,6 @@ from dolfinx import fem
 from dolfinx.fem.petsc import assemble_matrix, set_bc
 from petsc4py import PETSc
 
-from ...fem import forms
 from ...fem.solver import FactorizedOperator, SolverError
 from .coupling import InteriorIntegrals
 from .immersed import indicator
@@ -49,17 +48,19 @@ class SteadyStokes:
     def __init__(self, flow, spheres: list, prefix: str = "fd_steady_"):
         self.flow, self.spheres = flow, spheres
         (u, p), (v, q) = ufl.TrialFunctions(flow.W), ufl.TestFunctions(flow.W)
-        rho_c, r, dx = flow.density * flow.c, flow.r, flow.dx
+        rho_c, geometry = flow.density * flow.c, flow.geometry
         x = ufl.SpatialCoordinate(flow.mesh)
         phi = functools.reduce(operator.add, [indicator(x, held.center, held.band.radius, held.band.width)
                                               for held in self.spheres])
         dx_phi = ufl.Measure("dx", domain=flow.mesh, metadata={"quadrature_degree": 6})
-        stokes = forms.stokes_operator(u, p, v, q, 0.0, flow.viscosity, r, dx)
-        penalty = rho_c * phi * ufl.inner(u, v) * r * dx_phi
+        stokes = geometry.stokes_operator(u, p, v, q, 0.0, flow.viscosity)
+        penalty = geometry.weighted(rho_c * phi * ufl.inner(u, v), dx_phi)
         self.matrices = {}
+        # every vector these matrices meet is zero on the Dirichlet rows (_homogeneous): their diagonal there,
+        # the weighted forms' as in the step's matrix, changes no solution
         for name, form, bcs in (("stokes", stokes, flow.bcs), ("brinkman", stokes + penalty, flow.bcs),
-                                ("mass", rho_c * forms.mass(u, v, r, dx), []), ("phi", penalty, [])):
-            matrix = assemble_matrix(fem.form(form), bcs=bcs)
+                                ("mass", rho_c * geometry.mass(u, v), []), ("phi", penalty, [])):
+            matrix = assemble_matrix(fem.form(form), bcs=bcs, diag=geometry.dirichlet_diagonal)
             matrix.assemble()
             self.matrices[name] = matrix
         self.stokes = FactorizedOperator(self.matrices["stokes"], prefix + "stokes_")
