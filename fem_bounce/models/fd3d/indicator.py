@@ -1,0 +1,65 @@
+"""A sphere in the fixed 3-D mesh: its smoothed indicator at the penalty's quadrature points.
+
+    phi(x) = S((a_h - |x - X|) / w),   S(t) = t^2 (3 - 2 t) on [0, 1], 0 below, 1 above,
+
+the same C^1 profile with compact support as the axisymmetric model's (models/fd/immersed.py): 1 deep inside,
+falling across a band of width w inside the surface, exactly 0 outside a_h.  The implicit penalisation holds
+the whole ball |x - X| < a_h, the band included, so a_h is the sphere's radius (penalised.py's choice).
+
+phi lives in a quadrature space: its values at the quadrature points of every cell this rank holds (ghosts
+included), computed from the points' coordinates (tabulated once) whenever the sphere is placed, so moving
+the sphere recompiles no form.  `dx` is the measure with the same points; `center` is a fem.Constant the
+rigid modes can be built on, updated by `place`.
+"""
+from __future__ import annotations
+
+import math
+
+import basix
+import basix.ufl
+import numpy as np
+import ufl
+from dolfinx import fem
+
+QUADRATURE_DEGREE = 4  # 14 points per tetrahedron: the cubic profile across a band of two cells to ~1e-3
+
+
+def smooth_step(depth: np.ndarray) -> np.ndarray:
+    """S(t) = t^2 (3 - 2 t) clipped to [0, 1]."""
+    depth = np.clip(depth, 0.0, 1.0)
+    return depth**2 * (3.0 - 2.0 * depth)
+
+
+class SphereIndicator:
+    """phi of a sphere of `radius` (the indicator's outer edge) with a band of `width` [m], centred at `center`
+    [m], on a tetrahedral mesh."""
+
+    def __init__(self, mesh, radius: float, width: float, center):
+        if not 0 < width <= radius:
+            raise ValueError(f"the indicator's band width must lie in (0, radius = {radius}], not {width}")
+        self.mesh, self.radius, self.width = mesh, radius, width
+        points, weights = basix.make_quadrature(basix.CellType.tetrahedron, QUADRATURE_DEGREE)
+        element = basix.ufl.quadrature_element(mesh.basix_cell(), points=points, weights=weights)
+        self.phi = fem.Function(fem.functionspace(mesh, element), name="indicator")
+        self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_rule": "custom", "quadrature_points": points,
+                                                           "quadrature_weights": weights})
+        cells = mesh.topology.index_map(3)
+        local = np.arange(cells.size_local + cells.num_ghosts, dtype=np.int32)
+        self._points = fem.Expression(ufl.SpatialCoordinate(mesh), points).eval(mesh, local)  # (cells, q, 3)
+        self._dofs = self.phi.function_space.dofmap.list[local]
+        self.center = fem.Constant(mesh, np.zeros(3))
+        self.place(center)
+
+    def place(self, center) -> None:
+        """Put the sphere's centre at `center` [m]: phi at every quadrature point, and the centre constant."""
+        center = np.asarray(center, dtype=float)
+        if center.shape != (3,):
+            raise ValueError(f"a sphere's centre has 3 coordinates, not {center.shape}")
+        self.center.value[:] = center
+        distance = np.linalg.norm(self._points - center, axis=2)
+        self.phi.x.array[self._dofs] = smooth_step((self.radius - distance) / self.width)
+
+    @property
+    def ball_volume(self) -> float:
+        """4/3 pi a_h^3 [m^3]: the volume the penalty holds (the whole ball, band included)."""
+        return 4.0 / 3.0 * math.pi * self.radius**3
