@@ -1,4 +1,4 @@
-"""Full-resolution validation of the fd model: the numbers of the README's validation table.
+"""Full-resolution validation of the fd model: the numbers of docs/validation.md's summary and section 7.
 
     python benchmarks/fd_validation.py                       # every section, 16 cells per diameter
     python benchmarks/fd_validation.py brenner drag --cells 32

@@ -1,7 +1,7 @@
 """Li, Hunt & Colonius (2011) Table 2 against a model: first impact speed, Re_I and Re_II for cases 1-7.
 
     python benchmarks/table2.py --model ode                      # ~5 s
-    mpiexec -n 2 python benchmarks/table2.py --model fd           # minutes to hours, see README
+    mpiexec -n 2 python benchmarks/table2.py --model fd           # minutes to hours, see docs/validation.md section 4
 
 Writes results/table2-MODEL/{table2.md,table2.json} and keeps each case's run directory beside them
 (re-running reuses finished runs unless --force).  A run of all seven cases also goes to

@@ -7,7 +7,7 @@ XDMF every few steps.  The figure is then drawn from those files only
 omega sqrt(D/g) from -0.5 to 0.5 every 0.05 before the first impact, rebounding
 through the primary ring, at the apex, falling again, before the second impact.
 
-Run (at the fd default, 8 cells per diameter along the path and 16 on the surface, on one core; `--toy` about 20 s):
+Run (at the fd default, triangles D/8 along the path and D/40 on the surface, on one core; `--toy` about 20 s):
 
     mpiexec -n 2 python demos/case7_vorticity.py --out runs/demo-case7
     python demos/case7_vorticity.py --toy

@@ -4,19 +4,24 @@ What it solves.  The paper's section 4 model with the resolved flow: a steel sph
 (rho_p / rho_l = 6.5) released from rest 1.6 D above a Zerodur wall in 78 %
 glycerol.  The fd model resolves the flow around the falling and rebounding sphere;
 below delta_sl = 0.2 its flow holds the sphere there and the contact model adds the unresolved
-lubrication and wall added-mass forces (docs/physics.md), and the
-elastic force f_ss (delta_ss = 0.017) makes it rebound.  The run stops at the apex
-after the third impact (the preset's run.bounces).
+lubrication and wall added-mass forces (docs/physics.md section 3.3).  The default contact,
+contact.model = "lubricated-hertz" (docs/physics.md section 2.1; fem_bounce/contact.py), makes it
+rebound: the lubrication film is carried down to a contact gap computed from the surfaces' roughness
+and the elastohydrodynamic gap, where a damped Hertz contact with the materials' modulus takes over.
+(The paper's elastic force f_ss, with the preset's delta_ss = 0.017, acts only with
+`--set contact.model=li2011`.)  The run stops at the apex after the third impact (the preset's
+run.bounces).
 
     first impact speed (2 ms mean) vs 0.393 m/s, Re of the second impact vs 55 (Table 2)
 
-Run (at the fd default, 8 cells per diameter along the path and 16 on the surface, on one core; `--toy` about 20 s):
+Run (at the fd default: triangles D/8 along the path and D/40 on the surface, numerics.fd
+cells_per_diameter 8 and surface_refinement 5, on one core; `--toy` about 20 s):
 
     mpiexec -n 2 python demos/li_case3.py --out runs/demo-case3
     python demos/li_case3.py --toy
 
 The checks at the end: at least two rebounds and the first impact speed within 15 % of
-Table 2 (required); the issue's targets, impact speed within 5 % and Re_II within 10 %,
+Table 2 (required); the validation targets, impact speed within 5 % and Re_II within 10 %,
 are reported as PASS or MISS; docs/validation.md has the measured numbers at each
 resolution.
 """
@@ -41,7 +46,7 @@ overrides.update(dict(scene.parse_override(text) for text in args.overrides))
 result = validation.bouncing(MPI.COMM_WORLD, args.out, case=3, overrides=overrides)
 
 # Required: the sphere rebounds at least twice and the first impact is the right kind of event
-# (within 15 % of the measured speed).  Targets (reported, not required): the issue's 5 % and 10 %.
+# (within 15 % of the measured speed).  Targets (reported, not required): 5 % and 10 % (docs/validation.md section 4).
 checks = [
     validation.Check("first impact speed, 2 ms mean [m/s]", result["impact_speed"],
                      result["impact_speed_reference"], 0.15),

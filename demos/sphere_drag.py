@@ -8,7 +8,7 @@ rules and time step rules the bouncing runs use.
 
     Cd = F / (rho U^2 pi a^2 / 2)    vs 1.087 (Re 100, Johnson & Patel 1999) and 0.77 (Re 200, Fornberg 1988)
 
-Run (at the fd default, 8 cells per diameter along the path and 16 on the surface, on one core; `--toy` about 20 s):
+Run (at the fd default, triangles D/8 along the path and D/40 on the surface, on one core; `--toy` about 20 s):
 
     mpiexec -n 2 python demos/sphere_drag.py --out runs/demo-drag
     python demos/sphere_drag.py --toy

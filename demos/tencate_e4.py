@@ -10,7 +10,7 @@ so the coupling is implicit.
 
     peak settling speed vs 0.1226 m/s (measured), velocity curve vs the digitised Fig. 8
 
-Run (at the fd default, 8 cells per diameter along the path and 16 on the surface, on one core; `--toy` about 30 s):
+Run (at the fd default, triangles D/8 along the path and D/40 on the surface, on one core; `--toy` about 30 s):
 
     mpiexec -n 2 python demos/tencate_e4.py --out runs/demo-tencate
     python demos/tencate_e4.py --toy
