@@ -11,6 +11,7 @@ fields.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -28,7 +29,7 @@ class Body:
     initial_gap: float  # its lowest point above z = 0 at the start [m]
     launch_velocity: float  # a free body's velocity at the start, positive upward [m/s]
     liquid_density: float  # [kg/m3]
-    gravity: float  # [m/s2]
+    gravity: float  # its part along the wall's normal [m/s2]
     prescribed: Callable[[float], tuple[float, float]] = field(compare=False, repr=False)  # t -> (V, dV/dt)
     key: str = "sphere"  # the scene table it comes from, for messages
 
@@ -70,7 +71,9 @@ class Body:
 
 def scene_bodies(scene: Scene) -> tuple[Body, ...]:
     """The scene's spheres as bodies, lowest first (module docstring)."""
-    liquid, g = scene.liquid.density, scene.gravity
+    # gravity's part along the wall's normal (an inclined wall, scene.gravity_angle: its part along the wall acts
+    # on the tangential motion, fem_bounce.oblique)
+    liquid, g = scene.liquid.density, scene.gravity * math.cos(math.radians(scene.gravity_angle))
     found = [Body(0, scene.sphere, scene.motion.mode, scene.initial_gap, scene.initial_velocity, liquid, g,
                   prescribed_velocity(scene))]
     gaps = scene.initial_gaps

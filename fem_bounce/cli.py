@@ -249,6 +249,13 @@ def _print_records(summary: dict) -> None:
             if rebound["apex_gap"] is not None:
                 line += f"  apex gap = {rebound['apex_gap'] * 1e3:.3f} mm"
         print(line)
+    for k, oblique in enumerate(summary.get("oblique_impacts", []), 1):
+        seen = oblique["outer"] or oblique["contact"]  # at delta_sl D, or at the contact when it never left it
+        e_t = seen["tangential_restitution"]
+        print(f"  oblique {k} ({'at delta_sl D' if oblique['outer'] else 'at the contact'}): incidence "
+              f"{seen['incidence_deg']:.1f} deg  psi_in = {seen['psi_in']:.3f}  psi_out = {seen['psi_out']:.3f}  "
+              f"e_n = {seen['normal_restitution']:.3f}  e_t = {'-' if e_t is None else f'{e_t:.3f}'}  "
+              f"mu_eff = {seen['effective_friction']:.3f}  spin after = {seen['spin_out']:.4g} 1/s")
 
 
 def _print_collisions(summary: dict) -> None:

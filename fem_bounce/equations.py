@@ -39,6 +39,7 @@ from .bodies import Body, scene_bodies, sphere_scene
 from .bounces import BounceRecord
 from .contact import ContactModel
 from .kinematics import AxisKinematics, FluidForce, pair_name
+from .oblique import TangentialMotion
 from .pair_contact import PairContactModel
 from .scene import Scene
 from .theory import TheoryForces
@@ -141,6 +142,13 @@ class BodyEquations:
                 layout.gap_index(0)))
         self.wall = self.contacts[-1] if self.contact is not None else None
         self.pair_contacts = [c for c in self.contacts if c.lower is not None]  # bottom up: pair k below sphere k + 1
+        # an oblique collision: sphere 1's motion along the wall, after the history modes (oblique.py)
+        self.tangential = None
+        if scene.oblique:
+            body = self.bodies[0]
+            self.tangential = TangentialMotion(scene, self.contact.law, body.mass, body.displaced_mass)
+        start = layout.size + sum(self.n_history)
+        self.tangential_slice = slice(start, start + (len(TangentialMotion.names) if self.tangential else 0))
         # what the force terms and the residual reuse at every call (ForceTerms, forces, residual)
         self._terms = ForceTerms(count)
         self._rate_slope_array = np.where(self.held, 0.0, 1.0)  # d(dh_k/dt)/dV_k
@@ -156,7 +164,7 @@ class BodyEquations:
     @property
     def n(self) -> int:
         """The number of unknowns: a gap and a velocity per sphere, and the history modes."""
-        return self.kinematics.size + sum(self.n_history)
+        return self.tangential_slice.stop
 
     @property
     def pairs(self) -> list[PairContactModel]:
@@ -350,9 +358,13 @@ class BodyEquations:
         out[gaps] = ydot[gaps] - rates
         out[layout.gap_columns[1:]] += rates[:-1]  # a pair gap's rate is the upper sphere's less the lower's
         out[velocities] = mass @ accelerations - rhs
-        modes = slice(layout.size, None)  # every sphere's, each z' - dV/dt + z / T
+        modes = slice(layout.size, self.tangential_slice.start)  # every sphere's, each z' - dV/dt + z / T
         taken_in = accelerations if not self._pause_history else self._remembering() * accelerations
         out[modes] = ydot[modes] - taken_in[self._mode_owners] + y[modes] / self._all_mode_times
+        if self.tangential is not None:
+            along, wall = self.tangential_slice, self.wall
+            out[along] = self.tangential.residual(y[along], ydot[along], y[wall.gap_index], rates[0],
+                                                  self._wall_films[0][0], wall.record.engaged_now)
         return out
 
     def _remembering(self) -> np.ndarray:
@@ -411,6 +423,13 @@ class BodyEquations:
                         f.velocities[k])
                 jac[modes, velocity] = -shift * remember[k]
                 jac[modes, modes] = np.diag(shift + 1.0 / self._mode_times[k])
+        if self.tangential is not None:
+            along, wall = self.tangential_slice, self.wall
+            gap, _, film_slope, _ = self._wall_films[0]
+            own, normal = self.tangential.jacobian(y[along], y[wall.gap_index], self._rates(y)[0], gap, film_slope,
+                                                   wall.record.engaged_now, shift)
+            jac[along, along] = own
+            jac[along, [wall.gap_index, layout.velocity_index(0)]] = normal
         return jac
 
     def _inertia(self, y) -> np.ndarray:
@@ -446,4 +465,8 @@ class BodyEquations:
         for contact in self.contacts:
             if contact.lower is not None:
                 row[contact.name.replace("pair", "pair_gap")] = float(y[contact.gap_index])
+        if self.tangential is not None:
+            self.residual(t, y, np.zeros_like(y))  # the tangential terms at y (the rates do not enter them)
+            row.update(zip(TangentialMotion.names[:3], (float(v) for v in y[self.tangential_slice][:3])))
+            row.update(self.tangential.last)
         return row

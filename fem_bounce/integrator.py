@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 from petsc4py import PETSc
 
-from .bounces import Impact, Rebound, collisions
+from .bounces import Impact, Rebound, collisions, oblique_record
 from .ehd import FilmError
 from .equations import BodyEquations, Contact
 from .errors import RunDiverged
@@ -63,6 +63,9 @@ class BodyIntegrator(BodyEquations):
         self._stall_speed = STALL_FRACTION * scene.launch_speed if scene.gravity == 0.0 else 0.0
         self._turning_offset = TURNING_OFFSET if count > 1 else 0.0
         self.steps = 0
+        self.oblique_impacts: list[dict] = []  # an oblique collision's impacts, each from contact to contact's end
+        # each station's (t, normal speed, U, Omega) where the current collision passed it on the way in
+        self._oblique_entries: dict[str, tuple | None] = {"contact": None, "outer": None}
         self._build_ts()
 
     # -- the implicit system ------------------------------------------------------------
@@ -71,7 +74,11 @@ class BodyIntegrator(BodyEquations):
         start = layout.state([body.initial_gap if k == 0 else body.sphere.gap for k, body in enumerate(self.bodies)],
                              [body.start_velocity for body in self.bodies])
         self.y = PETSc.Vec().createSeq(n, comm=PETSc.COMM_SELF)
-        self.y.setArray(np.r_[start, np.zeros(n - len(start))])
+        initial = np.r_[start, np.zeros(n - len(start))]
+        along = self.tangential_slice
+        if self.tangential is not None:
+            initial[along] = self.tangential.start
+        self.y.setArray(initial)
         self._residual_out = np.zeros(n)
         self._forces_state, self._forces_engaged = b"", None  # the state `forces` saw last
         # The Jacobian's nonzeros: the gaps' and velocities' block, each sphere's velocity with its own
@@ -83,6 +90,9 @@ class BodyIntegrator(BodyEquations):
             velocity = layout.velocity_index(k)
             pattern[velocity, modes] = pattern[modes, velocity] = True
             pattern[modes, modes] = np.eye(modes.stop - modes.start, dtype=bool)
+        if self.tangential is not None:  # the tangential rows read their own unknowns and the wall's gap and speed
+            pattern[along, along] = True
+            pattern[along, self.wall.gap_index] = pattern[along, layout.velocity_index(0)] = True
         rows, columns = np.nonzero(pattern)
         indptr = np.r_[0, np.cumsum(pattern.sum(axis=1))].astype(PETSc.IntType)
         self._pattern = (rows, columns, indptr, columns.astype(PETSc.IntType))
@@ -94,6 +104,8 @@ class BodyIntegrator(BodyEquations):
         atol.set(opts.atol)
         for contact in self.contacts:
             atol.setValue(contact.gap_index, 1e-6 * opts.atol)
+        if self.tangential is not None:  # the spring's stretch is a fraction of the Hertz overlap, as small as a gap
+            atol.setValue(along.stop - 1, 1e-2 * opts.atol)
         # A history mode matters only through its share of the history force: an error dz in mode i moves
         # its sphere's velocity by at most s_i dz (TheoryForces.history_sensitivity, 2e-5 to 0.04 for case
         # 3).  Each mode is held to the error that moves the velocity by the velocity's own tolerance at the
@@ -210,14 +222,39 @@ class BodyIntegrator(BodyEquations):
                     self._film_pending = (t, rate)
             elif kind == "contact":
                 record.contact_crossing(gap, rate, landing=rate < 0.0 and self._landing(contact, y, -rate))
+                if self.tangential is not None and contact is self.wall:
+                    self._tangential_crossing(ts, t, rate, "contact")
             elif kind == "turn":
                 record.turning_point(t, gap)
             elif kind == "blend":
                 record.blend_crossing(t, rate, gap)
+                if self.tangential is not None and contact is self.wall:
+                    self._tangential_crossing(ts, t, rate, "outer")
             elif kind == "path":
                 self._path_reaches_wall(t)
             else:
                 self._penetration(contact, t, gap)
+
+    def _tangential_crossing(self, ts, t: float, rate: float, station: str) -> None:
+        """An oblique collision passes one of its two stations (bounces.oblique_record): the contact gap
+        ("contact": its spring starts unstretched there) or delta_sl D ("outer"), on the way in or out."""
+        solution = ts.getSolution()
+        along = self.tangential_slice
+        _, velocity, spin, _ = solution.array_r[along]
+        if rate < 0.0:
+            if station == "contact":
+                solution.setValue(along.stop - 1, 0.0)
+                solution.assemble()
+            self._oblique_entries[station] = (t, -rate, float(velocity), float(spin))
+            return
+        entry, self._oblique_entries[station] = self._oblique_entries[station], None
+        if entry is None:
+            return
+        found = oblique_record(*entry, t, rate, float(velocity), float(spin), self.bodies[0].sphere.radius)
+        if station == "contact":
+            self.oblique_impacts.append({"contact": found, "outer": None})
+        elif self.oblique_impacts and self.oblique_impacts[-1]["outer"] is None:
+            self.oblique_impacts[-1]["outer"] = found
 
     def _penetration(self, contact: Contact, t: float, gap: float) -> None:
         """Stop: what went through what, and the setting that would have stopped it."""
@@ -442,6 +479,8 @@ class BodyIntegrator(BodyEquations):
     def state_dict(self) -> dict:
         state = dict(time=self.time, y=self.y.array_r.tolist(), step_size=self.ts.getTimeStep(),
                      machine={"done": self.done, "steps": self.steps}, records={})
+        if self.tangential is not None:
+            state["oblique"] = {"impacts": self.oblique_impacts, "entries": self._oblique_entries}
         for contact in self.contacts:
             contact.record.save(state["records"].setdefault(contact.name, {}))
         return state
@@ -453,6 +492,11 @@ class BodyIntegrator(BodyEquations):
         self.done, self.steps = state["machine"]["done"], state["machine"]["steps"]
         for contact in self.contacts:
             contact.record.load(state["records"][contact.name])
+        if self.tangential is not None:
+            oblique = state["oblique"]
+            self.oblique_impacts = list(oblique["impacts"])
+            self._oblique_entries = {key: None if entry is None else tuple(entry)
+                                     for key, entry in oblique["entries"].items()}
 
 
 @contextlib.contextmanager

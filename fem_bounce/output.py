@@ -62,10 +62,15 @@ SPHERE_COLUMNS = ("gap", "velocity", "acceleration", "f_drag", "f_lubrication", 
                   "f_theory", "f_sim", "blend", "f_liquid", "f_elastic", "f_correction")
 
 
-def trajectory_columns(spheres: int) -> tuple:
-    """The trajectory's columns for this many spheres (SPHERE_COLUMNS)."""
+# An oblique collision's (one sphere): its position and velocity along the wall, its spin, the liquid's force and
+# torque along the wall and the contact's friction (fem_bounce.oblique)
+TANGENTIAL_COLUMNS = ("x", "tangential_velocity", "spin", "f_tangential_liquid", "f_friction", "torque_liquid")
+
+
+def trajectory_columns(spheres: int, oblique: bool = False) -> tuple:
+    """The trajectory's columns for this many spheres (SPHERE_COLUMNS), and an oblique collision's."""
     if spheres == 1:
-        return ("t", *(name for name in SPHERE_COLUMNS if name != "f_pair"))
+        return ("t", *(name for name in SPHERE_COLUMNS if name != "f_pair"), *(TANGENTIAL_COLUMNS if oblique else ()))
     gaps = tuple(pair_name(k, spheres).replace("pair", "pair_gap") for k in range(spheres - 1))
     return ("t", *gaps, *(f"{name}_{k}" for k in range(1, spheres + 1) for name in SPHERE_COLUMNS))
 
@@ -801,6 +806,7 @@ def summary(scene, model: str, integrator, wall_time: float, steps: int, ranks: 
                   "velocity": per_body(integrator.velocities),
                   "in_contact": bool(integrator.wall is not None and integrator.wall.record.in_contact)},
         **({"collisions": integrator.collisions()} if scene.pair else {}),
+        **({"oblique_impacts": integrator.oblique_impacts} if scene.oblique else {}),
         "versions": _versions(),
         "command": command,
         "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),

@@ -435,7 +435,7 @@ class _Run:
                 on_root(comm, lambda: run_dir.prepare(force, scene))
             interval_key = info.trajectory_interval_key
             interval = info.setting(scene, interval_key) if interval_key else 0.0
-            columns = output.trajectory_columns(len(scene.spheres))
+            columns = output.trajectory_columns(len(scene.spheres), scene.oblique)
 
             def open_files():
                 run_dir.reserve()

@@ -290,6 +290,8 @@ class Contact:
     history_c2: float = _between(0.0, 10.0, 0.105)
     ehd_handover: float = _positive(EHD_HANDOVER, unit="m", note=EHD_HANDOVER_NOTE)
     cavitation_pressure: str | float = field(default="auto", metadata={"allowed": CAVITATION_ALLOWED})
+    friction: float | None = _between(0.0, 2.0, None, note="the sphere-wall pair's Coulomb coefficient, for an "
+                                      "oblique collision (Scene.oblique)")
 
     @property
     def paper(self) -> bool:
@@ -369,6 +371,7 @@ class Numerics:
     fd: numerics.FdNumerics = field(default_factory=numerics.FdNumerics)
     ib: numerics.IbNumerics = field(default_factory=numerics.IbNumerics)
     ale: numerics.AleNumerics = field(default_factory=numerics.AleNumerics)
+    fd3d: numerics.Fd3dNumerics = field(default_factory=numerics.Fd3dNumerics)
 
 
 @dataclass(frozen=True)
@@ -384,6 +387,16 @@ class Scene:
                               note="it pulls the sphere to the wall and sets the time unit sqrt(D/g); 0 only "
                                    "for a sphere launched by initial_velocity or a pair set in motion by "
                                    "second_sphere.velocity")
+    # an oblique collision (the ode model; docs/physics.md, "Oblique collisions"): the motion stays in the plane of
+    # incidence x-z by symmetry, so the wall-parallel velocity, the spin and gravity's tilt are each one number
+    tangential_velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s",
+                                          note="a free sphere's velocity along the wall (x) at the start")
+    spin: float = _between(-1e6, 1e6, 0.0, unit="1/s",
+                           note="a free sphere's angular velocity about y at the start, positive in the rolling sense "
+                                "of motion along +x")
+    gravity_angle: float = _between(-89.0, 89.0, 0.0, unit="degrees",
+                                    note="gravity's angle to the wall's normal: an inclined wall, gravity's "
+                                         "wall-parallel part along +x for a positive angle")
     name: str = "scene"
     description: str = ""
     container: Container = field(default_factory=Container)
@@ -398,6 +411,11 @@ class Scene:
     further_spheres: tuple[SecondSphere, ...] = ()
 
     # -- derived quantities (never typed in) --
+    @property
+    def oblique(self) -> bool:
+        """The sphere moves along the wall or spins, or gravity is tilted: the motion leaves the axis."""
+        return self.tangential_velocity != 0.0 or self.spin != 0.0 or self.gravity_angle != 0.0
+
     @property
     def pair(self) -> bool:
         """More than one sphere on the axis (second_sphere given): the pair's outputs (collisions, the
@@ -535,6 +553,8 @@ class Scene:
             raise SceneError(f"initial_velocity = {self.initial_velocity:g} m/s launches a free sphere: with "
                              f"motion.mode = {self.motion.mode!r} give motion.velocity instead")
         self._check_start_outside_contact()
+        if self.oblique:
+            self._check_oblique()
         end_units = self.run.end_time / self.time_unit
         resting = self.wall.present and free and all(s.mode == "free" for _, s in self._upper_spheres())
         if end_units > MAX_END_TIME_UNITS and not resting:
@@ -582,6 +602,24 @@ class Scene:
             warnings.warn(f"scene {self.name!r}: estimated Re = {re_max:.3g} exceeds ~{AXISYMMETRIC_RE_LIMIT:.0f}, "
                           "where the flow stops being axisymmetric (paper section 2.1)", stacklevel=2)
         return self
+
+    def _check_oblique(self) -> None:
+        """An oblique collision: one free sphere and the wall, the Hertz contact (its overlap carries the friction's
+        tangential spring) and a friction coefficient for the material pair."""
+        what = ("tangential_velocity, spin or gravity_angle" if self.tangential_velocity or self.spin
+                else "gravity_angle")
+        if self.second_sphere is not None or not self.wall.present or self.motion.mode != "free":
+            raise SceneError(f"{what} != 0 (an oblique collision) is modelled for one free sphere and a wall: not with "
+                             "second_sphere, wall.present = false or motion.mode fixed or prescribed")
+        if self.contact.model != "lubricated-hertz":
+            raise SceneError(f'{what} != 0 (an oblique collision) needs contact.model = "lubricated-hertz": its Hertz '
+                             f'contact carries the friction (not {self.contact.model!r})')
+        if self.contact.friction is None:
+            raise SceneError(f"{what} != 0 (an oblique collision) needs contact.friction, the material pair's Coulomb "
+                             "coefficient in [0, 2] (dry glass on glass 0.11-0.125, Foerster et al. 1994; wet, Joseph "
+                             "& Hunt 2004: steel 0.02, glass 0.15)")
+        if self.gravity_angle != 0.0 and self.gravity == 0.0:
+            raise SceneError("gravity_angle tilts gravity, which is 0: set gravity_angle = 0 or give gravity")
 
     def _check_ehd(self) -> None:
         """contact.model = "ehd": one sphere and a wall, and a handover gap where the film is thin and still

@@ -27,6 +27,7 @@ LAYERS = {
     "fem_bounce.materials": FOUNDATIONS,
     # the scene imports none of the physics that reads it
     "fem_bounce.scene": SCENE,
+    "fem_bounce.settings_reference": SCENE,  # the settings reference, generated from the scene's metadata
     "fem_bounce.motion": BODIES,
     "fem_bounce.bodies": BODIES,
     "fem_bounce.kinematics": BODIES,
@@ -39,6 +40,7 @@ LAYERS = {
     "fem_bounce.pair_contact": PHYSICS,
     "fem_bounce.wall_tangential": PHYSICS,
     "fem_bounce.tangential_contact": PHYSICS,
+    "fem_bounce.oblique": PHYSICS,
     # the bodies' equations of motion and their bounce records
     "fem_bounce.bounces": INTEGRATOR,
     "fem_bounce.equations": INTEGRATOR,
@@ -84,7 +86,9 @@ LAYERS = {
     "fem_bounce.models.fd3d.flow": MODELS,
     "fem_bounce.models.fd3d.indicator": MODELS,
     "fem_bounce.models.fd3d.mesh": MODELS,
+    "fem_bounce.models.fd3d.model": MODELS,
     "fem_bounce.models.fd3d.response": MODELS,
+    "fem_bounce.models.fd3d.transfer": MODELS,
     "fem_bounce.models.ib": MODELS,
     "fem_bounce.models.ib.body": MODELS,
     "fem_bounce.models.ib.delta": MODELS,

@@ -74,6 +74,10 @@ def check_scene(entry: ModelInfo, scene) -> None:
         what = "a pair of spheres ([second_sphere])" if spheres == 2 else f"{spheres} spheres ([[further_spheres]])"
         raise ModelError(f"the {entry.name} model cannot run {what}: it runs at most {entry.max_spheres}; use one of "
                          f"{', '.join(registry.running(spheres))}")
+    if scene.oblique and not entry.oblique:
+        raise ModelError(f"the {entry.name} model is axisymmetric: a scene with tangential_velocity, spin or "
+                         f"gravity_angle != 0 leaves the axis; run it with --model "
+                         f"{' or '.join(name for name, info in MODELS.items() if info.oblique)}")
     d = scene.sphere.diameter
     if entry.max_initial_gap is not None and scene.initial_gap > entry.max_initial_gap * d:
         raise SceneError(

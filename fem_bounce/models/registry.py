@@ -42,6 +42,7 @@ class ModelInfo:
     colour: str = "k"  # the same in every chart
     sources: tuple = ()  # package paths whose code decides its numbers (the study cache's key)
     max_spheres: int = 1  # the most spheres on the axis it runs (scene.second_sphere, further_spheres)
+    oblique: bool = False  # it runs a sphere moving along the wall or spinning (Scene.oblique): off the axis
     stepper: str = "coupled"  # how time advances (fem_bounce.steppers.STEPPERS); a held steady model: "steady"
     max_initial_gap: float | None = None  # [diameters] the highest release it meshes (None: no limit)
     chooser: str | None = None  # a function of the module that picks the class for a scene (else class_name)
@@ -133,7 +134,7 @@ MODELS: dict[str, ModelInfo] = {
         liquid="nothing: the near-wall theory force f_thr everywhere", resolved=False,
         resolution_key="numerics.ode.rtol", resolution_unit="", ladder=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
         serial=True, trajectory_interval_key="numerics.ode.output_interval", colour="C0",
-        sources=("models/ode.py",), max_spheres=MANY, stepper="ode"),
+        sources=("models/ode.py",), max_spheres=MANY, stepper="ode", oblique=True),
     "fd": ModelInfo(
         name="fd", module="fem_bounce.models.fd", class_name="FictitiousDomainModel", chooser="model_class",
         liquid="axisymmetric Taylor-Hood Navier-Stokes (FEniCSx), diffuse-interface sphere", resolved=True,
@@ -160,6 +161,14 @@ MODELS: dict[str, ModelInfo] = {
         checkpoint_every_key="numerics.ale.checkpoint_every", checkpoint_files=("flow.npz",),
         fields_key="numerics.ale.output_every", colour="C3", max_spheres=8,  # one mesh tag per hole (fem.mesh)
         sources=("models/ale", "fem"), max_initial_gap=RESOLVED_MAX_GAP),
+    "fd3d": ModelInfo(
+        name="fd3d", module="fem_bounce.models.fd3d.model", class_name="FictitiousDomain3DModel",
+        liquid="3-D Taylor-Hood Navier-Stokes on tetrahedra (half box), diffuse-interface sphere, head-on",
+        resolved=True, resolution_key="numerics.fd3d.cells_per_diameter", resolution_unit="cells/D",
+        ladder=(6.0, 8.0, 12.0, 16.0), time_step_key="numerics.fd3d.cfl",
+        checkpoint_every_key="numerics.fd3d.checkpoint_every", checkpoint_files=("flow.npz",),
+        min_cells_across_blend_gap=1.0, fields_key="numerics.fd3d.output_every", colour="C4",
+        sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP),
 }
 
 BEST_FIRST = ("ale", "fd", "ib", "ode")  # the default model: the first of these that imports

@@ -1,0 +1,140 @@
+"""The tangential motion of a sphere at a wall in an oblique collision (the reduced model): its velocity U along
+the wall (x, in the plane of incidence), its spin Omega about y (positive in the rolling sense of +x motion: the
+point nearest the wall moves at the slip s = U - a Omega) and the stretch xi of the contact's tangential spring.
+
+    dx/dt = U,   (m + m_l / 2) dU/dt = F_liquid + F_friction + (m - m_l) g sin(theta),
+    I dOmega/dt = T_liquid - a F_friction,   dxi/dt = the spring's rate (tangential_contact),
+
+I = (2/5) m a^2.  The normal motion (equations.BodyEquations) is that of a head-on collision: nothing here acts
+back on it (the lift of a sphere sliding near a wall is left out: docs/physics.md, "Oblique collisions"), while the
+tangential motion reads the normal one's gap, velocity and contact force.
+
+- The liquid: [F, T] = -R(h) [U, Omega], the Stokes resistance of a sphere sliding and spinning near the wall, one
+  symmetric matrix (wall_tangential), at the gap where the normal film is evaluated (its contact gap inside a
+  Hertz contact); the free sphere's inertial excess -3 pi mu D (phi(Re_t) - 1) U with Schiller & Naumann's (1933)
+  phi at Re_t = rho_l |U| D / mu, as the normal drag takes it; the added mass m_l / 2 of a sphere far from walls
+  (the wall raises it by O((a/h)^3)); no history force along the wall.
+- The contact: Coulomb friction mu F_n with a tangential spring of Mindlin's stiffness k_t = kappa (3/2) k x^(1/2)
+  (x the Hertz overlap, k its constant, kappa = 4 G*/E*) and a damper with the normal one's damping ratio
+  (tangential_contact.TangentialContact, matched_damping); the spring starts unstretched at each contact.  The
+  normal force's rate the spring reads is its elastic part's, (dF_n/dh) dh/dt: the damping part's would need the
+  acceleration.
+
+The Jacobian block (`jacobian`) holds the terms that make the tangential system stiff (the friction in the slip and
+the stretch, the spring, the film's resistance, the masses) and the coupling through the gap's resistance; it
+leaves out how the friction's inputs (F_n, k_t, their rates) move with the normal state.  The Rosenbrock-W
+integrator (PETSc TSROSW) keeps its order with an approximate Jacobian; only its step control sees the difference.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .contact import ContactLaw
+from .scene import Scene
+from .tangential_contact import TangentialContact, matched_damping
+from .wall_tangential import wall_tangential_resistance
+
+INERTIA_FACTOR = 0.4  # I / (m a^2) of a solid sphere
+ADDED_MASS = 0.5  # C_M along the wall
+
+
+def stiffness_ratio(e1: float, nu1: float, e2: float, nu2: float) -> float:
+    """kappa = k_t / k_n = 4 G* / E* of a Hertz contact of two isotropic solids (Mindlin 1949; Johnson 1985,
+    Contact Mechanics, sections 4.2 and 7.2): 1/E* = sum (1 - nu^2) / E, 1/G* = sum (2 - nu) / G, G = E / (2 (1 + nu));
+    2 (1 - nu) / (2 - nu) for one material."""
+    e_star = 1.0 / ((1.0 - nu1**2) / e1 + (1.0 - nu2**2) / e2)
+    g_star = 1.0 / ((2.0 - nu1) * 2.0 * (1.0 + nu1) / e1 + (2.0 - nu2) * 2.0 * (1.0 + nu2) / e2)
+    return 4.0 * g_star / e_star
+
+
+class TangentialMotion:
+    """The tangential unknowns (x, U, Omega, xi) of sphere 1 at the wall: their residual and Jacobian rows."""
+
+    names = ("x", "tangential_velocity", "spin", "stretch")
+
+    def __init__(self, scene: Scene, law: ContactLaw, mass: float, displaced_mass: float):
+        sphere, wall, liquid = scene.sphere, scene.wall, scene.liquid
+        self.radius, self.diameter = sphere.radius, sphere.diameter
+        self.viscosity, self.density = liquid.viscosity, liquid.density
+        self.mass = mass + ADDED_MASS * displaced_mass  # along the wall
+        self.inertia = INERTIA_FACTOR * mass * sphere.radius**2
+        self.weight = (mass - displaced_mass) * scene.gravity * math.sin(math.radians(scene.gravity_angle))
+        self.law = law
+        self.ratio = stiffness_ratio(sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus,
+                                     wall.poisson_ratio)
+        self.contact = TangentialContact(scene.contact.friction, self.ratio)
+        self.start = (0.0, scene.tangential_velocity, scene.spin, 0.0)
+        self.last: dict = {}  # the terms of the last `residual`, for the trajectory's rows
+
+    def _drag_excess(self, velocity: float) -> tuple[float, float]:
+        """(-3 pi mu D (phi - 1) U [N], its derivative in U [N s/m]): the free sphere's inertial excess."""
+        reynolds = self.density * abs(velocity) * self.diameter / self.viscosity
+        if reynolds == 0.0:
+            return 0.0, 0.0
+        stokes = 3.0 * math.pi * self.viscosity * self.diameter
+        excess = 0.15 * reynolds**0.687
+        return -stokes * excess * velocity, -stokes * 1.687 * excess
+
+    def _friction(self, gap: float, rate: float, engaged: float | None, slip: float, stretch: float):
+        """(friction force [N], the stretch's rate [m/s], d force/d slip, d force/d stretch, d rate/d slip,
+        d rate/d stretch) of the contact at the wall's gap and rate."""
+        law = self.law
+        if engaged is None:
+            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        push, d_gap, d_rate = law.force_slopes(gap, rate, engaged)
+        overlap = engaged - gap
+        stiffness, stiffening = self.contact.stiffness(law.stiffness, overlap)
+        if push <= 0.0 or stiffness <= 0.0:
+            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        elastic_rate = 1.5 * law.stiffness * math.sqrt(overlap) * -rate  # d(k x^1.5)/dt
+        damping = matched_damping(-d_rate, self.ratio, INERTIA_FACTOR)
+        arguments = (push, elastic_rate, stiffness, stiffening * -rate, slip, stretch, damping)
+        state = self.contact.rates(*arguments)
+        slopes = self.contact.jacobian(*arguments)
+        force, spring = slopes["force"], slopes["stretch_rate"]
+        return (float(state.force), float(state.stretch_rate), float(force["slip"][0, 0]),
+                float(force["stretch"][0, 0]), float(spring["slip"][0, 0]), float(spring["stretch"][0, 0]))
+
+    def _liquid(self, film_gap: float, velocity: float, spin: float):
+        """(F, T, R, dR/d gap, d excess/dU) of the liquid at the film's gap."""
+        resistance, slope = wall_tangential_resistance(self.radius, self.viscosity, film_gap)
+        excess, d_excess = self._drag_excess(velocity)
+        force, torque = -resistance @ np.array([velocity, spin])
+        return force + excess, torque, resistance, slope, d_excess
+
+    def residual(self, state, rates, gap: float, rate: float, film_gap: float, engaged: float | None) -> np.ndarray:
+        """The four rows G = (x' - U, M U' - F, I Omega' - T, xi' - rate) at the tangential `state` and its `rates`,
+        the wall's `gap` [m] and its rate [m/s], the gap the film is evaluated at and the contact's engaged gap."""
+        _, velocity, spin, stretch = state
+        slip = velocity - self.radius * spin
+        friction, stretch_rate, *_ = self._friction(gap, rate, engaged, slip, stretch)
+        force, torque, _, _, _ = self._liquid(film_gap, velocity, spin)
+        self.last = {"f_tangential_liquid": force, "f_friction": friction, "torque_liquid": torque}
+        return np.array([rates[0] - velocity,
+                         self.mass * rates[1] - (force + friction + self.weight),
+                         self.inertia * rates[2] - (torque - self.radius * friction),
+                         rates[3] - stretch_rate])
+
+    def jacobian(self, state, gap: float, rate: float, film_gap: float, film_slope: float, engaged: float | None,
+                 shift: float) -> tuple[np.ndarray, np.ndarray]:
+        """(d G / d(x, U, Omega, xi) + shift d G / d(rates), d G / d(gap, V) of the wall): the block of the
+        tangential rows (module docstring for what it leaves out)."""
+        _, velocity, spin, stretch = state
+        a = self.radius
+        slip = velocity - a * spin
+        _, _, f_slip, f_stretch, r_slip, r_stretch = self._friction(gap, rate, engaged, slip, stretch)
+        _, _, resistance, slope, d_excess = self._liquid(film_gap, velocity, spin)
+        own = np.zeros((4, 4))
+        own[0, 0], own[0, 1] = shift, -1.0
+        own[1, 1] = shift * self.mass + resistance[0, 0] - d_excess - f_slip
+        own[1, 2] = resistance[0, 1] + a * f_slip
+        own[1, 3] = -f_stretch
+        own[2, 1] = resistance[1, 0] + a * f_slip
+        own[2, 2] = shift * self.inertia + resistance[1, 1] - a * a * f_slip
+        own[2, 3] = a * f_stretch
+        own[3, 1], own[3, 2], own[3, 3] = -r_slip, a * r_slip, shift - r_stretch
+        normal = np.zeros((4, 2))
+        normal[1:3, 0] = film_slope * (slope @ np.array([velocity, spin]))
+        return own, normal
