@@ -116,7 +116,11 @@ def _parser() -> argparse.ArgumentParser:
                       help="comma-separated subset of density_ratio,cfl,cells_per_gap,delta_sl")
     figs = kinds.add_parser("figures", help="the paper's Fig. 9-12 from a model")
     figs.add_argument("--model", required=True)
-    for kind in (conv, speed, stab, figs):
+    tilt = kinds.add_parser("oblique", help="oblique impacts: psi_out(psi_in), e_n, e_t and spin over incidence angles")
+    tilt.add_argument("scene", help="a scene whose sphere is launched at the wall, e.g. foerster1994-glass")
+    tilt.add_argument("--angles", default=None, help="comma-separated degrees from the normal (default: 40, 2-80)")
+    tilt.add_argument("--model", default="ode", choices=["ode"], help="the model that runs oblique scenes (ode)")
+    for kind in (conv, speed, stab, figs, tilt):
         kind.add_argument("--out", default=None, help="study directory (default results/study-...)")
         kind.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                           help="override a value of every scene the study runs")
@@ -373,6 +377,11 @@ def _study(args, comm, runner) -> int:
         sweeps = _stability_sweeps(args.sweeps, args.model)
         studies.stability.run(scenes.load(args.scene, {"run.bounces": 1, **changes}), args.model, comm, out, sweeps,
                               runner=runner)
+    elif args.kind == "oblique":
+        from .studies import oblique
+
+        angles = numbers(args.angles, "--angles") if args.angles else oblique.ANGLES
+        oblique.run(scenes.load(args.scene, changes), comm, out, angles, runner=runner)
     else:
         studies.figures.run(args.model, comm, out, overrides=changes, runner=runner)
     if comm.rank == 0:

@@ -68,7 +68,36 @@ def draw(traj: dict, summary: dict, directory: Path) -> list[Path]:
             velocity_gap_figure(traj, summary, directory / "velocity_gap.png")]
     if any("losses" in impact for impact in summary.get("impacts", [])):
         made.append(losses_figure(summary, directory / "losses.png"))
+    if "x" in traj:  # an oblique collision
+        made.append(path_figure(traj, summary, directory / "path.png"))
     return made
+
+
+def path_figure(traj: dict, summary: dict, path: Path) -> Path:
+    """An oblique collision's path in the plane of incidence (gap against the distance along the wall, drawn to
+    scale) and its velocity along the wall, its contact point's and its spin against time."""
+    scene = summary["scene"]
+    diameter, t_unit, v_unit = units(scene)
+    radius = 0.5 * diameter
+    fig, (ax_path, ax_along) = plt.subplots(1, 2, figsize=(11, 4.2), dpi=DPI)
+    ax_path.plot(traj["x"] / diameter, traj["gap"] / diameter, lw=1.2)
+    for impact in summary.get("oblique_impacts", []):
+        seen = impact["contact"]
+        k = min(range(len(traj["t"])), key=lambda i: abs(traj["t"][i] - seen["time"]))
+        ax_path.plot(traj["x"][k] / diameter, traj["gap"][k] / diameter, "v", color="C3", ms=5)
+    ax_path.axhline(0.0, color="k", lw=1.0)
+    ax_path.set_aspect("equal", adjustable="datalim")
+    ax_path.set(xlabel="x / D, along the wall", ylabel="gap h / D", title="the path in the plane of incidence")
+    t = traj["t"] / t_unit
+    ax_along.plot(t, traj["tangential_velocity"] / v_unit, lw=1.2, label="velocity along the wall U")
+    ax_along.plot(t, (traj["tangential_velocity"] - radius * traj["spin"]) / v_unit, lw=1.0,
+                  label=r"contact point $U - a\Omega$")
+    ax_along.plot(t, radius * traj["spin"] / v_unit, lw=1.0, ls="--", label=r"rolling speed $a\Omega$")
+    ax_along.axhline(0.0, color="0.7", lw=0.6)
+    ax_along.set(xlabel=unit_labels(scene)[0], ylabel=unit_labels(scene)[1], title="along the wall")
+    ax_along.legend(fontsize=8)
+    fig.suptitle(f"{scene['name']}: {summary['model']} model, an oblique collision", fontsize=10)
+    return _saved(fig, path)
 
 
 def losses_figure(summary: dict, path: Path, impacts: int = 3) -> Path:

@@ -1,0 +1,116 @@
+"""Oblique impacts: a sweep of incidence angles at one launch speed, the sphere's rebound angle, its normal and
+tangential restitution and its spin against the rigid-body theory of Coulomb friction.
+
+    fem-bounce study oblique foerster1994-glass --jobs 2          # dry glass, psi_in 0 to 1.4
+    fem-bounce study oblique joseph-hunt2004-steel --angles 5,15,30,45,60
+
+The scene's sphere is launched at the wall (initial_velocity < 0, the launch speed V) and each run of the sweep
+sends it at the angle theta to the normal: initial_velocity = -V cos(theta), tangential_velocity = V sin(theta)
+(no spin).  Each impact is read where the sphere crosses delta_sl D on the way in and out (the collision with its
+layer of liquid, where the package's restitution is taken) and at the contact gap (the solids' collision within
+the film): psi = v_t / v_n,in of the contact point, as Joseph & Hunt (2004) plot theirs.  The rigid theory
+(tangential_contact.oblique_rigid_theory) is drawn with the scene's friction and the mean normal restitution at
+the contact.  Writes oblique.csv, oblique.json and oblique.png.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .. import scene as scenes
+from ..output import read_summary
+from ..tangential_contact import oblique_rigid_theory
+from .common import StudyDirectory
+from .runner import Runner
+
+ANGLES = tuple(float(a) for a in np.linspace(2.0, 80.0, 40))  # degrees from the normal
+
+
+def check(base: scenes.Scene, angles) -> None:
+    """Refuse a sweep that cannot run before anything is written."""
+    if base.initial_velocity >= 0.0:
+        raise scenes.SceneError(f"the oblique study launches the sphere at the wall: initial_velocity = "
+                                f"{base.initial_velocity:g} m/s must be < 0 (its size is the launch speed)")
+    if base.contact.friction is None:
+        raise scenes.SceneError("the oblique study needs contact.friction, the material pair's Coulomb coefficient")
+    bad = [a for a in angles if not (math.isfinite(a) and 0.0 <= a < 90.0)]
+    if bad or not angles:
+        raise scenes.SceneError(f"--angles: expected degrees in [0, 90) from the wall's normal, got "
+                                f"{', '.join(f'{a:g}' for a in bad) or 'none'}")
+
+
+def scene_at(base: scenes.Scene, angle: float) -> scenes.Scene:
+    speed, theta = abs(base.initial_velocity), math.radians(angle)
+    return base.replace(initial_velocity=-speed * math.cos(theta), tangential_velocity=speed * math.sin(theta),
+                        spin=0.0, name=f"{base.name}-oblique-{angle:g}")
+
+
+def run(base: scenes.Scene, comm, out: Path, angles=ANGLES, runner: Runner | None = None) -> list[dict]:
+    angles = [float(a) for a in angles]
+    check(base, angles)
+    study = StudyDirectory(out, comm)
+    runner = runner or Runner(comm)
+    trials = [scene_at(base, angle).replace(**{"run.bounces": 1}) for angle in angles]
+    study.log(f"{len(trials)} oblique runs of {base.name}, {runner.describe()} (finished runs come from the cache)")
+    rows: list = [None] * len(trials)
+    for k, run_dir in runner.run([(trial, "ode") for trial in trials]):
+        summary = read_summary(run_dir)
+        row = {"angle_deg": angles[k], "status": summary["status"], "run_dir": str(run_dir)}
+        found = summary.get("oblique_impacts") or []
+        for station in ("outer", "contact"):
+            seen = found[0][station] if found else None
+            for key in ("psi_in", "psi_out", "normal_restitution", "tangential_restitution", "effective_friction",
+                        "spin_out", "incidence_deg"):
+                row[f"{key}_{station}"] = None if seen is None else seen[key]
+        rows[k] = row
+        station = "outer" if row["psi_in_outer"] is not None else "contact"
+        seen = (f"psi_in {row[f'psi_in_{station}']:.4g}, psi_out {row[f'psi_out_{station}']:.4g} at the {station} "
+                "station" if row[f"psi_in_{station}"] is not None else "no contact")
+        study.log(f"{angles[k]:g} deg: {summary['status']}, {seen}")
+    study.write_csv("oblique.csv", rows)
+    contact_e = [r["normal_restitution_contact"] for r in rows if r["normal_restitution_contact"] is not None]
+    theory = {"friction": base.contact.friction, "normal_restitution": float(np.mean(contact_e)) if contact_e else None}
+    study.write_json("oblique.json", {"scene": base.name, "launch_speed": abs(base.initial_velocity),
+                                      "rigid_theory": theory, "runs": rows})
+    if comm.rank == 0:
+        figure(rows, theory, base.name, out / "oblique.png")
+    return rows
+
+
+def figure(rows: list[dict], theory: dict, scene_name: str, path: Path) -> None:
+    """psi_out against psi_in (both stations) with the rigid theory, and e_n, e_t against psi_in."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for station, marker, label in (("outer", "o", "at delta_sl D (with its liquid)"),
+                                   ("contact", "s", "at the contact (the solids, within the film)")):
+        pairs = [(r[f"psi_in_{station}"], r[f"psi_out_{station}"]) for r in rows if r[f"psi_in_{station}"] is not None]
+        if pairs:
+            x, y = np.array(pairs).T
+            left.plot(x, y, marker, ms=4, mfc="none", label=label)
+            et = [(r[f"psi_in_{station}"], r[f"tangential_restitution_{station}"], r[f"normal_restitution_{station}"])
+                  for r in rows if r[f"tangential_restitution_{station}"] is not None]
+            if et:
+                px, pt, pn = np.array(et).T
+                right.plot(px, pt, marker, ms=4, mfc="none", label=f"e_t {label.split(' (')[0]}")
+                right.plot(px, pn, marker, ms=4, label=f"e_n {label.split(' (')[0]}")
+    if theory["normal_restitution"] is not None:
+        top = max([r["psi_in_contact"] or 0.0 for r in rows] + [0.1])
+        grid = np.linspace(0.0, top, 200)
+        rigid = [oblique_rigid_theory(p, theory["normal_restitution"], theory["friction"]).psi_out for p in grid]
+        left.plot(grid, rigid, "k-", lw=1,
+                  label=f"rigid theory, mu {theory['friction']:g}, e_n {theory['normal_restitution']:.3f}")
+    left.axhline(0.0, color="0.7", lw=0.6)
+    left.set(xlabel="psi_in = v_t,in / v_n,in (contact point)", ylabel="psi_out = v_t,out / v_n,in",
+             title=f"{scene_name}: oblique impacts")
+    right.set(xlabel="psi_in", ylabel="restitution", ylim=(-1.05, 1.05), title="normal and tangential restitution")
+    left.legend(fontsize=8)
+    right.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
