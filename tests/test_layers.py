@@ -114,6 +114,7 @@ LAYERS = {
     "fem_bounce.studies.compare": STUDIES,
     "fem_bounce.studies.convergence": STUDIES,
     "fem_bounce.studies.figures": STUDIES,
+    "fem_bounce.studies.oblique": STUDIES,
     "fem_bounce.studies.restitution": STUDIES,
     "fem_bounce.studies.restitution_planning": STUDIES,
     "fem_bounce.studies.runner": STUDIES,
