@@ -128,6 +128,12 @@ def load(source: str | Path, overrides: Mapping[str, Any] | Iterable[str] | None
     """The scene of a preset name (see presets()) or a TOML file, with dotted-key overrides applied and
     checked as `--set` does: {"contact.delta_ss": 0.01} or ["contact.delta_ss=0.01"].  Raises SceneError
     naming the key and its allowed range.  A loaded scene's variant: scene.replace(**{"key": value})."""
+    if isinstance(source, Scene):
+        raise SceneError("load() takes a preset name or a TOML file's path, not a fem_bounce.Scene (which is loaded "
+                         "already): a variant of it is scene.replace(**{'key': value})")
+    if not isinstance(source, (str, PathLike)):
+        raise SceneError(f"load() takes a preset name or a TOML file's path, not a {type(source).__name__} "
+                         "(fb.presets() lists the presets)")
     return _scenes.load(source, _overrides(overrides))
 
 
@@ -385,9 +391,13 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
         raise SceneError(f"points = {points!r} must be a whole number of Stokes numbers (--points), e.g. 12")
     points = (40 if model == "ode" else 12) if points is None else int(points)
     try:
-        st_min, st_max = (float(x) for x in st_range)
+        st_min, st_max = st_range
     except (TypeError, ValueError):
-        raise SceneError(f"st_range = {st_range!r} must be two numbers (--st-min, --st-max), e.g. (1, 1000)") from None
+        st_min = None  # not two of anything
+    if not all(isinstance(x, numbers.Real) and not isinstance(x, bool) for x in (st_min, st_max)):
+        # numbers, not texts that float() would read: the same rule as points
+        raise SceneError(f"st_range = {st_range!r} must be two numbers (--st-min, --st-max), e.g. (1, 1000)")
+    st_min, st_max = float(st_min), float(st_max)
     if points < 2 or not (math.isfinite(st_min) and math.isfinite(st_max) and 0 < st_min < st_max):
         raise SceneError(f"restitution: need --points >= 2 and 0 < --st-min < --st-max, both finite (got --points "
                          f"{points}, --st-min {st_min:g}, --st-max {st_max:g})")

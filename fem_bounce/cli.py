@@ -241,6 +241,10 @@ def _print_records(summary: dict) -> None:
     if not summary["impacts"] and final.get("in_contact"):
         print(f"impact in progress: the run ended at t = {final['time']:.4g} s in the contact, before the minimum "
               f"gap (gap {final['gap'] / diameter:.4g} D, {-final['velocity']:.4g} m/s toward the wall)")
+    elif not summary["impacts"] and not summary["scene"]["wall"].get("present", True):
+        travel = (summary["scene"]["initial_gap"] - final["gap"]) / diameter  # the gap is the height above z = 0
+        print(f"no wall: the sphere ended {abs(travel):.4g} D {'below' if travel >= 0 else 'above'} its start at "
+              f"t = {final['time']:.4g} s")
     elif not summary["impacts"]:
         print(f"no impact: the sphere ended {final['gap'] / diameter:.4g} D above the wall at t = "
               f"{final['time']:.4g} s")
@@ -263,16 +267,24 @@ def _print_records(summary: dict) -> None:
 
 
 def _print_collisions(summary: dict) -> None:
-    """A pair's collisions, pair and wall, in time order (relative impact speed, binary St, e)."""
+    """A pair's collisions, pair and wall, in time order (relative impact speed, binary St, e, or that the run
+    ended inside the collision)."""
+    final = summary["final"]
     if not summary["collisions"]:
-        final = summary["final"]
         print("no collision: the pair gap ended at "
               f"{final['gap'][1] - final['gap'][0] - summary['scene']['sphere']['diameter']:.4g} m "
               f"at t = {final['time']:.4g} s")
+    last = {c["kind"]: c for c in summary["collisions"]}  # each contact's latest collision
+    at_rest = "came to rest" in (summary.get("stop_reason") or "")
     for k, c in enumerate(summary["collisions"], 1):
         line = (f"collision {k} ({c['kind']}): t = {c['time']:.4f} s  V_rel = {c['impact_speed']:.4f} m/s  "
                 f"Re = {_number(c['Re'])}  St = {_number(c['St'])}  min gap = {c['min_gap'] * 1e3:.4g} mm")
-        if "restitution" in c:
+        # no apex (nor separation) recorded after a contact's last collision: the run ended before one, unless the
+        # bodies came to rest there; a wall collision's record then has no e, a pair's an e = 0 that was not measured
+        unfinished = last[c["kind"]] is c and c.get("apex_time") is None and not at_rest
+        if "restitution" not in c or unfinished:
+            line += f"  e: in progress (the run ended at t = {final['time']:.4g} s, before the rebound was complete)"
+        else:
             line += f"  e = {c['restitution']:.3f}"
         print(line)
 
@@ -301,7 +313,7 @@ def _cmd_restitution(args) -> int:
                            overrides=args.overrides, out=out, jobs=args.jobs, executor=args.executor)
     found = rows.summary
     if (MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD).rank == 0:
-        print(f"{len(rows)} runs -> {out}/restitution.csv, {out}/restitution.json, {out}/restitution.png")
+        print(f"{_runs(len(rows))} -> {out}/restitution.csv, {out}/restitution.json, {out}/restitution.png")
         for station, found_there in (("at 0.2 D", found), ("at the collision (2 ms means)", found.get("two_ms")),
                                      ("at the camera's frames (0.25 ms)", found.get("frame")),
                                      ("at the peaks", found.get("peak"))):
@@ -313,13 +325,17 @@ def _cmd_restitution(args) -> int:
             covered = found_there["covered_St"]
             print(f"e {station} against the Legendre et al. (2006) fit over St {covered[0]:.3g}-"
                   f"{covered[1]:.3g}: rms {found_there['rms_to_fit']:.3f}, largest "
-                  f"{found_there['max_abs_to_fit']:.3f} ({found_there['compared_runs']} runs){critical}; e = "
+                  f"{found_there['max_abs_to_fit']:.3f} ({_runs(found_there['compared_runs'])}){critical}; e = "
                   f"{found_there['e_at_largest_St']:.3f} at St {found_there['largest_St']:.4g}")
     if found["failed"]:
         say(f"error: {len(found['failed'])} of {len(rows)} runs failed (marked in restitution.csv and the figure, "
             f"not counted as e = 0): " + "; ".join(found["failed"][:3]) + (" ..." if len(found["failed"]) > 3 else ""))
         return 1
     return 0
+
+
+def _runs(count: int) -> str:
+    return f"{count} run" if count == 1 else f"{count} runs"
 
 
 def _cmd_study(args) -> int:

@@ -7,10 +7,16 @@ milliseconds, sphere 1's diameter D1 and m/s (a pair may have no gravity).
 """
 from __future__ import annotations
 
+import csv
+import json
+import math
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -257,9 +263,135 @@ def pair_figure(traj: dict, summary: dict, path: Path) -> Path:
     return _saved(fig, path)
 
 
+class DamagedRun(ValueError):
+    """A run directory's file that does not hold what a run writes; the message names the file and the fault."""
+
+    def __init__(self, path: Path, fault: str):
+        super().__init__(f"{path}: {fault}")
+
+
+def read_run(run_dir: Path) -> tuple[dict, dict]:
+    """(trajectory, summary) of a run directory, checked for what the figures read: DamagedRun naming the file
+    and what is wrong with it (OSError when a file cannot be read at all)."""
+    run_dir = Path(run_dir)
+    return _read_trajectory(run_dir / "trajectory.csv"), _read_summary(run_dir / "summary.json")
+
+
+def _read_trajectory(path: Path) -> dict:
+    """trajectory.csv as {column: array}: a header of names and at least two rows of as many numbers."""
+    with open(path, newline="") as stream:
+        rows = list(csv.reader(stream))
+    if not rows or not any(rows[0]):
+        raise DamagedRun(path, "it is empty (a run writes a header and a row per step)")
+    header = rows[0]
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise DamagedRun(path, f"line {line} has {len(row)} values for the header's {len(header)} columns")
+        for name, value in zip(header, row):
+            try:
+                float(value)
+            except ValueError:
+                raise DamagedRun(path, f"line {line}: {name} = {value[:40]!r} is not a number") from None
+    if len(rows) < 3:
+        raise DamagedRun(path, f"it has {'no rows' if len(rows) == 1 else 'one row'} below its header (a run writes "
+                               "one a step: nothing to draw)")
+    data = np.array(rows[1:], dtype=float)
+    return {name: data[:, k] for k, name in enumerate(header)}
+
+
+def _read_summary(path: Path) -> dict:
+    try:
+        summary = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise DamagedRun(path, f"not JSON ({err.msg} at line {err.lineno}, column {err.colno})") from None
+    except UnicodeDecodeError:
+        raise DamagedRun(path, "not text (UTF-8 JSON)") from None
+    if not isinstance(summary, dict):
+        raise DamagedRun(path, f"not an object of the run's records but a {type(summary).__name__}")
+    return summary
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def check_run(traj: dict, summary: dict, run_dir: Path) -> None:
+    """The entries of trajectory.csv and summary.json that the figures read, each of the kind a run writes:
+    DamagedRun naming the file and the first entry that is not."""
+    run_dir = Path(run_dir)
+    where = run_dir / "summary.json"
+
+    def table(owner: dict, key: str, name: str) -> dict:
+        value = owner.get(key) if isinstance(owner, dict) else None
+        if not isinstance(value, dict):
+            raise DamagedRun(where, f"{name} is {'missing' if value is None else 'not a table'}")
+        return value
+
+    def numbers(owner: dict, name: str, keys, optional: bool = False) -> None:
+        for key in keys:
+            value = owner.get(key)
+            if not (_number(value) or (optional and value is None)):
+                raise DamagedRun(where, f"{name}.{key} = {value!r} is not a number")
+
+    if not isinstance(summary.get("model"), str):
+        raise DamagedRun(where, f"model = {summary.get('model')!r} is not a model's name")
+    scene = table(summary, "scene", "scene")
+    numbers(table(scene, "sphere", "scene.sphere"), "scene.sphere", ["diameter"])
+    numbers(scene, "scene", ["gravity"])
+    numbers(table(scene, "contact", "scene.contact"), "scene.contact", ["delta_sl", "delta_ss"])
+    if not scene["sphere"]["diameter"] > 0.0:
+        raise DamagedRun(where, f"scene.sphere.diameter = {scene['sphere']['diameter']!r} is not positive")
+    pair = "second_sphere" in scene  # a pair's figure is in ms and m/s; one sphere's in units of its motion
+    if not pair and scene["gravity"] == 0.0 and not (_number(scene.get("initial_velocity"))
+                                                     and scene["initial_velocity"] != 0.0):
+        raise DamagedRun(where, "scene.gravity = 0 and no initial_velocity: no unit to scale the figures with")
+    lists = {"collisions": ["time", "St"]} if pair else {"impacts": ["time", "min_gap"], "rebounds": []}
+    for key, needed in lists.items():
+        entries = summary.get(key)
+        if not isinstance(entries, list) or not all(isinstance(entry, dict) for entry in entries):
+            raise DamagedRun(where, f"{key} = {str(entries)[:40]} is not a list of records")
+        for k, entry in enumerate(entries):
+            numbers(entry, f"{key}[{k}]", needed)
+            if key == "rebounds":
+                numbers(entry, f"{key}[{k}]", ["apex_time", "apex_gap"], optional=True)
+                if "apex_time" not in entry or (entry["apex_time"] is not None) != _number(entry.get("apex_gap")):
+                    raise DamagedRun(where, f"rebounds[{k}] has no apex_time and apex_gap (both numbers, or "
+                                            "apex_time null)")
+            if key == "collisions" and not isinstance(entry.get("kind"), str):
+                raise DamagedRun(where, f"collisions[{k}].kind = {entry.get('kind')!r} is not a contact's name")
+    if pair:
+        spheres = [scene["second_sphere"], *scene.get("further_spheres", ())]
+        for k, sphere in enumerate(spheres, start=2):
+            if not (isinstance(sphere, dict) and _number(sphere.get("diameter"))):
+                raise DamagedRun(where, f"sphere {k}'s diameter is missing or not a number")
+        pair_gaps = ["pair_gap"] if len(spheres) == 1 else [f"pair_gap_{k}{k + 1}" for k in range(1, len(spheres) + 1)]
+        bodies = range(1, len(spheres) + 2)
+        columns = ["t", *(f"{kind}_{k}" for k in bodies for kind in ("gap", "velocity")), *pair_gaps]
+    else:
+        columns = ["t", "gap", "velocity", *(("x", "tangential_velocity", "spin") if "x" in traj else ())]
+    missing = next((name for name in columns if name not in traj), None)
+    if missing:
+        raise DamagedRun(run_dir / "trajectory.csv", f"no column {missing!r} (a run's has {', '.join(columns)})")
+
+
+def redraw(run_dir: Path) -> list[Path]:
+    """Check a run directory's files (check_run) and draw its figures from them: each is drawn into a hidden folder
+    beside them and moved into place only when all are, so a failure leaves the old figures (or none)."""
+    run_dir = Path(run_dir)
+    traj, summary = read_run(run_dir)
+    check_run(traj, summary, run_dir)
+    scratch = Path(tempfile.mkdtemp(prefix=".figures-", dir=run_dir))
+    try:
+        made = draw(traj, summary, scratch)
+        return [made_file.replace(run_dir / made_file.name) for made_file in made]
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
 def main(argv: list[str]) -> int:
-    """python -m fem_bounce.plots RUN_DIR...: redraw run directories' figures; one line for each that cannot be.
-    Under mpiexec rank 0 alone draws and speaks (the others would write the same files at once)."""
+    """python -m fem_bounce.plots RUN_DIR...: redraw run directories' figures; one line for each that cannot be
+    (naming the damaged file and what is wrong in it), and no figure of it left behind.  Under mpiexec rank 0
+    alone draws and speaks (the others would write the same files at once)."""
     from mpi4py import MPI  # loaded already with the package
 
     if MPI.COMM_WORLD.rank != 0:
@@ -271,8 +403,11 @@ def main(argv: list[str]) -> int:
     with quiet_on_a_closed_pipe():  # `... | head -1`: the rest is drawn, not reported as a failure to draw
         for folder in argv:
             try:
-                for made in draw_run(Path(folder)):
+                for made in redraw(Path(folder)):
                     print(made)
+            except DamagedRun as err:
+                print(f"fem-bounce plots: error: cannot draw {folder}: {err}", file=sys.stderr)
+                status = 2
             except (OSError, ValueError, KeyError, IndexError, TypeError) as err:
                 reason = err.strerror if isinstance(err, OSError) and err.strerror else f"{type(err).__name__}: {err}"
                 where = f" ({err.filename})" if isinstance(err, OSError) and err.filename else ""

@@ -279,7 +279,7 @@ class Controller:
 
     def _where(self) -> str:
         if not self.checkpoint_every:
-            return f"at step {self.flow_model.step}"
+            return f"at step {self.stepper.steps}"  # the ode model's stepper takes the whole run
         if self.last_checkpoint is None:
             return "no checkpoint yet"
         return f"last checkpoint at step {self.last_checkpoint[0]}, t = {self.last_checkpoint[1]:.6g} s"

@@ -52,9 +52,9 @@ def model_list(names: str | Sequence[str]) -> list[str]:
         names = list(names)
     except TypeError:
         names = [names]
-    wrong = next((name for name in names if not isinstance(name, str)), None)
-    if wrong is not None:
-        raise ModelError(f"--models: {wrong!r} is not a model's name: choose from {', '.join(MODELS)}")
+    wrong = [name for name in names if not isinstance(name, str)]  # a list: the wrong entry may be None itself
+    if wrong:
+        raise ModelError(f"--models: {wrong[0]!r} is not a model's name: choose from {', '.join(MODELS)}")
     names = [name.strip() for name in names if name.strip()]
     if not names:
         raise ModelError("--models needs at least one model, e.g. --models ode,ib")

@@ -75,14 +75,16 @@ def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), o
     study = StudyDirectory(out, comm)
     runner = runner or Runner(comm)
     restitution.tabulate_bands(restitution.MATERIAL_SETS, runner.map, overrides)
-    planned = restitution.plan(points, st_range, overrides=overrides)
+    planned = restitution.plan(points, st_range, restitution.MATERIAL_SETS, overrides=overrides)  # those tabulated
     if not planned:
         bands = [restitution.stokes_band(name, overrides)[1] for name in restitution.MATERIAL_SETS]
         low, high = min(band[0] for band in bands), max(band[-1] for band in bands)
         given = "".join(f" --set {key}" for key in overrides or {})
+        limits = [limit for name in restitution.MATERIAL_SETS if (limit := restitution.band_limit(name, overrides))]
         raise scenes.SceneError(f"--st-min {st_range[0]:g} --st-max {st_range[1]:g}{given}: no Table 3 set reaches a "
                                 f"Stokes number there (launched at {restitution.LAUNCH_SPEEDS[0]:g}-"
-                                f"{restitution.LAUNCH_SPEEDS[1]:g} m/s they reach St {low:.3g} to {high:.3g})")
+                                f"{restitution.LAUNCH_SPEEDS[1]:g} m/s they reach St {low:.3g} to {high:.3g}"
+                                + "".join(f"; {limit}" for limit in limits) + ")")
     if scenes.load(restitution.DSS_PLUS_5, overrides).contact.paper:  # the paper's runs 30-35
         restitution.tabulate_bands([restitution.DSS_PLUS_5], runner.map, overrides)
         lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5, overrides)[1][[0, -1]]
@@ -114,11 +116,12 @@ def _row(name: str, target: float, launch: float, trial: scenes.Scene, found: di
     speed_in, speed_out = restitution.crossing_speeds(summary["blend_crossings"])
     impact = summary["impacts"][0] if summary["impacts"] else None
     rebound = summary["rebounds"][0] if summary["rebounds"] else None
-    row.update(St=trial.stokes(speed_in), Re=trial.reynolds(speed_in), speed_in=speed_in, speed_out=speed_out,
-               restitution=speed_out / speed_in if speed_in else 0.0, stop_reason=summary.get("stop_reason"),
-               St_2ms=impact["St"] if impact else None, restitution_2ms=rebound["restitution"] if rebound else 0.0,
-               fit=legendre_fit(trial.stokes(speed_in), trial.density_ratio, trial.contact.dry_restitution))
-    if impact:
+    row.update(speed_in=speed_in, speed_out=speed_out, stop_reason=summary.get("stop_reason"))
+    if speed_in:  # else it never came in through 0.2 D: no St there, and no e
+        row.update(St=trial.stokes(speed_in), Re=trial.reynolds(speed_in), restitution=speed_out / speed_in,
+                   fit=legendre_fit(trial.stokes(speed_in), trial.density_ratio, trial.contact.dry_restitution))
+    if impact:  # else no collision (it stalled in the film): no St and no e at the collision's stations
+        row.update(St_2ms=impact["St"], restitution_2ms=rebound["restitution"] if rebound else 0.0)
         frame_in, frame_out = frame_speeds(Path(found["run_dir"]), impact["time"])
         rose = bool(rebound and rebound["rebounded"])  # the package's rule: an apex below 0.05 D is no rebound
         row.update(St_frame=trial.stokes(frame_in), restitution_frame=frame_out / frame_in if rose else 0.0,

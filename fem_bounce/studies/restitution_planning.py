@@ -11,7 +11,10 @@ between St 3 and 30, where e rises from 0, spreads the sweep's other points even
 assigns each to the set whose band holds it most centrally; the ODE model finds its launch speed.  The
 bands are those of the scenes the sweep runs: the presets with the sweep's --set values (all but other
 models' numerics), so that a run's target St is the one the ODE model measures on it; a target no set reaches
-is dropped with a warning that names the reachable range.
+is dropped with a warning that names the reachable range.  A band also ends at the fastest launch whose scene
+the checks admit: with contact.model = "ehd" the handover gap must hold 10 elastohydrodynamic gaps at the
+launch speed, which the most viscous sets pass only up to a few m/s; such a cut is warned of, naming the set,
+the launch and the check, and its Stokes numbers go to another set (or are dropped).
 
 The speeds that define e and St are taken where the gap passes delta_sl = 0.2 D, on the way in and on
 the way out (`crossing_speeds`): just before the wall's film slows the sphere and just after it has let
@@ -74,7 +77,19 @@ def check_overrides(overrides: dict | None) -> None:
             raise scenes.SceneError(f"--set {key}: the restitution sweep sets {key} for each run itself (a launch "
                                     "speed per Stokes number); run one scene with `fem-bounce run` instead")
     for name in (*MATERIAL_SETS, DSS_PLUS_5):
-        bounce_scene(scenes.load(name, overrides), LAUNCH_SPEEDS[0])
+        try:
+            scene = scenes.load(name, overrides)
+        except scenes.SceneError as err:  # say which of the sweep's scenes it was
+            raise scenes.SceneError(f"the sweep's scene {name} with the --set values: {err}") from None
+        try:
+            bounce_scene(scene, LAUNCH_SPEEDS[0])
+        except scenes.SceneError as err:  # a check of the launched scene: say which set and launch it was
+            raise scenes.SceneError(f"{launched(name, LAUNCH_SPEEDS[0])}, the sweep's slowest launch: {err}") from None
+
+
+def launched(name: str, launch: float) -> str:
+    """The sweep's scene `name` launched at `launch` [m/s], in words."""
+    return f"{name} launched at {launch:.3g} m/s from {LAUNCH_GAP:g} D without gravity"
 
 
 def planning(overrides: dict | None) -> dict:
@@ -115,7 +130,8 @@ def crossing_speeds(crossings: list[dict]) -> tuple[float, float]:
     return inward["speed"], outward["speed"] if outward else 0.0
 
 
-_BANDS: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}  # stokes_band's tables, by preset and --set
+# stokes_band's tables by preset and --set: (launch speeds, St, what ended the band short of the Re limit or None)
+_BANDS: dict[tuple[str, str], tuple[np.ndarray, np.ndarray, str | None]] = {}
 
 
 def _band_key(name: str, overrides: dict | None) -> tuple[str, str]:
@@ -129,7 +145,14 @@ def stokes_band(name: str, overrides: dict | None = None) -> tuple[np.ndarray, n
     key = _band_key(name, overrides)
     if key not in _BANDS:
         _BANDS[key] = _tabulate_band(name, planning(overrides))
-    return _BANDS[key]
+    return _BANDS[key][:2]
+
+
+def band_limit(name: str, overrides: dict | None = None) -> str | None:
+    """Why the band of `name` (with `overrides`) ends below the Re limit: its first refused launch and the check
+    that refused it; None when the Re limit (or the fastest launch) ends it."""
+    stokes_band(name, overrides)
+    return _BANDS[_band_key(name, overrides)][2]
 
 
 def tabulate_bands(names, mapper=map, overrides: dict | None = None) -> None:
@@ -144,17 +167,29 @@ def forget_bands() -> None:
     _BANDS.clear()
 
 
-def _tabulate_band(name: str, overrides: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _tabulate_band(name: str, overrides: dict | None = None) -> tuple[np.ndarray, np.ndarray, str | None]:
+    """(launch speeds, St, limit) of stokes_band and band_limit; launches from the first the scene's checks refuse
+    up are not run (the checks that depend on the launch, the ehd handover's and the contact gap's, only tighten
+    with its speed)."""
     scene = scenes.load(name, overrides)
-    speeds = np.geomspace(*LAUNCH_SPEEDS, BAND_SAMPLES)
-    found = [first_bounce(scene, speed, rebound=False) for speed in speeds]
+    speeds, found, refused = np.geomspace(*LAUNCH_SPEEDS, BAND_SAMPLES), [], None
+    for speed in speeds:
+        try:
+            bounce_scene(scene, speed)
+        except scenes.SceneError as err:
+            if not found:
+                raise scenes.SceneError(f"{launched(name, speed)}: {err}") from None
+            refused = f"{launched(name, speed)} is refused: {err}"
+            break
+        found.append(first_bounce(scene, speed, rebound=False))
     keep = [0.0 < r["St"] and r["Re"] <= scenes.AXISYMMETRIC_RE_LIMIT for r in found]  # 0: stopped before 0.2 D
     if not any(keep):
         raise scenes.SceneError(f"{name}: no launch speed in {LAUNCH_SPEEDS} m/s reaches the wall below Re "
-                                f"{scenes.AXISYMMETRIC_RE_LIMIT:g}")
+                                f"{scenes.AXISYMMETRIC_RE_LIMIT:g}" + (f" ({refused})" if refused else ""))
     first = keep.index(True)  # the slowest launches stop in the liquid before the wall
     n = keep.index(False, first) if False in keep[first:] else len(keep)
-    return speeds[first:n], np.array([r["St"] for r in found[first:n]])
+    limit = refused if n == len(keep) else None  # the refusal, not the Re limit, ended the band
+    return speeds[first:n], np.array([r["St"] for r in found[first:n]]), limit
 
 
 def launch_for_stokes(name: str, stokes: float, overrides: dict | None = None) -> float:
@@ -191,6 +226,13 @@ def plan(points: int, st_range=(1.0, 1000.0), sets=MATERIAL_SETS,
     """(preset, target St, launch speed [m/s]) for each of `targets` that a set (with `overrides`) reaches, by
     the set whose band holds it furthest from its ends; the targets none reaches are dropped with a warning."""
     bands = {name: stokes_band(name, overrides)[1] for name in sets}
+    for name in sets:
+        limit = band_limit(name, overrides)
+        if limit:
+            fastest = stokes_band(name, overrides)[0][-1]
+            warnings.warn(f"restitution: {name} is launched at most at {fastest:.3g} m/s (St {bands[name][-1]:.3g}), "
+                          f"short of the Re limit: {limit}; its higher Stokes numbers go to the other sets",
+                          stacklevel=2)
     chosen, dropped = [], []
     for stokes in targets(points, st_range):
         reaching = [n for n in sets if bands[n][0] * (1 - 1e-9) <= stokes <= bands[n][-1] * (1 + 1e-9)]
