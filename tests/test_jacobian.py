@@ -11,6 +11,7 @@ from mpi4py import MPI  # noqa: F401  (loads MPI before PETSc)
 from fem_bounce import scene as scenes
 from fem_bounce.integrator import BodyIntegrator
 from fem_bounce.kinematics import FluidForce
+from residual_differences import central
 
 D = 0.0095  # the presets' sphere diameter [m]
 FLOW_1 = FluidForce(np.array([0.01]), np.array([[0.002]]))
@@ -31,17 +32,6 @@ def state_scales(integrator, y) -> np.ndarray:
     scales[0:2 * count:2] = np.maximum(np.abs(y[0:2 * count:2]), 1e-12)
     scales[1:2 * count:2] = np.maximum(np.abs(y[1:2 * count:2]), 1e-6)
     return scales
-
-
-def central(integrator, t, y, ydot, column: int, step: float, rates: bool = False) -> np.ndarray:
-    """d G / d y_c (or d y'_c with `rates`) by a central difference."""
-    values = ydot if rates else y
-    up, down = values.copy(), values.copy()
-    up[column] += step
-    down[column] -= step
-    g_up = integrator.residual(t, *((y, up) if rates else (up, ydot))).copy()
-    g_down = integrator.residual(t, *((y, down) if rates else (down, ydot))).copy()
-    return (g_up - g_down) / (up[column] - down[column])  # the step as the arithmetic took it
 
 
 def differences(integrator, t, y, ydot, shift):

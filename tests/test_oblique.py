@@ -14,6 +14,7 @@ from fem_bounce import scene as scenes
 from fem_bounce.integrator import BodyIntegrator
 from fem_bounce.run import simulate
 from fem_bounce.tangential_contact import oblique_rigid_theory, sliding_threshold
+from residual_differences import central
 
 GLASS_D, GLASS_SPEED, GLASS_MU, GLASS_E = 3.18e-3, 1.7, 0.125, 0.83  # Foerster, Louge, Chang & Allia (1994)
 
@@ -130,17 +131,6 @@ def test_the_normal_motion_is_the_head_on_one():
     for key in ("impact_speed", "Re", "min_gap"):
         assert barely["impacts"][0][key] == pytest.approx(head_on["impacts"][0][key], rel=1e-4), key
     assert barely["rebounds"][0]["restitution"] == pytest.approx(head_on["rebounds"][0]["restitution"], rel=1e-4)
-
-
-def central(integrator, t, y, ydot, column: int, step: float, rates: bool = False) -> np.ndarray:
-    """d G / d y_c (or d y'_c) by a central difference."""
-    values = ydot if rates else y
-    up, down = values.copy(), values.copy()
-    up[column] += step
-    down[column] -= step
-    g_up = integrator.residual(t, *((y, up) if rates else (up, ydot))).copy()
-    g_down = integrator.residual(t, *((y, down) if rates else (down, ydot))).copy()
-    return (g_up - g_down) / (2.0 * step)
 
 
 @pytest.mark.parametrize(("engaged", "slip", "stretch"), [(False, 0.18, 0.0), (True, 0.18, 1e-9), (True, 1e-5, 1e-10)],
