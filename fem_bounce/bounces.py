@@ -193,9 +193,17 @@ class BounceRecord:
         """The rebound's apex (or a pair's separation) at (t, h): the next approach begins."""
         self.rebounds.append(self._rebound(apex_gap=h, apex_time=t))
         self._phase, self._entered_contact, self._peak_speed = "approach", False, 0.0
-        bounces = self.scene.run.bounces
+        self.stop_at = min(self.stop_at, self._limit_stop())
+
+    def _limit_stop(self) -> float:
+        """When the scene's limits stop the run [s]: the bounce limit's last impact plus the rebound's 2 ms window,
+        or stop_after_impacts' last impact; infinity while neither is reached."""
+        stops, bounces, impacts = [math.inf], self.scene.run.bounces, self.stop_after_impacts
         if bounces and len(self.rebounds) >= bounces:
-            self.stop_at = self.impacts[-1].time + IMPACT_WINDOW  # complete the rebound's 2 ms window
+            stops.append(self.impacts[bounces - 1].time + IMPACT_WINDOW)  # complete the rebound's 2 ms window
+        if impacts and len(self.impacts) >= impacts:
+            stops.append(self.impacts[impacts - 1].time)
+        return min(stops)
 
     def _rebound(self, apex_gap: float | None, apex_time: float | None) -> Rebound:
         impact = self.impacts[-1]
@@ -246,6 +254,8 @@ class BounceRecord:
         self.impacts = [Impact(**i) for i in state["impacts"]]
         self.rebounds = [Rebound(**r) for r in state["rebounds"]]
         self.blend_crossings = list(state["blend_crossings"])
+        if not self.resting:  # a restart may change run.bounces: the limit is this scene's, not the checkpoint's
+            self.stop_at = self._limit_stop()
 
 
 def _hermite(ts: list[float], hs: list[float], vs: list[float], t: float) -> float:

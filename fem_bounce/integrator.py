@@ -492,6 +492,9 @@ class BodyIntegrator(BodyEquations):
         self.done, self.steps = state["machine"]["done"], state["machine"]["steps"]
         for contact in self.contacts:
             contact.record.load(state["records"][contact.name])
+        if self.done and not any(c.record.resting for c in self.contacts) and self.time < min(
+                c.record.stop_at for c in self.contacts):
+            self.done = False  # a restart raised run.bounces past the limit the checkpoint had reached
         if self.tangential is not None:
             oblique = state["oblique"]
             self.oblique_impacts = list(oblique["impacts"])

@@ -234,3 +234,24 @@ def test_plots_redraws_a_sound_run(run_files, tmp_path, capsys):
     assert plots.main([str(folder)]) == 0
     assert {"trajectory.png", "velocity_gap.png"} <= {p.name for p in folder.iterdir()}
     assert sorted(p.name for p in folder.iterdir() if p.name.startswith(".")) == []
+
+
+@pytest.mark.slow
+def test_raising_the_bounce_limit_on_a_finished_run_and_restarting_runs_on(tmp_path, monkeypatch, capsys):
+    """A finished run's run.bounces raised in DIR/scene.toml (a restart may change it): the restart said the new
+    limit was reached and computed nothing, the checkpoint's own limit restored with its records.  A checkpoint
+    every step, so that the last one is the finished run's."""
+    monkeypatch.chdir(tmp_path)
+    run_dir = tmp_path / "r"
+    assert cli.main(["run", "li2011-case3", "--model", "fd", "--quiet", "--no-plots", "--out", str(run_dir),
+                     "--set", "numerics.fd.cells_per_diameter=6", "--set", "numerics.fd.checkpoint_every=1",
+                     "--set", "run.bounces=1"]) == 0
+    first = json.loads((run_dir / "summary.json").read_text())
+    assert len(first["impacts"]) == 1
+    scene_file = run_dir / "scene.toml"
+    scene_file.write_text(scene_file.read_text().replace("bounces = 1", "bounces = 2"))
+    capsys.readouterr()
+    assert cli.main(["run", "--restart", str(run_dir), "--quiet", "--no-plots"]) == 0
+    again = json.loads((run_dir / "summary.json").read_text())
+    assert len(again["impacts"]) == 2, capsys.readouterr().out
+    assert again["impacts"][0]["impact_speed"] == pytest.approx(first["impacts"][0]["impact_speed"], rel=1e-9)
