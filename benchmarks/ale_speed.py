@@ -102,7 +102,7 @@ def floor(comm) -> dict:
     from fem_bounce.models.ale.model import AleModel
 
     model = AleModel(load({"numerics.ale.factorisation": "reuse"}), comm)
-    _, _, flow = model.build_mesh(np.array(model.domain.initial_centers))
+    _, _, flow = model.moving.build_mesh(np.array(model.moving.domain.initial_centers))
     try:
         flow.factorise()
         operator, A = flow.operator, flow.matrix

@@ -50,12 +50,56 @@ def flow_gaps(gaps, diameters, holds, held=None) -> np.ndarray:
     return placed
 
 
+class PastLevels:
+    """Values at the last time levels t_n, t_{n-1}, ..., newest first, by name: the bodies' velocities and
+    what a model keeps beside them (the mesh's sphere centres, the spheres' interior integrals), each level an
+    array over the bodies.  With the coming step's BDF coefficients `bdf` (dy/dt ~ sum_j bdf[j] y^{n+1-j} / dt)
+    it gives a quantity's reference (`reference`: dy/dt ~ c (y^{n+1} - reference)) and the rate of a new level.
+    Predictor, the moving mesh (models/moving_mesh.py) and the fd model on its fixed mesh keep their levels here."""
+
+    def __init__(self, **levels: list):
+        self.levels = {name: list(values) for name, values in levels.items()}
+
+    def __getitem__(self, name: str) -> list:
+        return self.levels[name]
+
+    def __setitem__(self, name: str, values: list) -> None:
+        self.levels[name] = list(values)
+
+    @property
+    def velocities(self) -> list:
+        return self.levels["velocities"]
+
+    def push(self, **newest) -> None:
+        """A new level t_{n+1} of every quantity (each by its name); the oldest leaves."""
+        if newest.keys() != self.levels.keys():
+            raise ValueError(f"a new level needs {sorted(self.levels)}, got {sorted(newest)}")
+        for name, value in newest.items():
+            self.levels[name] = [value] + self.levels[name][:-1]
+
+    def reference(self, name: str, bdf: tuple) -> np.ndarray:
+        """-sum_{j>=1} bdf[j] y^{n+1-j} / bdf[0] of the quantity `name`: with dy/dt ~ c (y^{n+1} - reference)."""
+        return -sum(a * v for a, v in zip(bdf[1:], self.levels[name])) / bdf[0]
+
+    def rate(self, name: str, newest: np.ndarray, bdf: tuple, dt: float) -> np.ndarray:
+        """The BDF rate of the quantity `name` if it reaches `newest` at the end of a step dt [s]."""
+        return (bdf[0] * newest + sum(a * z for a, z in zip(bdf[1:], self.levels[name]))) / dt
+
+    def state(self) -> dict:
+        """For a checkpoint: per name a list of levels, each a list over the bodies."""
+        return {name: [np.asarray(v).tolist() for v in values] for name, values in self.levels.items()}
+
+
 class Predictor:
     """The bodies' last velocities, newest first (order 2: AB2; order 1: the last velocities held), each
     an array over the bodies [m/s]; checkpoints store them as lists."""
 
     def __init__(self, velocities: list[np.ndarray]):
-        self.velocities = [np.array(v, dtype=float) for v in velocities]
+        self.history = PastLevels(velocities=[np.array(v, dtype=float) for v in velocities])
+
+    @property
+    def velocities(self) -> list[np.ndarray]:
+        return self.history.velocities
 
     def predict(self, time: float, gaps: np.ndarray, velocities: np.ndarray, dt: float,
                 previous_dt: float | None = None) -> Prediction:
@@ -71,7 +115,7 @@ class Predictor:
         return Prediction(time, gaps, velocities, dt, mean_velocities)
 
     def push(self, velocities: np.ndarray) -> None:
-        self.velocities = [np.array(velocities, dtype=float)] + self.velocities[:-1]
+        self.history.push(velocities=np.array(velocities, dtype=float))
 
 
 # An adaptive step (numerics.ale.adaptive_step, numerics.fd.adaptive_step) is the longest that

@@ -14,9 +14,9 @@ from fem_bounce import cli, fields, theory
 from fem_bounce import scene as scenes
 from fem_bounce.fem.compat import collapse
 from fem_bounce.fem.mesh import OUTER, SPHERE, TOP, WALL, HalfPlane, SphereHole, create_mesh
-from fem_bounce.models.ale.domain import domain_for
 from fem_bounce.models.ale.flow import SphereFlow
-from fem_bounce.models.ale.motion import MeshMotion
+from fem_bounce.fem.mesh_motion import MeshMotion
+from fem_bounce.models.moving_mesh import domain_for
 from fem_bounce.fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 from fem_bounce.run import simulate
 
@@ -200,7 +200,6 @@ def test_transfer_to_a_new_mesh_is_divergence_free_and_keeps_the_momentum():
 def test_the_mass_saddle_point_factorises_where_mumps_underestimates_its_workspace():
     """The projection's [M B^T; B 0] (r-weighted mass, no viscosity) on this 24 cells/D mesh made MUMPS
     stop with INFOG(1) = -9 at its default workspace; FactorizedOperator retries with more."""
-    from fem_bounce.models.ale.domain import domain_for
 
     scene = scenes.load("li2011-case3", {"numerics.ale.cells_per_diameter": 24.0})
     domain = domain_for(scene)

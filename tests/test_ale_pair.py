@@ -70,7 +70,8 @@ def test_the_domain_holds_each_gap_at_hold_delta_and_refuses_held_spheres_closer
     setting; the steady solve needs every body held."""
     from fem_bounce import scene as scenes
     from fem_bounce.bodies import scene_bodies
-    from fem_bounce.models.ale.domain import domain_for, is_steady
+    from fem_bounce.models.ale.domain import is_steady
+    from fem_bounce.models.moving_mesh import domain_for
     from fem_bounce.scene import SceneError, pair_diameter
 
     scene = scenes.load(preset, {"numerics.ale.hold_delta": 0.05})
@@ -140,7 +141,7 @@ def pair_motion_and_flow(gap=0.5 * D, viscosity=0.05, dt=0.01):
     """A toy pair mesh (the lower sphere at 3 D, wall below) with its motion and a time-stepping flow."""
     from fem_bounce.fem.mesh import OUTER, TOP, WALL
     from fem_bounce.models.ale.flow import SphereFlow
-    from fem_bounce.models.ale.motion import MeshMotion
+    from fem_bounce.fem.mesh_motion import MeshMotion
 
     spec = pair_spec(gap)
     mesh, _, facet_tags = create_mesh(MPI.COMM_WORLD, spec, cache=False)

@@ -61,7 +61,7 @@ def test_reuse_gives_the_every_step_answer_and_factorises_on_each_new_mesh(monke
     step = AleModel.linearised_force
 
     def counting_step(self, prediction):
-        model_steps.append(self.kinematics.step)
+        model_steps.append(self.moving.step)
         return step(self, prediction)
 
     monkeypatch.setattr(solver.ReusedFactorOperator, "_factorise", recording)

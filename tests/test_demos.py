@@ -35,7 +35,7 @@ PINNED = {
     "brenner_drag": ([0, "lambda"], 1.56249),
     "sphere_drag": ([0, "Cd"], 1.09573),
     # tencate_e4 and li_case3 remesh: gmsh's new mesh changed with the last bits of the sphere's position, which
-    # differ between 1 and 2 ranks, until the remesh rounded it (models/ale/model.py REMESH_QUANTUM); before, 2 ranks
+    # differ between 1 and 2 ranks, until the remesh rounded it (models/moving_mesh.py REMESH_QUANTUM); before, 2 ranks
     # gave 0.119106 and 0.118465 against 0.119247 serial (tencate_e4, before the finer surface) and 0.392304 against
     # 0.392248 (li_case3)
     "tencate_e4": (["peak_speed"], 0.121629),

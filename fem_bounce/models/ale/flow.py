@@ -3,7 +3,7 @@
 On the mesh of the new time level, with nodal (mesh-following) histories u^n, u^{n-1}:
 
     rho (sum_j alpha_j u^{n+1-j}) / dt + rho ((u* - w) . grad) u^{n+1} - mu Lap u^{n+1} + grad p^{n+1} = 0,
-    div u^{n+1} = 0,     u* = 2 u^n - u^{n-1} (extrapolated),   w the mesh velocity (motion.py),
+    div u^{n+1} = 0,     u* = 2 u^n - u^{n-1} (extrapolated),   w the mesh velocity (fem.mesh_motion),
 
 the non-conservative ALE form (Formaggia & Nobile 2004, in "Finite Element Methods:
 1970's and Beyond"; Foerster, Wall & Ramm 2007 CMAME 196): the time derivative is
@@ -83,7 +83,7 @@ class SphereFlow:
     one mesh (moved in place by a MeshMotion).
 
     density [kg/m3], viscosity [Pa s], dt [s]; `sides` maps WALL/OUTER/TOP to a kind in
-    SIDE_KINDS; `mesh_velocity` is a UFL vector (motion.MeshMotion.velocity); `factorisation` is
+    SIDE_KINDS; `mesh_velocity` is a UFL vector (fem.mesh_motion.MeshMotion.velocity); `factorisation` is
     "every-step" or "reuse" (then `krylov_rtol`, `factorisation_cost` and `reuse_iterations` set
     ReusedFactorOperator's tolerance, renewal rule and bound)."""
 

@@ -3,7 +3,7 @@
 A Taylor-Hood P2/P1 axisymmetric flow (fluid), a smoothed sphere indicator with an immersed force
 (immersed; penalised: the implicit constraint), implicit coupling with the shared sphere integrator
 (coupling), and the time loop with its outputs: on a fixed mesh (model), or on one that moves with
-the spheres (moving: numerics.fd.mesh = "moving", the ale model's loop).
+the spheres (moving: numerics.fd.mesh = "moving", on the moving mesh the ale model also uses: models/moving_mesh.py).
 """
 from .model import FictitiousDomainModel
 from .moving import MovingFictitiousDomainModel

@@ -28,46 +28,57 @@ from __future__ import annotations
 import math
 import resource
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ...bodies import scene_bodies
 from ...fem.domain import speed_scale
+from ...fem.field_writer import FieldWriter
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import check_size, create_mesh
 from ...fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel, StepLimits, flow_gaps, nearest_gap, steps_to
+from ...flow_model import FlowModel, PastLevels, StepLimits, flow_gaps, nearest_gap, steps_to
 from ...kinematics import FluidForce, Prediction
 from ...motion import is_stream
 from ...output import CheckpointError, body_array, per_body, segment_path
 from ...scene import SceneError, pair_diameter
 from . import coupling
 from .domain import Domain, domain_for, patch_center, penalty_rate, time_step
-from .fields import FieldWriter
 from .fluid import FlowSolver
 from .immersed import ImmersedBodies, check_hold, interior_slip
 from .penalised import PenalisedFlow
 from .steady import SteadyStokes
 
 
-@dataclass
-class History:
-    """The spheres' velocities [m/s] and interior integrals I = U V_phi [m^4/s] of the last steps,
-    newest first, each an array over the spheres; `bdf` are the flow's BDF coefficients."""
+class History(PastLevels):
+    """The spheres' velocities [m/s] and interior integrals I = U V_phi [m^4/s] of the last steps, newest first,
+    each an array over the spheres (flow_model.PastLevels's levels "velocities" and "interiors"); `bdf` are the
+    flow's BDF coefficients (the coming step's: the model sets them when the steps vary)."""
 
-    bdf: tuple
-    velocities: list
-    interiors: list
+    def __init__(self, bdf: tuple, velocities: list, interiors: list):
+        super().__init__(velocities=velocities, interiors=interiors)
+        self.bdf = bdf
 
     def push(self, velocity: np.ndarray, interior: np.ndarray) -> None:
-        self.velocities = [velocity] + self.velocities[:-1]
-        self.interiors = [interior] + self.interiors[:-1]
+        super().push(velocities=velocity, interiors=interior)
 
-    def _reference(self, values: list) -> np.ndarray:
-        return -sum(a * v for a, v in zip(self.bdf[1:], values)) / self.bdf[0]
+    @property
+    def velocities(self) -> list:
+        return self["velocities"]
+
+    @velocities.setter
+    def velocities(self, values: list) -> None:
+        self["velocities"] = values
+
+    @property
+    def interiors(self) -> list:
+        return self["interiors"]
+
+    @interiors.setter
+    def interiors(self, values: list) -> None:
+        self["interiors"] = values
 
     @property
     def velocity(self) -> np.ndarray:
@@ -76,16 +87,12 @@ class History:
     @property
     def reference_velocity(self) -> np.ndarray:
         """U_ref: dV/dt ~ c (U - U_ref) [m/s]."""
-        return self._reference(self.velocities)
+        return self.reference("velocities", self.bdf)
 
     @property
     def momentum_history(self) -> np.ndarray:
         """J: the BDF history of the interior integrals [m^4/s]."""
-        return self._reference(self.interiors)
-
-    def state(self) -> dict:
-        """For a checkpoint: lists, one value per sphere in each."""
-        return {"velocities": [v.tolist() for v in self.velocities], "interiors": [i.tolist() for i in self.interiors]}
+        return self.reference("interiors", self.bdf)
 
 
 class FictitiousDomainModel(FlowModel):
@@ -389,7 +396,7 @@ class FictitiousDomainModel(FlowModel):
     def _open_fields(self) -> None:
         """A field file of its own for the mesh as it is (a new segment after each new mesh)."""
         path = self.comm.bcast(segment_path(self.fields_dir) if self.comm.rank == 0 else None, root=0)
-        self.fields = FieldWriter(self.comm, self.mesh, self.flow.W, path)
+        self.fields = FieldWriter(self.comm, path, self.mesh)
 
     def write_fields(self, time_now: float) -> None:
         self.fields.write(self.flow.now, time_now)

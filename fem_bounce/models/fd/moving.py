@@ -1,11 +1,11 @@
 """The fd model on a mesh that moves with the spheres (numerics.fd.mesh = "moving").
 
-The ale model's moving mesh (models/ale: the harmonic extension that carries the mesh with the spheres,
-a new mesh when a triangle degrades, the holds near contact, the BDF history carried onto a new mesh)
-with the fd model's sphere: not a hole with a no-slip surface but liquid, meshed inside the sphere's
-surface (a curve of the mesh: fem.mesh.SphereHole filled) and held rigid by the implicit Brinkman
-friction of penalised.PenalisedFlow (Angot, Bruneau & Fabrie 1999); the force on the sphere is the
-friction's reaction plus the rate of change of the held liquid's momentum (Uhlmann 2005, eq. 12).
+The moving mesh the ale model also uses (models/moving_mesh.py: the harmonic extension that carries the mesh with
+the spheres, a new mesh when a triangle degrades, the holds near contact, the BDF history carried onto a new mesh,
+the checkpoints), owned here as the ale model owns its own, with the fd model's sphere: not a hole with a no-slip
+surface but liquid, meshed inside the sphere's surface (a curve of the mesh: fem.mesh.SphereHole filled) and held
+rigid by the implicit Brinkman friction of penalised.PenalisedFlow (Angot, Bruneau & Fabrie 1999); the force on
+the sphere is the friction's reaction plus the rate of change of the held liquid's momentum (Uhlmann 2005, eq. 12).
 
 Why: on a fixed mesh the sphere's surface crosses the triangles, and the velocity's kink there is
 resolved only as the whole fine region is refined (case 3's first apex -5 % at 24 cells/D,
@@ -17,17 +17,20 @@ u* - w, w the mesh velocity (models/ale/flow.py).
 from __future__ import annotations
 
 from dataclasses import fields
+from pathlib import Path
 
 import numpy as np
 import ufl
 
+from ...bodies import scene_bodies
 from ...fem.domain import speed_scale
 from ...fem.mesh import SPHERE_TAGS
-from ...flow_model import StepLimits
-from ...kinematics import FluidForce
+from ...fem.mesh_motion import MeshMotion
+from ...fem.solver import SolverError
+from ...flow_model import FlowModel, StepLimits
+from ...kinematics import FluidForce, Prediction
 from ...scene import SceneError
-from ..ale.model import AleModel
-from ..ale.motion import MeshMotion
+from ..moving_mesh import MovingMesh, checked_domain
 from .domain import penalty_rate, time_step
 from .immersed import ImmersedBodies
 from .penalised import PenalisedFlow
@@ -47,7 +50,7 @@ class MovingPenalisedFlow(PenalisedFlow):
         self.cold_start = False  # the coming step is BDF1 (set_time_step)
         super().__init__(mesh, facet_tags, sides, density, viscosity, dt, penalty_rate, **options)
         self.reference = None  # U_ref of the step being made [m/s]
-        self.krylov_iterations = 0  # factorised every step (the ale model's tallies ask)
+        self.krylov_iterations = 0  # factorised every step (the moving mesh's tallies ask: moving_mesh.TALLIES)
 
     def convecting(self, extrapolated):
         return extrapolated - self.mesh_velocity
@@ -103,17 +106,22 @@ class MovingPenalisedFlow(PenalisedFlow):
         super().destroy()
 
 
-class MovingFictitiousDomainModel(AleModel):
-    """`--model fd` with numerics.fd.mesh = "moving": the ale model's loop (AleModel) with the fd model's
-    settings, time step and constraint."""
+class MovingFictitiousDomainModel(FlowModel):
+    """`--model fd` with numerics.fd.mesh = "moving": the fd model's settings, time step and constraint on the
+    mesh that follows the spheres (moving_mesh.MovingMesh, as the ale model's)."""
 
     name = "fd"
+    resolved = True
+    divergences = (SolverError,)
+    fields_at_end = True
+    steady = False  # held spheres march (their steady Stokes state: the fixed mesh, models/fd/__init__.py)
 
     def __init__(self, scene, comm):
         if len(scene.spheres) > len(SPHERE_TAGS):
             raise SceneError(f'numerics.fd.mesh = "moving" runs at most {len(SPHERE_TAGS)} spheres (one mesh tag '
                              f'each), this scene has {len(scene.spheres)}: use numerics.fd.mesh = "fixed"')
         super().__init__(scene, comm)
+        domain = checked_domain(scene, self.name)
         fd = self.settings
         if fd.constraint != "implicit":
             raise SceneError(f'numerics.fd.constraint = "{fd.constraint}" runs on a fixed mesh only: set '
@@ -127,34 +135,69 @@ class MovingFictitiousDomainModel(AleModel):
                 raise SceneError(f"numerics.fd.{name} = {shown} shapes the fixed mesh only; the moving mesh refines "
                                  "each sphere's surface (surface_refinement) and ends the band on it: unset it, or "
                                  'set numerics.fd.mesh = "fixed"')
-        self.steady = False  # held spheres march (their steady Stokes state: the fixed mesh, models/fd/__init__.py)
-        self.dt = self.cfl_step = time_step(scene)
-        self.adaptive = fd.resolved("adaptive_step")
-        self.step_limits = StepLimits(self.cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"),
-                                      fd.gap_fraction)
-        self.penalty_rate = penalty_rate(scene, self.domain.surface_size)  # on the surface's triangles
-        self.dt = self.first_step()
+        cfl_step = time_step(scene)
+        adaptive = fd.resolved("adaptive_step")
+        limits = StepLimits(cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"), fd.gap_fraction)
+        self.penalty_rate = penalty_rate(scene, domain.surface_size)  # on the surface's triangles
+        self.moving = MovingMesh(scene, comm, fd, domain, self.make_flow, self.sphere_volume, cfl_step=cfl_step,
+                                 step_limits=limits, adaptive=adaptive,
+                                 first_step=self.first_step(cfl_step, limits, adaptive))
 
-    def first_step(self) -> float:
+    def first_step(self, cfl_step: float, limits: StepLimits, adaptive: bool) -> float:
         """The first step [s]: the cfl step, or with adaptive steps the shortest when a free sphere is launched into
         the liquid at rest: it gives the liquid its added mass's momentum at once and slows fastest at first, and the
         steps then grow as StepLimits allows (BDF1 while its inside lags: inside_lags).  Started at the cfl step, the
         default (cfl 0.8) took the first 3 ms of case 3's sphere launched at 0.3 m/s in one step, 1.3 % too fast at
         2.5 ms (tests/test_fd_moving.py).  The ale model keeps the cfl step: its start has no BDF1 (a short first
         step there, with BDF2 across the impulsive start, left its launch 3.8 % too fast at 1 ms)."""
-        launched = any(body.start_velocity != 0.0 and not body.held for body in self.bodies)
-        return self.step_limits.min_factor * self.cfl_step if self.adaptive and launched else self.cfl_step
+        launched = any(body.start_velocity != 0.0 and not body.held for body in scene_bodies(self.scene))
+        return limits.min_factor * cfl_step if adaptive and launched else cfl_step
 
-    @property
-    def reuses_factors(self) -> bool:
-        return False
+    def make_flow(self, mesh, facet_tags, motion: MeshMotion, centers, dt: float) -> MovingPenalisedFlow:
+        """The penalised flow on a new mesh, its spheres' indicators placed once: the mesh moves rigidly inside them."""
+        scene, domain, fd = self.scene, self.moving.domain, self.settings
+        flow = MovingPenalisedFlow(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity,
+                                   dt, self.penalty_rate, motion.velocity, inflow_speed=domain.inflow_speed,
+                                   order=fd.time_order)
+        centers = [float(z) for z in np.atleast_1d(centers)]
+        radii = list(self.moving.radii)
+        flow.place(ImmersedBodies(flow, radii, radii, fd.interface_width * domain.surface_size, centers), centers)
+        return flow
 
-    def linearised_force(self, prediction) -> FluidForce:
-        """The ale model's step; numerics.fd.coupling = "explicit" hands the integrator no added mass (the lagged
-        coupling, for comparison: unstable for light spheres)."""
-        self.flow.cold_start = self.kinematics.step < self.settings.time_order and self.inside_lags()
-        force = super().linearised_force(prediction)
-        self.flow.cold_start = False
+    def sphere_volume(self, flow: MovingPenalisedFlow) -> float:
+        """The spheres' indicator volumes together [m^3] (the remeshes' record)."""
+        return float(np.sum(flow.bodies.volumes))
+
+    def resolved_top(self) -> float:
+        return self.moving.resolved_top()
+
+    # -- the FlowModel interface ------------------------------------------------------------------
+    def build(self, integrator) -> None:
+        self.moving.build(integrator.hold_gaps)
+
+    def initial_velocities(self) -> list[np.ndarray]:
+        return list(self.moving.history.velocities)
+
+    def time_step(self) -> float:
+        return self.moving.dt
+
+    def next_time(self) -> float:
+        return self.moving.next_time()
+
+    def finished(self, end_time: float) -> bool:
+        return self.moving.finished(end_time)
+
+    def previous_time_step(self) -> float | None:
+        return self.moving.previous_time_step()
+
+    def linearised_force(self, prediction: Prediction) -> FluidForce:
+        """The moving mesh's step, BDF1 while the inside lags at the start (MovingPenalisedFlow.set_time_step);
+        numerics.fd.coupling = "explicit" hands the integrator no added mass (the lagged coupling, for comparison:
+        unstable for light spheres)."""
+        moving = self.moving
+        moving.flow.cold_start = moving.step < self.settings.time_order and self.inside_lags()
+        force = moving.linearise(prediction)
+        moving.flow.cold_start = False
         if self.settings.coupling == "implicit":
             return force
         return FluidForce(explicit=force.explicit, added_mass=np.zeros_like(force.added_mass))
@@ -164,26 +207,37 @@ class MovingFictitiousDomainModel(AleModel):
         velocity off the sphere's by more than 1e-3 of either): the start of a sphere launched into liquid at rest,
         or held in a stream, until the levels from before its inside was set moving have left the BDF formula."""
         return any(np.any(np.abs(inside - velocities) > 1e-3 * (np.abs(inside) + np.abs(velocities)))
-                   for inside, velocities in zip(self.flow.inside_velocities(), self.kinematics.velocities))
+                   for inside, velocities in zip(self.moving.flow.inside_velocities(),
+                                                 self.moving.history.velocities))
 
-    def make_flow(self, mesh, facet_tags, motion: MeshMotion, centers) -> MovingPenalisedFlow:
-        """The penalised flow on a new mesh, its spheres' indicators placed once: the mesh moves rigidly inside them."""
-        scene, domain, fd = self.scene, self.domain, self.settings
-        flow = MovingPenalisedFlow(mesh, facet_tags, domain.sides, scene.liquid.density, scene.liquid.viscosity,
-                                   self.dt, self.penalty_rate, motion.velocity, inflow_speed=domain.inflow_speed,
-                                   order=fd.time_order)
-        centers = [float(z) for z in np.atleast_1d(centers)]
-        radii = list(self.radii)
-        flow.place(ImmersedBodies(flow, radii, radii, fd.interface_width * domain.surface_size, centers), centers)
-        return flow
+    def complete(self, velocities: np.ndarray, time_now: float) -> None:
+        self.moving.complete(velocities)
+        self.step = self.moving.step
 
-    def sphere_volume(self, flow: MovingPenalisedFlow) -> float:
-        """The spheres' indicator volumes together [m^3] (the remeshes' record)."""
-        return float(np.sum(flow.bodies.volumes))
+    # -- checkpoints and outputs: the moving mesh's -----------------------------------------------
+    def checkpoint_state(self) -> tuple[dict, dict]:
+        return self.moving.checkpoint_state()
 
-    def side_files(self) -> dict[str, tuple]:
-        return {}
+    def restore(self, state: dict, arrays) -> None:
+        self.moving.restore(state, arrays)
+
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
+        if fields:
+            self.moving.open_fields(out_dir)
+
+    def write_fields(self, time_now: float) -> None:
+        self.moving.write_fields(time_now)
+
+    def close_outputs(self) -> None:
+        self.moving.close_fields()
+
+    def destroy(self) -> None:
+        self.moving.destroy()
+
+    # -- what the summary says --------------------------------------------------------------------
+    def sizes(self) -> dict:
+        return self.moving.sizes(self.steady)
 
     def report(self) -> dict:
-        return {**super().report(), "mesh": "moving", "constraint": self.settings.constraint,
-                "penalty_rate_per_s": self.penalty_rate}
+        return {**self.moving.report(self.steady, self.loop_seconds), "mesh": "moving",
+                "constraint": self.settings.constraint, "penalty_rate_per_s": self.penalty_rate}

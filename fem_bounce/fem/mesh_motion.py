@@ -15,7 +15,7 @@ the mesh at any sphere position costs one vector update.  The mesh moves only al
 
 The ALE mesh velocity of a BDF step is w = psi e_z (sum_j alpha_j z^{n+1-j}) / dt, the
 same BDF formula as the flow's time derivative, so the position of every vertex and its
-velocity agree; with the non-conservative ALE form (flow.py) a uniform flow then stays
+velocity agree; with the non-conservative ALE form (models/ale/flow.py) a uniform flow then stays
 uniform on the moving mesh to round-off (the geometric conservation law; tested).
 
 Every sphere on the axis has its own extension: psi_k = 1 on sphere k and 0 on the other spheres
@@ -37,9 +37,9 @@ from dolfinx.fem.petsc import apply_lifting, assemble_matrix, assemble_vector, s
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ...fem.compat import geometry_cells
-from ...fem.mesh import OUTER, SPHERE, TOP, WALL
-from ...fem.solver import FactorizedOperator
+from .compat import geometry_cells
+from .mesh import OUTER, SPHERE, TOP, WALL
+from .solver import FactorizedOperator
 
 
 def triangle_quality(points: np.ndarray, cells: np.ndarray, orientation: np.ndarray | None = None) -> np.ndarray:
