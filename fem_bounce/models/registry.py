@@ -122,8 +122,8 @@ class ModelInfo:
 # The shared core every model's numbers depend on (the cache hashes these with each model's sources).
 CORE_SOURCES = ("scene.py", "materials.py", "theory.py", "contact.py", "bodies.py", "integrator.py", "bounces.py",
                 "motion.py", "flow_model.py", "steppers.py", "run.py", "errors.py", "output.py", "models/__init__.py",
-                "pair_contact.py", "pair_theory.py", "equations.py", "kinematics.py", "oblique.py", "wall_tangential.py",
-                "tangential_contact.py", "cavitation.py", "ehd.py")
+                "pair_contact.py", "pair_theory.py", "equations.py", "kinematics.py", "oblique.py",
+                "wall_tangential.py", "tangential_contact.py", "cavitation.py", "ehd.py")
 MANY = 1000  # the ode model's sphere count has no limit of its own
 # The resolved models mesh the sphere's whole path from its release; beyond this gap (in diameters) the mesh
 # grows without telling anything new: a sphere reaches its terminal speed within ~10-20 D of its release.
@@ -143,7 +143,8 @@ MODELS: dict[str, ModelInfo] = {
         ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.fd.cfl",
         scaled_with_time_step=("numerics.fd.forcing_number",), checkpoint_every_key="numerics.fd.checkpoint_every",
         checkpoint_files=("flow.npz",), min_cells_across_blend_gap=1.0, fields_key="numerics.fd.output_every",
-        colour="C1", sources=("models/fd", "models/moving_mesh.py", "fem"), max_spheres=MANY, max_initial_gap=RESOLVED_MAX_GAP),
+        colour="C1", sources=("models/fd", "models/moving_mesh.py", "fem"), max_spheres=MANY,
+        max_initial_gap=RESOLVED_MAX_GAP),
     "ib": ModelInfo(
         name="ib", module="fem_bounce.models.ib", class_name="ImmersedBoundaryModel",
         liquid="the paper's IB projection method on a staggered grid", resolved=True,
