@@ -393,7 +393,7 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
     try:
         st_min, st_max = st_range
     except (TypeError, ValueError):
-        st_min = None  # not two of anything
+        st_min = st_max = None  # not two of anything
     if not all(isinstance(x, numbers.Real) and not isinstance(x, bool) for x in (st_min, st_max)):
         # numbers, not texts that float() would read: the same rule as points
         raise SceneError(f"st_range = {st_range!r} must be two numbers (--st-min, --st-max), e.g. (1, 1000)")
