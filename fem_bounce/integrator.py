@@ -63,7 +63,7 @@ class BodyIntegrator(BodyEquations):
         self._stall_speed = STALL_FRACTION * scene.launch_speed if scene.gravity == 0.0 else 0.0
         self._turning_offset = TURNING_OFFSET if count > 1 else 0.0
         self.steps = 0
-        self.oblique_impacts: list[dict] = []  # an oblique collision's impacts, each from contact to contact's end
+        self.oblique_impacts: list[dict] = []  # each oblique impact at its two stations (bounces.oblique_record)
         # each station's (t, normal speed, U, Omega) where the current collision passed it on the way in
         self._oblique_entries: dict[str, tuple | None] = {"contact": None, "outer": None}
         self._build_ts()
@@ -104,8 +104,9 @@ class BodyIntegrator(BodyEquations):
         atol.set(opts.atol)
         for contact in self.contacts:
             atol.setValue(contact.gap_index, 1e-6 * opts.atol)
-        if self.tangential is not None:  # the spring's stretch is a fraction of the Hertz overlap, as small as a gap
-            atol.setValue(along.stop - 1, 1e-2 * opts.atol)
+        if self.tangential is not None:  # the spring's stretch, a fraction of the Hertz overlap: 1e-2 of the others'
+            atol.setValue(along.stop - 1, 1e-2 * opts.atol)  # (as tight as a gap's, the steps collapsed where the
+            # friction switches between sticking and sliding)
         # A history mode matters only through its share of the history force: an error dz in mode i moves
         # its sphere's velocity by at most s_i dz (TheoryForces.history_sensitivity, 2e-5 to 0.04 for case
         # 3).  Each mode is held to the error that moves the velocity by the velocity's own tolerance at the
