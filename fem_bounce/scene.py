@@ -371,6 +371,7 @@ class Numerics:
     fd: numerics.FdNumerics = field(default_factory=numerics.FdNumerics)
     ib: numerics.IbNumerics = field(default_factory=numerics.IbNumerics)
     ale: numerics.AleNumerics = field(default_factory=numerics.AleNumerics)
+    fd3d: numerics.Fd3dNumerics = field(default_factory=numerics.Fd3dNumerics)
 
 
 @dataclass(frozen=True)

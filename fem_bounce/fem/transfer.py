@@ -105,14 +105,15 @@ def interpolate_from(source: SerialField, target: fem.Function) -> None:
 
 
 class DivergenceFreeProjection:
-    """The L2 projection (weighted: fem.geometry.Axisymmetric) onto discretely divergence-free fields meeting
-    `bcs`, on the mesh as it is.
+    """The L2 projection (weighted: fem.geometry.Axisymmetric, or the `geometry` given) onto discretely
+    divergence-free fields meeting `bcs`, on the mesh as it is.
 
     `reuse`: after the mesh moved, `reassemble` and project with the first factors preconditioning flexible
     GMRES (fem.solver.ReusedFactorOperator, to |b - A x| <= rtol |b|) instead of factorising again."""
 
-    def __init__(self, W, bcs: list, prefix: str = "ale_projection_", reuse: bool = False, rtol: float = 1e-7):
-        geometry = Axisymmetric(W.mesh)
+    def __init__(self, W, bcs: list, prefix: str = "ale_projection_", reuse: bool = False, rtol: float = 1e-7,
+                 geometry=None):
+        geometry = Axisymmetric(W.mesh) if geometry is None else geometry  # fem.geometry's (Cartesian in 3-D)
         (u, p), (v, q) = ufl.TrialFunctions(W), ufl.TestFunctions(W)
         self.field = fem.Function(W)
         self.a = fem.form(geometry.stokes_operator(u, p, v, q, 1.0, 0.0))

@@ -163,6 +163,14 @@ MODELS: dict[str, ModelInfo] = {
         checkpoint_every_key="numerics.ale.checkpoint_every", checkpoint_files=("flow.npz",),
         fields_key="numerics.ale.output_every", colour="C3", max_spheres=8,  # one mesh tag per hole (fem.mesh)
         sources=("models/ale", "models/moving_mesh.py", "fem"), max_initial_gap=RESOLVED_MAX_GAP),
+    "fd3d": ModelInfo(
+        name="fd3d", module="fem_bounce.models.fd3d.model", class_name="FictitiousDomain3DModel",
+        liquid="3-D Taylor-Hood Navier-Stokes on tetrahedra (half box), diffuse-interface sphere, head-on",
+        resolved=True, resolution_key="numerics.fd3d.cells_per_diameter", resolution_unit="cells/D",
+        ladder=(6.0, 8.0, 12.0, 16.0), time_step_key="numerics.fd3d.cfl",
+        checkpoint_every_key="numerics.fd3d.checkpoint_every", checkpoint_files=("flow.npz",),
+        fields_key="numerics.fd3d.output_every", colour="C4",
+        sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP),
 }
 
 BEST_FIRST = ("ale", "fd", "ib", "ode")  # the default model: the first of these that imports

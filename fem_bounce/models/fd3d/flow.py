@@ -67,11 +67,12 @@ class PenalisedFlow3D:
     """The penalised flow around one sphere (indicator.SphereIndicator) in a box (mesh.create_box_mesh).
 
     geometry: fem.geometry.Cartesian of the mesh (mirrored for the half box); sides: facet group -> kind;
-    density [kg/m^3], viscosity [Pa s], penalty_rate c_B [1/s]; inflow [m/s]: the velocity on "inflow" sides."""
+    density [kg/m^3], viscosity [Pa s], penalty_rate c_B [1/s]; inflow [m/s]: the velocity on "inflow" sides;
+    moving: the names of the modes the sphere moves in (None: all), the only responses solved for."""
 
     def __init__(self, geometry, facet_tags, sides: dict[int, str], density: float, viscosity: float,
                  sphere: SphereIndicator, penalty_rate: float, inflow=(0.0, 0.0, 0.0), prefix: str = "fd3d_",
-                 step_solver: str = "direct"):
+                 step_solver: str = "direct", moving: tuple[str, ...] | None = None):
         if step_solver not in STEP_SOLVERS:
             raise ValueError(f"step_solver must be one of {STEP_SOLVERS}, not {step_solver!r}")
         for kind in sides.values():
@@ -86,6 +87,12 @@ class PenalisedFlow3D:
         self.bcs = self._boundary_conditions(facet_tags, sides, inflow)
         (self.u, self.p), (self.v, self.q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         self.modes = geometry.rigid_modes(sphere.center)
+        names = geometry.mode_names if moving is None else moving
+        unknown = set(names) - set(geometry.mode_names)
+        if unknown:
+            raise ValueError(f"moving modes {sorted(unknown)} are not among {geometry.mode_names}")
+        # the modes whose responses x_j each step solves for (the others' amplitudes stay 0, their slopes NaN)
+        self.moving = [geometry.mode_names.index(name) for name in names]
         # b_i = int phi m_i . v, the interior integrals' vectors (not lifted, no boundary rows: the ball is inside)
         self._mode_forms = [fem.form(geometry.weighted(sphere.phi * ufl.inner(m, self.v), sphere.dx))
                             for m in self.modes]
@@ -197,12 +204,16 @@ class PenalisedFlow3D:
     def _solve(self, operator, rhs: PETSc.Vec, responses: bool = True) -> RigidResponse:
         """x_0 = A^-1 rhs and (`responses`) x_j = A^-1 (rho c_B b_j) in one pass over the factors; the penalty's
         force (without the responses its slopes are NaN: only the held sphere's force, s = 0, is known)."""
-        solved = self.responses if responses else []
-        operator.solve_many([rhs, *self.units[:len(solved)]], [self.x0.x.petsc_vec, *(x.x.petsc_vec for x in solved)])
+        active = self.moving if responses else []
+        solved = [self.responses[j] for j in active]
+        operator.solve_many([rhs, *(self.units[j] for j in active)],
+                            [self.x0.x.petsc_vec, *(x.x.petsc_vec for x in solved)])
         for x in (self.x0, *solved):
             x.x.scatter_forward()
         m = len(self.modes)
-        slopes = np.array([self.interiors(x.x.petsc_vec) for x in solved]).T if responses else np.full((m, m), np.nan)
+        slopes = np.full((m, m), np.nan)
+        for j, x in zip(active, solved):
+            slopes[:, j] = self.interiors(x.x.petsc_vec)
         return RigidResponse(names=self.geometry.mode_names, penalty=self.density * self.penalty_rate,
                              constant=self.interiors(self.x0.x.petsc_vec), slopes=slopes,
                              mode_mass=self.mode_mass(), ball_mass=self.ball_mass())
@@ -239,10 +250,12 @@ class PenalisedFlow3D:
             A.destroy()
 
     # -- the BDF2 step -------------------------------------------------------------------------
-    def set_time_step(self, dt: float, order: int = 2) -> None:
-        """The coming step's length dt [s], BDF2 (order 1 for a cold start from one level)."""
-        bdf, ext = step_coefficients(order)
+    def set_time_step(self, dt: float, order: int = 2, ratio: float = 1.0) -> None:
+        """The coming step's length dt [s], BDF2 (order 1 for a cold start from one level); `ratio`: dt over the
+        step before (the variable-step BDF2, fem.taylor_hood.step_coefficients).  `bdf` keeps the coefficients."""
+        bdf, ext = step_coefficients(order, ratio)
         bdf, ext = bdf + (0.0,) * (3 - len(bdf)), ext + (0.0,) * (2 - len(ext))
+        self.bdf = bdf
         self.dt, self.c = dt, bdf[0] / dt
         self.rates.value[:] = [self.c, -bdf[1] / dt, -bdf[2] / dt]
         self.weights.value[:] = ext
@@ -300,9 +313,13 @@ class PenalisedFlow3D:
 
     def field(self, amplitudes, out: PETSc.Vec | None = None) -> PETSc.Vec:
         """u(s) = x_0 + sum_j s_j x_j [a W-vector] of the last solve, for the rigid amplitudes s."""
+        still = [name for k, name in enumerate(self.geometry.mode_names) if k not in self.moving and amplitudes[k]]
+        if still:
+            raise ValueError(f"the flow solves no response for the modes {still}: their amplitudes must be 0")
         out = self.x0.x.petsc_vec.duplicate() if out is None else out
         self.x0.x.petsc_vec.copy(out)
-        for s, x in zip(amplitudes, self.responses):
+        for k in self.moving:
+            s, x = amplitudes[k], self.responses[k]
             out.axpy(float(s), x.x.petsc_vec)
         return out
 

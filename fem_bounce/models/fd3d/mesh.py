@@ -16,9 +16,12 @@ needs no resolution), d_G the distance from the gap cylinder under the sphere (h
 centre below gap_radius, 0 <= z <= z_c); with gap_cells > 0 also at most g(rho) / gap_cells between the wall and
 the sphere's lower surface, g(rho) = z_c - sqrt(a^2 - rho^2) the local gap at the horizontal distance rho < a
 from the centre (a thin gap keeps that many cells across, and the size grows with the gap as the 2-D mesh's does).
-One gmsh MathEval field evaluates the law (`size_at` is the same in numpy, for checks and for estimates).  The
-faces carry physical groups: WALL (z = 0), TOP (z = H), SIDE_X (x = +-L), SIDE_Y (y = +-L, or y = L in the half
-box) and SYMMETRY (y = 0 in the half box).
+With `travel` > 0 the sphere may sit anywhere with its centre within `travel` of `center` along z (the patch the
+fd3d model moves it through, model.py): |d_S| is then the distance from the nearest of those spheres' surfaces
+(zero in the shell they sweep), and the gap rule takes the lowest of them.  One gmsh MathEval field evaluates
+the law (`size_at` is the same in numpy, for checks and for estimates).  The faces carry physical groups: WALL
+(z = 0), TOP (z = H), SIDE_X (x = +-L), SIDE_Y (y = +-L, or y = L in the half box) and SYMMETRY (y = 0 in the
+half box).
 
 gmsh meshes on rank 0 and dolfinx.io.gmsh distributes the mesh.  With `cache` the .msh file is kept in the
 mesh cache directory (fem_bounce.cachedir, folder meshes/) under a hash of the spec and the gmsh version,
@@ -47,7 +50,7 @@ FLUID = 1  # the cell group
 WALL, TOP, SIDE_X, SIDE_Y, SYMMETRY = 1, 2, 3, 4, 5  # the facet groups
 BOUNDARY_NAMES = {WALL: "wall", TOP: "top", SIDE_X: "side_x", SIDE_Y: "side_y", SYMMETRY: "symmetry"}
 NORMAL_COMPONENT = {WALL: 2, TOP: 2, SIDE_X: 0, SIDE_Y: 1, SYMMETRY: 1}  # the velocity component normal to each
-MESH_FORMAT_VERSION = 1  # part of the cache key: bump when the meshing below changes
+MESH_FORMAT_VERSION = 2  # part of the cache key: bump when the meshing below changes
 
 
 @dataclass(frozen=True)
@@ -65,10 +68,13 @@ class BoxSpec:
     gap_radius: float | None = None  # the gap cylinder's radius (None: half the sphere's radius)
     gap_cells: float = 0.0  # at least this many cells across the local gap under the sphere (0: no such rule)
     mirrored: bool = False
+    travel: float = 0.0  # the centre may lie within this of `center` along z (module docstring) [m]
 
     def __post_init__(self):
         x, y, z = self.center
         a = self.radius
+        if not 0.0 <= self.travel < z - a:
+            raise ValueError(f"travel must lie in [0, gap = {z - a}), not {self.travel}")
         if not (a > 0 and 0 < self.surface_size <= self.coarse_size and self.grading > 0):
             raise ValueError(f"inconsistent box mesh spec {self}")
         if not (z > a and z + a < self.height and abs(x) + a < self.half_width and abs(y) + a < self.half_width):
@@ -101,28 +107,41 @@ class BoxSpec:
         """The target tetrahedron size at points (x, y, z) [m]: the law of the gmsh field."""
         xc, yc, zc = self.center
         x, y, z = (np.asarray(value, dtype=float) for value in (x, y, z))
-        surface = np.abs(np.sqrt((x - xc) ** 2 + (y - yc) ** 2 + (z - zc) ** 2) - self.radius)
+        if self.travel:  # the distance from the nearest surface of the spheres centred on the segment
+            across, along = (x - xc) ** 2 + (y - yc) ** 2, np.abs(z - zc)
+            capsule = np.sqrt(across + np.maximum(along - self.travel, 0.0) ** 2) - self.radius  # > 0 outside all
+            inner = self.radius - np.sqrt(across + (along + self.travel) ** 2)  # > 0 inside all
+            surface = np.maximum(np.maximum(capsule, inner), 0.0)
+        else:
+            surface = np.abs(np.sqrt((x - xc) ** 2 + (y - yc) ** 2 + (z - zc) ** 2) - self.radius)
         horizontal = np.maximum(np.hypot(x - xc, y - yc) - self._gap_radius(), 0.0)
         gap = np.hypot(horizontal, np.maximum(z - zc, 0.0))
         size = np.minimum(np.minimum(self.coarse_size, self.surface_size + self.grading * surface),
                           self._gap_size() + self.grading * gap)
         if self.gap_cells > 0:
             rho = np.hypot(x - xc, y - yc)
-            local_gap = zc - np.sqrt(np.maximum(self.radius**2 - rho**2, 0.0))
+            local_gap = (zc - self.travel) - np.sqrt(np.maximum(self.radius**2 - rho**2, 0.0))
             outside = np.maximum(z - local_gap, 0.0) + np.maximum(rho - self.radius, 0.0)  # not in the gap: no cap
             size = np.minimum(size, local_gap / self.gap_cells + 1e6 * outside)
         return size
 
     def _gmsh_size_expression(self) -> str:
         xc, yc, zc = (repr(float(value)) for value in self.center)
-        surface = f"abs(sqrt((x - {xc})^2 + (y - {yc})^2 + (z - {zc})^2) - {self.radius!r})"
+        if self.travel:
+            across, t, a = f"(x - {xc})^2 + (y - {yc})^2", repr(float(self.travel)), repr(self.radius)
+            capsule = f"sqrt({across} + max(abs(z - {zc}) - {t}, 0)^2) - {a}"
+            inner = f"{a} - sqrt({across} + (abs(z - {zc}) + {t})^2)"
+            surface = f"max(max({capsule}, {inner}), 0)"
+        else:
+            surface = f"abs(sqrt((x - {xc})^2 + (y - {yc})^2 + (z - {zc})^2) - {self.radius!r})"
         horizontal = f"max(sqrt((x - {xc})^2 + (y - {yc})^2) - {self._gap_radius()!r}, 0)"
         gap = f"sqrt({horizontal}^2 + max(z - {zc}, 0)^2)"
         text = (f"min(min({self.coarse_size!r}, {self.surface_size!r} + {self.grading!r} * {surface}), "
                 f"{self._gap_size()!r} + {self.grading!r} * {gap})")
         if self.gap_cells > 0:
             rho = f"sqrt((x - {xc})^2 + (y - {yc})^2)"
-            local_gap = f"({zc} - sqrt(max({self.radius**2!r} - (x - {xc})^2 - (y - {yc})^2, 0)))"
+            lowest = repr(float(self.center[2]) - self.travel) if self.travel else zc
+            local_gap = f"({lowest} - sqrt(max({self.radius**2!r} - (x - {xc})^2 - (y - {yc})^2, 0)))"
             outside = f"(max(z - {local_gap}, 0) + max({rho} - {self.radius!r}, 0))"
             text = f"min({text}, {local_gap} / {self.gap_cells!r} + 1e6 * {outside})"
         return text

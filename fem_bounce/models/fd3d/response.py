@@ -38,7 +38,8 @@ class RigidResponse:
         the responses, NaN slopes, knows only the held sphere's, s = 0)."""
         amplitudes = np.asarray(amplitudes, dtype=float)
         held = self.penalty * self.constant
-        return held if not amplitudes.any() else held + self.resistance @ amplitudes
+        moving = amplitudes != 0.0  # a mode the solve left out (NaN slopes) has amplitude 0
+        return held if not moving.any() else held + self.resistance[:, moving] @ amplitudes[moving]
 
     def index(self, name: str) -> int:
         return self.names.index(name)

@@ -1,0 +1,376 @@
+"""The three-dimensional fictitious-domain model (`--model fd3d`) of a head-on bounce: one sphere falling along z
+onto the wall, as a FlowModel (fem_bounce.flow_model).
+
+The flow is flow.PenalisedFlow3D on the half box y >= 0 (a head-on bounce is symmetric about the plane y = 0
+through the path; the box also keeps x -> -x, so the U_x and Omega_y responses stay unexcited and the body
+integrator's one degree of freedom per sphere, the velocity along z, is the whole motion).  The box is
+numerics.fd3d.far_field D wide on each side of the path and as high above the release's top; the wall is
+no-slip (slip when wall.present is false), the other sides slip, as the axisymmetric models' unbounded domain.
+
+The mesh (mesh.create_box_mesh) is fine only in a patch: a shell that covers the sphere's surface wherever its
+centre lies within patch_margin / 2 D of the patch's centre along z (BoxSpec.travel), and the gap below the lowest
+of those places.  The sphere moves through this fixed mesh; when its centre strays from the patch, a new mesh is
+made around it (patch centres on a grid of patch_margin / 2 D, so that a restart makes its run's meshes again,
+and gmsh's cache gives them bit for bit), the flow's two BDF levels interpolated onto it (transfer.py) and made
+discretely divergence-free (fem.transfer.DivergenceFreeProjection).
+
+One fluid step of length dt (the run's CoupledStep):
+
+1. place the indicator where the AB2 prediction puts the centre at t_{n+1}, no lower than the contact model's
+   hold gap above the wall (flow_model.flow_gaps: below delta_sl the near-wall correction adds what the flow
+   misses, as in every resolved model);
+2. assemble and factorise the step's matrix (the penalty's place in it moves every step, so a kept factorisation
+   would not precondition the next step's for long: issue 55's measurement) and solve for the flow affine in the
+   rigid amplitudes, u(s) = x_0 + sum_j s_j x_j, in one pass over the factors;
+3. hand the body integrator the force along z linearised in the acceleration, exactly as the axisymmetric
+   implicit constraint does (models/fd/penalised.py): the penalty's reaction plus the rate of the held ball's
+   momentum,
+
+       F(U) = rho c_B (I(x_0) + (I(x_z) - G) U) + rho c (B U - J),
+
+   I(w) = int phi w . e_z, G = int phi, B = 4/3 pi a^3 the ball the friction holds, J the BDF history of B U;
+   F = F* - M c (U - U_ref) with F* = F(U_ref) and the numerical added mass M = -dF/dU / c;
+4. set the step's field for the velocity U the bodies reached: u = x_0 + U x_z.
+
+Steps of their own length (numerics.fd3d.adaptive_step, flow_model.StepLimits, the fd model's controller): the
+variable-step BDF2; short through the collision.  A checkpoint holds the two BDF levels by dof coordinates
+(fem.functions), the patch's and the sphere's centres, so a restart makes the mesh again and continues exactly.
+"""
+from __future__ import annotations
+
+import math
+import resource
+import time
+from pathlib import Path
+
+import numpy as np
+import ufl
+from dolfinx import fem, la
+from dolfinx.io import XDMFFile
+
+from ...bodies import scene_bodies
+from ...fem.domain import speed_scale
+from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
+from ...fem.geometry import Cartesian
+from ...fem.solver import SolverError
+from ...fem.transfer import DivergenceFreeProjection
+from ...flow_model import FlowModel, StepLimits, flow_gaps, nearest_gap
+from ...kinematics import FluidForce, Prediction
+from ...motion import is_free, is_stream
+from ...output import CheckpointError, body_array, segment_path
+from ...scene import SceneError
+from ..fd.domain import PEAK_SPEED_FACTOR
+from ..fd.model import History
+from .flow import PenalisedFlow3D
+from .indicator import SphereIndicator
+from .mesh import SIDE_X, SIDE_Y, TOP, WALL, BoxSpec, create_box_mesh
+from .transfer import interpolate_state
+
+MODE = "U_z"  # the one rigid mode a head-on bounce moves
+
+
+class FieldWriter3D:
+    """The velocity, pressure and vorticity component omega_y = du_x/dz - du_z/dx (normal to the symmetry plane y = 0,
+    the plane of the motion) of a Taylor-Hood state as P1 fields at the vertices, one XDMF time series per mesh
+    (dolfinx's parallel writer).  omega_y is the lumped-mass L2 projection of the P2 velocity's curl (each vertex
+    the volume-weighted mean around it), as fem.vertex_fields does in 2-D (whose writer is axisymmetric only)."""
+
+    def __init__(self, comm, mesh, W, path: Path):
+        scalars = fem.functionspace(mesh, ("Lagrange", 1))
+        self.velocity = fem.Function(fem.functionspace(mesh, ("Lagrange", 1, (3,))), name="velocity")
+        self.pressure = fem.Function(scalars, name="pressure")
+        self.vorticity = fem.Function(scalars, name="vorticity_y")
+        self.state = fem.Function(W)
+        u, z = ufl.split(self.state)[0], ufl.TestFunction(scalars)
+        self._forms = (fem.form(z * ufl.dx), fem.form((u[0].dx(2) - u[2].dx(0)) * z * ufl.dx))
+        self.file = XDMFFile(comm, str(path), "w")
+        self.file.write_mesh(mesh)
+
+    def write(self, state: fem.Function, t: float) -> None:
+        self.state.x.array[:] = state.x.array
+        self.velocity.interpolate(self.state.sub(0))
+        self.pressure.interpolate(self.state.sub(1))
+        lumped, curl = (fem.assemble_vector(form) for form in self._forms)
+        for vector in (lumped, curl):
+            vector.scatter_reverse(la.InsertMode.add)
+            vector.scatter_forward()
+        self.vorticity.x.array[:] = curl.array / lumped.array
+        for function in (self.velocity, self.pressure, self.vorticity):
+            self.file.write_function(function, t)
+
+    def close(self) -> None:
+        if self.file is not None:
+            self.file.close()
+            self.file = None
+
+
+class FictitiousDomain3DModel(FlowModel):
+    name = "fd3d"
+    resolved = True
+    divergences = (SolverError,)
+
+    def __init__(self, scene, comm):
+        super().__init__(scene, comm)
+        self._check_scene(scene)
+        s, sphere = self.settings, scene.sphere
+        self.bodies = scene_bodies(scene)
+        self.diameter, self.radius = sphere.diameter, sphere.radius
+        self.fine_size = self.diameter / s.cells_per_diameter
+        self.coarse_size = max(self.diameter / s.coarse_cells_per_diameter, self.fine_size)
+        self.travel = 0.5 * s.patch_margin * self.diameter  # the patch covers the centre within this of its own
+        self.half_width = s.far_field * self.diameter
+        self.height = scene.initial_gap + self.diameter + self.travel + s.far_field * self.diameter
+        speed = speed_scale(scene, "fd3d")
+        self.dt = self.cfl_step = s.cfl * self.fine_size / (PEAK_SPEED_FACTOR * speed)
+        nu = scene.liquid.kinematic_viscosity
+        self.penalty_rate = s.penalty_strength * max(nu / self.fine_size**2, speed / self.fine_size,
+                                                     1.5 / self.cfl_step)
+        self.adaptive = s.adaptive_step
+        self.step_limits = StepLimits(self.cfl_step, s.min_step_factor, s.max_step_factor, speed, s.gap_fraction)
+        self.time, self.last_step = 0.0, 0.0  # t_n and the step that reached it (adaptive steps) [s]
+        self.step_range = [math.inf, 0.0]
+        self.sides = {WALL: "no-slip" if scene.wall.present else "slip", TOP: "slip", SIDE_X: "slip",
+                      SIDE_Y: "slip"}
+        self.flow: PenalisedFlow3D | None = None
+        self.fields: FieldWriter3D | None = None
+        self.remeshes, self.remesh_s = 0, 0.0
+        self.retired = {"factorisations": 0, "factorise_s": 0.0, "solve_s": 0.0, "assembly_s": 0.0}
+        self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
+        self.last_force: FluidForce | None = None
+
+    def _check_scene(self, scene) -> None:
+        """What the head-on 3-D model does not run, refused before the run writes anything."""
+        if len(scene.spheres) > 1:
+            raise SceneError("the fd3d model runs one sphere: remove [second_sphere] and [[further_spheres]]")
+        if getattr(scene, "oblique", False):
+            raise SceneError("the fd3d model runs head-on bounces only so far: give tangential_velocity = 0 and "
+                             "spin = 0")
+        if not is_free(scene) or is_stream(scene):
+            raise SceneError('the fd3d model runs a free sphere (motion.mode = "free") without a stream')
+        if not scene.container.unbounded:
+            raise SceneError('the fd3d model meshes a box, not a cylindrical container: give container = "unbounded"')
+
+    # -- set-up ---------------------------------------------------------------------------
+    def build(self, integrator) -> None:
+        """The patch's mesh around the release, the liquid at rest, the indicator where the sphere starts."""
+        start = time.perf_counter()
+        self.hold = float(integrator.hold_gaps[0])
+        center = self.bodies[0].initial_gap + self.radius
+        self.patch = self.patch_center(center)
+        self._make_flow(center)
+        velocities = np.array([body.start_velocity for body in self.bodies])
+        self.history = History(self.flow.bdf, [velocities] * 2, [np.zeros(1)] * 2)  # the ball's liquid at rest
+        self.timings["setup"] = time.perf_counter() - start
+
+    def patch_center(self, center: float) -> float:
+        """The patch's centre [m] for a sphere centred at z = center [m]: on a grid of the patch's travel, and no
+        lower than puts the lowest place it covers at the flow's hold above the wall (or a fine cell)."""
+        grid = round(center / self.travel) * self.travel
+        return max(grid, self.radius + max(self.hold, self.fine_size) + self.travel)
+
+    def spec(self) -> BoxSpec:
+        s = self.settings
+        return BoxSpec(half_width=self.half_width, height=self.height, center=(0.0, 0.0, self.patch),
+                       radius=self.radius, surface_size=self.fine_size, coarse_size=self.coarse_size,
+                       grading=s.grading, gap_cells=s.gap_cells, mirrored=True, travel=self.travel)
+
+    def _make_flow(self, center: float) -> None:
+        """The patch's mesh, its penalised flow at rest and the indicator at z = center [m]."""
+        liquid, s = self.scene.liquid, self.settings
+        self.mesh, _, facet_tags = create_box_mesh(self.comm, self.spec())
+        sphere = SphereIndicator(self.mesh, self.radius, s.interface_width * self.fine_size, (0.0, 0.0, center))
+        self.flow = PenalisedFlow3D(Cartesian(self.mesh, mirrored=True), facet_tags, self.sides, liquid.density,
+                                    liquid.viscosity, sphere, self.penalty_rate, prefix="fd3d_", moving=(MODE,))
+        self.flow.set_time_step(self.dt)
+        self.mode = self.flow.geometry.mode_names.index(MODE)
+
+    def strays(self, center: float) -> bool:
+        return abs(center - self.patch) > self.travel * (1.0 + 1e-9)
+
+    def follow(self, center: float) -> None:
+        """A new patch's mesh when the sphere's centre z = center [m] has left the patch, the flow's BDF levels
+        carried over (interpolated, then made discretely divergence-free)."""
+        if not self.strays(center):
+            return
+        start = time.perf_counter()
+        old = self.flow
+        self.patch = self.patch_center(center)
+        self._make_flow(center)
+        projection = DivergenceFreeProjection(self.flow.W, self.flow.bcs, prefix="fd3d_projection_",
+                                              geometry=self.flow.geometry)
+        try:
+            for before, after in zip(old.states, self.flow.states):
+                interpolate_state(before, after, padding=1e-6 * self.fine_size)
+                projection.project(after)
+        finally:
+            projection.destroy()
+        self._retire(old)
+        if self.fields is not None:  # the snapshots go on in a file on the new mesh
+            self.fields.close()
+            self._open_fields()
+        self.remeshes += 1
+        self.remesh_s += time.perf_counter() - start
+
+    def _retire(self, flow: PenalisedFlow3D) -> None:
+        self.retired["factorisations"] += flow.factorisations
+        for key in ("factorise_s", "solve_s", "assembly_s"):
+            self.retired[key] += getattr(flow, key)
+        flow.destroy()
+
+    def initial_velocities(self) -> list[np.ndarray]:
+        return list(self.history.velocities)
+
+    def previous_time_step(self) -> float | None:
+        return self.last_step if self.adaptive and self.last_step else None
+
+    def next_time(self) -> float:
+        return self.time + self.dt if self.adaptive else super().next_time()
+
+    def finished(self, end_time: float) -> bool:
+        if self.adaptive:
+            return self.time >= end_time - 1e-9 * self.cfl_step
+        return super().finished(end_time)
+
+    def resolved_top(self) -> float:
+        """A diameter below the box's top [m]: a rising sphere is stopped there."""
+        return self.height - self.diameter
+
+    # -- one step -------------------------------------------------------------------------
+    def predicted_center(self, prediction: Prediction) -> float:
+        """The flow's sphere centre at t_{n+1} [m]: as predicted, no lower than the hold gap above the wall."""
+        return float(flow_gaps(prediction.gaps, [self.diameter], (self.hold,))[0]) + self.radius
+
+    def linearised_force(self, prediction: Prediction) -> FluidForce:
+        center = self.predicted_center(prediction)
+        self.follow(center)
+        flow, history = self.flow, self.history
+        previous = self.previous_time_step()
+        flow.set_time_step(self.dt, 2, self.dt / previous if previous else 1.0)
+        history.bdf = flow.bdf
+        self._gap = nearest_gap(prediction.gaps, [self.diameter], self.scene.wall.present)
+        flow.sphere.place((0.0, 0.0, center))
+        response = flow.step()
+        k, rho, c = self.mode, self.scene.liquid.density, flow.c
+        ball = response.ball_mass[k, k]
+        derivative = response.resistance[k, k] + rho * c * ball  # dF/dU [kg/s]
+        reference = history.reference_velocity
+        explicit = response.penalty * response.constant[k] + derivative * reference - rho * c * history.momentum_history
+        added_mass = np.array([[-derivative / c]])
+        if not (np.all(np.isfinite(explicit)) and np.all(np.isfinite(added_mass))):
+            raise FloatingPointError(f"the fluid force became {explicit} N at t = {self.next_time():.6g} s")
+        self.last_force = FluidForce(explicit=np.asarray(explicit, dtype=float).reshape(1), added_mass=added_mass)
+        self._ball = ball
+        self._integrator_start = time.perf_counter()
+        return self.last_force
+
+    def complete(self, velocities: np.ndarray, time_now: float) -> None:
+        self.timings["integrator"] += time.perf_counter() - self._integrator_start
+        velocities = np.array(velocities, dtype=float)
+        amplitudes = np.zeros(len(self.flow.modes))
+        amplitudes[self.mode] = velocities[0]
+        self.flow.commit(amplitudes)
+        if not math.isfinite(self.flow.states[0].x.petsc_vec.norm()):
+            raise FloatingPointError(f"the flow field became non-finite at t = {self.next_time():.6g} s")
+        if self.adaptive:
+            dt, levels = self.dt, [velocities, *self.history.velocities[:2]]
+            self.step_range = [min(self.step_range[0], dt), max(self.step_range[1], dt)]
+            self.dt = self.step_limits.after(levels, dt, self.last_step, self._gap)
+            self.time, self.last_step = self.time + dt, dt
+        self.history.push(velocities, velocities * self._ball)  # the held ball's momentum / rho
+        self.step += 1
+
+    # -- checkpoints and fields -------------------------------------------------------------
+    def checkpoint_state(self) -> tuple[dict, dict]:
+        """The flow's two BDF levels by dof coordinates (gathered on rank 0), the patch's and the sphere's centres,
+        the sphere's velocities and held momenta, and the adaptive step's state."""
+        steps = {"time": self.time, "step_length": self.dt, "last_step": self.last_step,
+                 "step_range": self.step_range} if self.adaptive else {}
+        placed = float(self.flow.sphere.center.value[2])
+        return ({"dt": self.cfl_step, **steps, **self.history.state(), "patch_center": self.patch,
+                 "placed_center": placed}, gather_history(self.flow.states))
+
+    def restore(self, state: dict, arrays) -> None:
+        if not math.isclose(state["dt"], self.cfl_step, rel_tol=1e-12):
+            raise CheckpointError(f"the checkpoint was made with dt = {state['dt']:g} s, this scene gives "
+                                  f"{self.cfl_step:g} s: the scene was changed")
+        try:
+            if self.adaptive:
+                self.time, self.dt, self.last_step = (float(state[key]) for key in ("time", "step_length",
+                                                                                    "last_step"))
+                self.step_range = [float(value) for value in state["step_range"]]
+            patch, placed = float(state["patch_center"]), float(state["placed_center"])
+        except (KeyError, TypeError, ValueError):
+            raise CheckpointError("the checkpoint lacks the fd3d model's patch or adaptive step (patch_center, "
+                                  "placed_center, time, step_length): the scene was changed") from None
+        if patch != self.patch:  # the sphere had moved on: that patch's mesh again
+            self._retire(self.flow)
+            self.patch = patch
+            self._make_flow(placed)
+        else:
+            self.flow.sphere.place((0.0, 0.0, placed))
+        try:
+            scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.fine_size)
+        except (ValueError, KeyError, CheckpointMismatch) as err:
+            raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
+        velocities, interiors = ([body_array(v) for v in state[key]] for key in ("velocities", "interiors"))
+        if any(len(v) != 1 for v in velocities):
+            raise CheckpointError("the checkpoint holds more than one sphere: the scene was changed")
+        self.history = History(self.flow.bdf, velocities, interiors)
+
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
+        if fields:
+            self.fields_dir = out_dir
+            self._open_fields()
+
+    def _open_fields(self) -> None:
+        path = self.comm.bcast(segment_path(self.fields_dir) if self.comm.rank == 0 else None, root=0)
+        self.fields = FieldWriter3D(self.comm, self.mesh, self.flow.W, path)
+
+    def write_fields(self, time_now: float) -> None:
+        self.fields.write(self.flow.states[0], time_now)
+
+    def close_outputs(self) -> None:
+        if self.fields is not None:
+            self.fields.close()
+
+    # -- what the summary says ----------------------------------------------------------------
+    def sizes(self) -> dict:
+        cells = self.mesh.topology.index_map(3).size_global
+        return {"cells": cells, "unknowns": self.flow.unknowns, "dt": self.cfl_step, "fine_size": self.fine_size}
+
+    def report(self) -> dict:
+        """Cost and discretisation details for summary.json."""
+        self.timings["steps"] = self.loop_seconds
+        steps = max(self.steps_this_run, 1)
+        flow = self.flow
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # Linux reports kB
+        operator = flow.step_operator
+        last = self.last_force
+        slip = None
+        if operator is not None:
+            amplitudes = np.zeros(len(flow.modes))
+            amplitudes[self.mode] = self.history.velocity[0]
+            slip = flow.interior_slip(flow.states[0], amplitudes, self.radius - flow.sphere.width)
+        return {
+            "timings_s": self.timings,
+            "time_per_step_s": self.timings["steps"] / steps,
+            "factorisations": flow.factorisations + self.retired["factorisations"],
+            "assembly_s": flow.assembly_s + self.retired["assembly_s"],
+            "factorise_s": flow.factorise_s + self.retired["factorise_s"],
+            "solve_s": flow.solve_s + self.retired["solve_s"],
+            "peak_memory_bytes": self.comm.allreduce(peak),  # sum over ranks of each rank's peak RSS
+            "factorisation_memory_bytes": operator.factor_memory() if operator is not None else None,
+            "mesh_key": self.spec().key(),
+            "remeshes": self.remeshes,
+            "remesh_s": self.remesh_s,
+            "penalty_rate_per_s": self.penalty_rate,
+            "interior_slip_m_s": slip,
+            "added_mass_over_displaced": (float(last.added_mass[0, 0] / self.bodies[0].displaced_mass)
+                                          if last is not None else None),
+            **({"shortest_step_s": self.step_range[0], "longest_step_s": self.step_range[1]} if self.adaptive
+               and self.step_range[1] else {}),
+        }
+
+    def destroy(self) -> None:
+        if self.flow is not None:
+            self.flow.destroy()
