@@ -74,7 +74,7 @@ from ..fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ..fem.mesh import SPHERE_TAGS, Box, HalfPlane, SphereHole, check_size, create_mesh
 from ..fem.mesh_motion import MeshMotion
 from ..fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
-from ..flow_model import PastLevels, StepLimits, flow_gaps, nearest_gap, steps_to
+from ..flow_model import FlowModel, PastLevels, StepLimits, flow_gaps, nearest_gap, steps_to
 from ..kinematics import FluidForce, Prediction
 from ..output import CheckpointError, body_array, per_body, segment_path
 from ..scene import Scene, SceneError, pair_diameter
@@ -532,3 +532,67 @@ class MovingMesh:
             "peak_memory_bytes": self.comm.allreduce(peak),
             **between,
         }
+
+
+class MovingMeshModel(FlowModel):
+    """What a model on a mesh that follows its spheres hands to its MovingMesh (`self.moving`, made by the
+    subclass): the clock, the step, the checkpoint, the fields and the summary's sizes and report.  The ale model
+    and the fd moving-mesh model each derive from it and add their flow (MovingMesh's make_flow)."""
+
+    moving: MovingMesh
+
+    def resolved_top(self) -> float:
+        return self.moving.resolved_top()
+
+    def build(self, integrator) -> None:
+        self.moving.build(integrator.hold_gaps)
+
+    def initial_velocities(self) -> list[np.ndarray]:
+        return list(self.moving.history.velocities)
+
+    def time_step(self) -> float:
+        return self.moving.dt
+
+    def next_time(self) -> float:
+        return self.moving.next_time()
+
+    def finished(self, end_time: float) -> bool:
+        return self.moving.finished(end_time)
+
+    def previous_time_step(self) -> float | None:
+        return self.moving.previous_time_step()
+
+    def linearised_force(self, prediction: Prediction) -> FluidForce:
+        return self.moving.linearise(prediction)
+
+    def complete(self, velocities: np.ndarray, time_now: float) -> StepRecord:
+        record = self.moving.complete(velocities)
+        self.step = self.moving.step
+        return record
+
+    def checkpoint_state(self) -> tuple[dict, dict]:
+        return self.moving.checkpoint_state()
+
+    def restore(self, state: dict, arrays) -> None:
+        self.moving.restore(state, arrays)
+
+    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
+        if fields:
+            self.moving.open_fields(out_dir)
+
+    def write_fields(self, time_now: float) -> None:
+        self.moving.write_fields(time_now)
+
+    def close_outputs(self) -> None:
+        self.moving.close_fields()
+
+    def destroy(self) -> None:
+        self.moving.destroy()
+
+    def sizes(self) -> dict:
+        return self.moving.sizes(self.steady)
+
+    def report(self) -> dict:
+        """Cost, remeshing and near-contact details for summary.json [SI]."""
+        return self.moving.report(self.steady, self.loop_seconds)
+

@@ -26,10 +26,9 @@ import numpy as np
 
 from ...fem.mesh_motion import MeshMotion
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel
-from ...kinematics import FluidForce, Prediction
+from ...kinematics import FluidForce
 from ...motion import is_stream
-from ..moving_mesh import MovingMesh, StepRecord, checked_domain
+from ..moving_mesh import MovingMesh, MovingMeshModel, StepRecord, checked_domain
 from .domain import is_steady, step_limits, time_step
 from .flow import SphereFlow
 
@@ -47,7 +46,7 @@ def force_columns(count: int) -> tuple[str, ...]:
             *(f"added_mass{e}" for e in entries), "min_quality", "remeshed")
 
 
-class AleModel(FlowModel):
+class AleModel(MovingMeshModel):
     name = "ale"
     resolved = True
     divergences = (SolverError,)
@@ -80,35 +79,8 @@ class AleModel(FlowModel):
         domain = self.moving.domain
         return math.pi * domain.radius**2 * domain.height - flow.fluid_volume()
 
-    def resolved_top(self) -> float:
-        return self.moving.resolved_top()
-
-    # -- the FlowModel interface ------------------------------------------------------------------
-    def build(self, integrator) -> None:
-        self.moving.build(integrator.hold_gaps)
-
-    def initial_velocities(self) -> list[np.ndarray]:
-        return list(self.moving.history.velocities)
-
-    def time_step(self) -> float:
-        return self.moving.dt
-
-    def next_time(self) -> float:
-        return self.moving.next_time()
-
-    def finished(self, end_time: float) -> bool:
-        return self.moving.finished(end_time)
-
-    def previous_time_step(self) -> float | None:
-        return self.moving.previous_time_step()
-
-    def linearised_force(self, prediction: Prediction) -> FluidForce:
-        return self.moving.linearise(prediction)
-
     def complete(self, velocities: np.ndarray, time_now: float) -> None:
-        record = self.moving.complete(velocities)
-        self.step = self.moving.step
-        self._record_force(record)
+        self._record_force(super().complete(velocities, time_now))
 
     def _record_force(self, record: StepRecord) -> None:
         surface = self.moving.flow.surface_force()  # collective: every rank, though rank 0 alone writes
@@ -137,35 +109,10 @@ class AleModel(FlowModel):
         self._record_force(StepRecord(time_now, moving.stats.min_mesh_gap, force, no_added_mass,
                                       moving.motion.quality(moving.motion.shift), False))
 
-    # -- checkpoints: the moving mesh's (MovingMesh.checkpoint_state) --------------------------------
-    def checkpoint_state(self) -> tuple[dict, dict]:
-        return self.moving.checkpoint_state()
-
-    def restore(self, state: dict, arrays) -> None:
-        self.moving.restore(state, arrays)
-
     # -- outputs ----------------------------------------------------------------------------------
     def side_files(self) -> dict[str, tuple]:
         return {"ale_forces.csv": force_columns(len(self.moving.bodies))}
 
     def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
-        if fields:
-            self.moving.open_fields(out_dir)
+        super().open_outputs(out_dir, restart, fields, sides)
         self._forces = (sides or {}).get("ale_forces.csv")
-
-    def write_fields(self, time_now: float) -> None:
-        self.moving.write_fields(time_now)
-
-    def close_outputs(self) -> None:
-        self.moving.close_fields()
-
-    def destroy(self) -> None:
-        self.moving.destroy()
-
-    # -- what the summary says --------------------------------------------------------------------
-    def sizes(self) -> dict:
-        return self.moving.sizes(self.steady)
-
-    def report(self) -> dict:
-        """Cost, remeshing and near-contact details for summary.json [SI]."""
-        return self.moving.report(self.steady, self.loop_seconds)

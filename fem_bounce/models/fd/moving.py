@@ -17,7 +17,6 @@ u* - w, w the mesh velocity (models/ale/flow.py).
 from __future__ import annotations
 
 from dataclasses import fields
-from pathlib import Path
 
 import numpy as np
 import ufl
@@ -27,10 +26,10 @@ from ...fem.domain import speed_scale
 from ...fem.mesh import SPHERE_TAGS
 from ...fem.mesh_motion import MeshMotion
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel, StepLimits
+from ...flow_model import StepLimits
 from ...kinematics import FluidForce, Prediction
 from ...scene import SceneError
-from ..moving_mesh import MovingMesh, checked_domain
+from ..moving_mesh import MovingMesh, MovingMeshModel, checked_domain
 from .domain import penalty_rate, time_step
 from .immersed import ImmersedBodies
 from .penalised import PenalisedFlow
@@ -106,7 +105,7 @@ class MovingPenalisedFlow(PenalisedFlow):
         super().destroy()
 
 
-class MovingFictitiousDomainModel(FlowModel):
+class MovingFictitiousDomainModel(MovingMeshModel):
     """`--model fd` with numerics.fd.mesh = "moving": the fd model's settings, time step and constraint on the
     mesh that follows the spheres (moving_mesh.MovingMesh, as the ale model's)."""
 
@@ -168,28 +167,6 @@ class MovingFictitiousDomainModel(FlowModel):
         """The spheres' indicator volumes together [m^3] (the remeshes' record)."""
         return float(np.sum(flow.bodies.volumes))
 
-    def resolved_top(self) -> float:
-        return self.moving.resolved_top()
-
-    # -- the FlowModel interface ------------------------------------------------------------------
-    def build(self, integrator) -> None:
-        self.moving.build(integrator.hold_gaps)
-
-    def initial_velocities(self) -> list[np.ndarray]:
-        return list(self.moving.history.velocities)
-
-    def time_step(self) -> float:
-        return self.moving.dt
-
-    def next_time(self) -> float:
-        return self.moving.next_time()
-
-    def finished(self, end_time: float) -> bool:
-        return self.moving.finished(end_time)
-
-    def previous_time_step(self) -> float | None:
-        return self.moving.previous_time_step()
-
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         """The moving mesh's step, BDF1 while the inside lags at the start (MovingPenalisedFlow.set_time_step);
         numerics.fd.coupling = "explicit" hands the integrator no added mass (the lagged coupling, for comparison:
@@ -210,34 +187,7 @@ class MovingFictitiousDomainModel(FlowModel):
                    for inside, velocities in zip(self.moving.flow.inside_velocities(),
                                                  self.moving.history.velocities))
 
-    def complete(self, velocities: np.ndarray, time_now: float) -> None:
-        self.moving.complete(velocities)
-        self.step = self.moving.step
-
-    # -- checkpoints and outputs: the moving mesh's -----------------------------------------------
-    def checkpoint_state(self) -> tuple[dict, dict]:
-        return self.moving.checkpoint_state()
-
-    def restore(self, state: dict, arrays) -> None:
-        self.moving.restore(state, arrays)
-
-    def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
-        if fields:
-            self.moving.open_fields(out_dir)
-
-    def write_fields(self, time_now: float) -> None:
-        self.moving.write_fields(time_now)
-
-    def close_outputs(self) -> None:
-        self.moving.close_fields()
-
-    def destroy(self) -> None:
-        self.moving.destroy()
-
     # -- what the summary says --------------------------------------------------------------------
-    def sizes(self) -> dict:
-        return self.moving.sizes(self.steady)
-
     def report(self) -> dict:
-        return {**self.moving.report(self.steady, self.loop_seconds), "mesh": "moving",
+        return {**super().report(), "mesh": "moving",
                 "constraint": self.settings.constraint, "penalty_rate_per_s": self.penalty_rate}
