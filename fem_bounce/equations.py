@@ -466,7 +466,9 @@ class BodyEquations:
             if contact.lower is not None:
                 row[contact.name.replace("pair", "pair_gap")] = float(y[contact.gap_index])
         if self.tangential is not None:
-            self.residual(t, y, np.zeros_like(y))  # the tangential terms at y (the rates do not enter them)
-            row.update(zip(TangentialMotion.names[:3], (float(v) for v in y[self.tangential_slice][:3])))
-            row.update(self.tangential.last)
+            along = y[self.tangential_slice]
+            row.update(zip(TangentialMotion.names[:3], (float(v) for v in along[:3])))
+            found = self.tangential.terms(along, y[self.wall.gap_index], self._rates(y)[0], self._wall_films[0][0],
+                                          self.wall.record.engaged_now)
+            row.update((name, float(found[name])) for name in ("f_tangential_liquid", "f_friction", "torque_liquid"))
         return row

@@ -66,7 +66,6 @@ class TangentialMotion:
                                      wall.poisson_ratio)
         self.contact = TangentialContact(scene.contact.friction, self.ratio)
         self.start = (0.0, scene.tangential_velocity, scene.spin, 0.0)
-        self.last: dict = {}  # the terms of the last `residual`, for the trajectory's rows
 
     def _drag_excess(self, velocity: float) -> tuple[float, float]:
         """(-3 pi mu D (phi - 1) U [N], its derivative in U [N s/m]): the free sphere's inertial excess."""
@@ -104,18 +103,25 @@ class TangentialMotion:
         force, torque = -resistance @ np.array([velocity, spin])
         return force + excess, torque, resistance, slope, d_excess
 
-    def residual(self, state, rates, gap: float, rate: float, film_gap: float, engaged: float | None) -> np.ndarray:
-        """The four rows G = (x' - U, M U' - F, I Omega' - T, xi' - rate) at the tangential `state` and its `rates`,
-        the wall's `gap` [m] and its rate [m/s], the gap the film is evaluated at and the contact's engaged gap."""
+    def terms(self, state, gap: float, rate: float, film_gap: float, engaged: float | None) -> dict:
+        """The forces along the wall [N], the liquid's torque [N m] and the spring's rate [m/s] at the tangential
+        `state`, the wall's `gap` [m] and its rate [m/s], the gap the film is evaluated at and the contact's engaged
+        gap (the trajectory's columns f_tangential_liquid, f_friction, torque_liquid, and stretch_rate)."""
         _, velocity, spin, stretch = state
-        slip = velocity - self.radius * spin
-        friction, stretch_rate, *_ = self._friction(gap, rate, engaged, slip, stretch)
+        friction, stretch_rate, *_ = self._friction(gap, rate, engaged, velocity - self.radius * spin, stretch)
         force, torque, _, _, _ = self._liquid(film_gap, velocity, spin)
-        self.last = {"f_tangential_liquid": force, "f_friction": friction, "torque_liquid": torque}
-        return np.array([rates[0] - velocity,
-                         self.mass * rates[1] - (force + friction + self.weight),
-                         self.inertia * rates[2] - (torque - self.radius * friction),
-                         rates[3] - stretch_rate])
+        return {"f_tangential_liquid": force, "f_friction": friction, "torque_liquid": torque,
+                "stretch_rate": stretch_rate}
+
+    def residual(self, state, rates, gap: float, rate: float, film_gap: float, engaged: float | None) -> np.ndarray:
+        """The four rows G = (x' - U, M U' - F, I Omega' - T, xi' - rate) at the tangential `state` and its `rates`
+        (`terms` for the rest)."""
+        found = self.terms(state, gap, rate, film_gap, engaged)
+        friction = found["f_friction"]
+        return np.array([rates[0] - state[1],
+                         self.mass * rates[1] - (found["f_tangential_liquid"] + friction + self.weight),
+                         self.inertia * rates[2] - (found["torque_liquid"] - self.radius * friction),
+                         rates[3] - found["stretch_rate"]])
 
     def jacobian(self, state, gap: float, rate: float, film_gap: float, film_slope: float, engaged: float | None,
                  shift: float) -> tuple[np.ndarray, np.ndarray]:
