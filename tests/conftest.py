@@ -34,3 +34,30 @@ def shared_tmp(tmp_path):
     from mpi4py import MPI
 
     return type(tmp_path)(MPI.COMM_WORLD.bcast(str(tmp_path), root=0))
+
+
+@pytest.fixture(scope="session")
+def fd_run(tmp_path_factory):
+    """A toy fd run (helpers.FD_TOY), uninterrupted (checkpoints every 10 steps; its last at step 60 of 65): the
+    reference for the restarts of its copies, and the run directory each checkpoint test copies.  Made once for
+    the session: no test writes into it."""
+    import json
+
+    from fem_bounce import cli
+    from helpers import FD_TOY
+
+    out = tmp_path_factory.mktemp("fd") / "straight"
+    assert cli.main(["run", *FD_TOY, "--out", str(out)]) == 0
+    assert json.loads((out / "checkpoint" / "state.json").read_text())["step"] == 60
+    return out
+
+
+@pytest.fixture
+def fd_copy(fd_run, tmp_path):
+    """A copy of the toy fd run to break."""
+    import shutil
+
+    copy = tmp_path / "run"
+    shutil.copytree(fd_run, copy, symlinks=True)
+    (copy / "summary.json").unlink()  # as after a kill
+    return copy

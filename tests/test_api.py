@@ -230,3 +230,47 @@ def test_the_callers_matplotlib_backend_is_kept(tmp_path, monkeypatch):
         assert matplotlib.get_backend() == "svg"
     finally:
         plt.switch_backend(before)
+
+
+# -- arguments of the wrong type --------------------------------------------------------------------------------------
+
+
+def test_wrong_types_raise_the_package_errors(tmp_path, monkeypatch):
+    """Python's own TypeError, AttributeError or ValueError, some after 84 s of work."""
+    monkeypatch.chdir(tmp_path)
+    scene = fb.load("li2011-case3", {"run.bounces": 1})
+    calls = {
+        fb.SceneError: [lambda: fb.simulate([1, 2, 3]), lambda: fb.simulate({"sphere": 1}), lambda: fb.simulate(None),
+                        lambda: fb.load("li2011-case3", [("k", 1)]), lambda: fb.load(5), lambda: fb.load("x", 5),
+                        lambda: fb.restitution(points=2.5), lambda: fb.restitution(points="6"),
+                        lambda: fb.restitution(st_range=(1,)), lambda: fb.restitution(st_range=(1, float("inf"))),
+                        lambda: fb.save("li2011-case3", "x.toml")],
+        fb.ModelError: [lambda: fb.simulate(scene, model=["ode"]), lambda: fb.compare(scene, [1, 2])],
+        fb.RunnerError: [lambda: fb.simulate(scene, comm="world"), lambda: fb.restitution(points=2, cache=5),
+                         lambda: fb.restitution(points=2, comm="world")],
+        fb.OutputError: [lambda: fb.resume(None), lambda: fb.save(scene, 5), lambda: fb.simulate(scene, out=5)],
+    }
+    for kind, wrong in calls.items():
+        for call in wrong:
+            with pytest.raises(kind):
+                call()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_numpy_numbers_are_numbers():
+    """np.float32(8000) was refused as "8000.0 must be a number", np.int64(2) as "2 must be an integer"."""
+    scene = fb.load("li2011-case3", {"sphere.density": np.float32(8000.0), "run.bounces": np.int64(1)})
+    assert scene.sphere.density == pytest.approx(8000.0) and scene.run.bounces == 1
+    assert isinstance(scene.run.bounces, int) and isinstance(scene.sphere.density, float)
+    assert fb.simulate(scene, "ode", rtol=np.float64(1e-6)).status == "completed"
+
+
+def test_api_flags_and_paths_are_checked(tmp_path, monkeypatch):
+    """fb.simulate(..., plots="no") drew the figures, and fb.resume("") was taken as "." where out="" is refused."""
+    monkeypatch.chdir(tmp_path)
+    scene = fb.load("li2011-case3", {"run.bounces": 1})
+    with pytest.raises(fb.OutputError, match="plots = 'no' must be True or False"):
+        fb.simulate(scene, out="r", plots="no")
+    with pytest.raises(fb.OutputError, match="run_dir is empty"):
+        fb.resume("")
+    assert list(tmp_path.iterdir()) == []

@@ -1,12 +1,19 @@
 """The command line: outputs, the file contract, and one clear line for each user error."""
 import json
 import logging
+import os
+import re
+import shlex
+import subprocess
+import sys
 import warnings
 
 import pytest
 from mpi4py import MPI
 
+import fem_bounce as fb
 from fem_bounce import cli, library_log, output
+from helpers import ODE, ODE_ONE, assert_one_line, refused_same_listing, run_cli
 
 CONTRACT_SUMMARY = {"scene", "model", "impacts", "rebounds", "wall_time_s", "steps", "ranks", "versions", "command"}
 
@@ -66,7 +73,7 @@ def test_existing_directory_is_never_silently_replaced(tmp_path, capsys):
     assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(out), "--quiet"]) == 2
     assert "exists and is not empty; pass --force" in capsys.readouterr().err
     assert (out / "keep.txt").read_text() == "precious"
-    # --force replaces only a run directory (tests/test_bad_input.py has the other cases)
+    # --force replaces only a run directory (tests/test_run_directories.py has the other cases)
     assert cli.main(["run", "li2011-case1", "--model", "ode", "--out", str(out), "--quiet", "--force"]) == 2
     assert (out / "keep.txt").read_text() == "precious"
     run_dir = tmp_path / "earlier"
@@ -108,3 +115,108 @@ def test_scenes_lists_the_presets(capsys):
     listing = capsys.readouterr().out
     for name in ("li2011-case1", "li2011-case7", "li2011-table3-steel-85", "tencate2002-e4"):
         assert name in listing
+
+
+# -- one line, printed once -------------------------------------------------------------------------------------------
+
+
+def test_empty_model_name_is_refused(tmp_path, monkeypatch, capsys):
+    """--model '' ran the default fd model at 24 cells/D."""
+    refused_same_listing(capsys, tmp_path, monkeypatch, "run", "li2011-case3", "--model", "", "--quiet", "--out", "r",
+                         message="unknown model ''")
+
+
+def test_a_deleted_working_directory_is_refused_in_one_line(tmp_path):
+    """Run from a working directory that was deleted: PETSC ERROR lines ("Error in getcwd()") and a petsc4py
+    traceback."""
+    (tmp_path / "gone").mkdir()
+    command = shlex.join([sys.executable, "-m", "fem_bounce", "run", *ODE_ONE])
+    process = subprocess.Popen(["sh", "-c", f"cd gone && rmdir ../gone && exec {command}"], cwd=tmp_path,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 2 and out == ""
+    assert_one_line(err.splitlines(), "error: the working directory cannot be used (No such file or directory")
+
+
+@pytest.mark.mpi
+def test_errors_and_warnings_print_once_under_mpiexec(shared_tmp, capsys):
+    """Under mpiexec every error was printed once per rank, and the ode model ran the same integration on
+    every rank without a word.  (Serial here too: then there is no warning.)"""
+    comm = MPI.COMM_WORLD
+    status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--set", "liquid.viscosity=-1")
+    assert status == 2
+    if comm.rank == 0:
+        assert_one_line(lines, "error: liquid.viscosity = -1.0 Pa s is out of range")
+    else:
+        assert lines == []
+    status, lines = run_cli(capsys, "run", "li2011-case3", *ODE, "--set", "run.bounces=1",
+                            "--out", str(shared_tmp / "ode"))
+    assert status == 0
+    if comm.rank == 0 and comm.size > 1:
+        assert_one_line(lines, f"warning: the ode model is serial: under mpiexec it runs on rank 0 alone and the "
+                               f"other {comm.size - 1} rank(s) wait")
+    else:
+        assert lines == []
+
+
+@pytest.mark.parametrize("make", ["missing", "empty", "corrupt summary"])
+def test_plots_entry_point_on_a_bad_directory_gives_one_line(make, tmp_path):
+    """Six different tracebacks, and exit 0 with no argument."""
+    folder = tmp_path / "d"
+    if make != "missing":
+        folder.mkdir()
+    if make == "corrupt summary":
+        (folder / "summary.json").write_text("{")
+        (folder / "trajectory.csv").write_text("t,gap\n")
+    done = subprocess.run([sys.executable, "-m", "fem_bounce.plots", str(folder)], capture_output=True, text=True)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert len(done.stderr.splitlines()) == 1 and f"cannot draw {folder}" in done.stderr
+    bare = subprocess.run([sys.executable, "-m", "fem_bounce.plots"], capture_output=True, text=True)
+    assert bare.returncode == 2 and bare.stderr.startswith("usage: python -m fem_bounce.plots")
+
+
+def test_plots_speaks_once_under_mpiexec(tmp_path, mpiexec):
+    """`mpiexec -n 2 python -m fem_bounce.plots nonexistent` printed its error once per rank."""
+    done = subprocess.run([mpiexec, "-n", "2", sys.executable, "-m", "fem_bounce.plots", "nonexistent"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2
+    assert len(done.stderr.splitlines()) == 1 and "cannot draw nonexistent" in done.stderr
+
+
+# -- what the command line prints and draws ---------------------------------------------------------------------------
+
+
+def test_huge_numbers_print_readably(tmp_path, capsys):
+    """Re and St printed with 300 digits for a viscosity of 1e-300."""
+    status = cli.main(["run", "li2011-case3", *ODE, "--set", "liquid.viscosity=1e-300", "--set", "run.bounces=1",
+                       "--out", str(tmp_path / "run")])
+    captured = capsys.readouterr()
+    assert status == 0
+    printed = captured.out.splitlines() + captured.err.splitlines()
+    assert max(len(line) for line in printed) < 250 and any(re.search(r"Re = 5\.\d\de\+300", line) for line in printed)
+
+
+def test_scenes_show_writes_utf8_whatever_the_locale(tmp_path):
+    """`LC_ALL=C ... fem-bounce scenes show FILE > out.toml` with an em dash in the description: UnicodeEncodeError
+    (stdout took the C locale's ASCII)."""
+    fb.save(fb.load("li2011-case3").replace(description="steel \u2014 glass"), tmp_path / "dash.toml")
+    env = {**os.environ, "LC_ALL": "C", "LANG": "C", "PYTHONUTF8": "0", "PYTHONCOERCECLOCALE": "0"}
+    with open(tmp_path / "out.toml", "wb") as out:
+        done = subprocess.run([sys.executable, "-m", "fem_bounce", "scenes", "show", "dash.toml"], cwd=tmp_path,
+                              env=env, stdout=out, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert done.returncode == 0 and done.stderr == ""
+    assert fb.load(tmp_path / "out.toml").description == "steel \u2014 glass"
+
+
+def test_no_plots_draws_nothing(tmp_path, monkeypatch, capsys):
+    """`fem-bounce run` spent ~3 s of its 5.4 s to the prompt drawing three figures, with no way to skip them
+    (compare likewise drew every run's and its own)."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "cache"))
+    status, lines = run_cli(capsys, "run", *ODE_ONE, "--no-plots", "--out", "r")
+    assert status == 0 and lines == []
+    status, lines = run_cli(capsys, "compare", "li2011-case3", "--models", "ode", "--quiet", "--no-plots",
+                            "--set", "run.bounces=1", "--out", "c")
+    assert status == 0 and lines == []
+    assert (tmp_path / "r" / "summary.json").is_file() and (tmp_path / "c" / "comparison.csv").is_file()
+    assert list(tmp_path.rglob("*.png")) == []

@@ -1,27 +1,23 @@
 """The 3-D fictitious-domain model's run (`--model fd3d`, fem_bounce.models.fd3d.model): its patch mesh, the flow
-carried to a new mesh, the fall of case 3 against the axisymmetric fd model, two ranks against one, a kill and a
-restart across a new mesh.  The flow's own checks (exact solutions, rigid modes, the half box): test_fd3d_flow.py.
+carried to a new mesh, the fall of case 3 against the axisymmetric fd model, two ranks against one.  A kill and a
+restart across a new mesh: test_restart.py's "fd3d" case.  The flow's own checks (exact solutions, rigid modes,
+the half box): test_fd3d_flow.py.
 
 Toy sizes: 4 cells/D (a half box of ~13k unknowns), a few seconds a run.
 """
 from __future__ import annotations
-
-import json
-import signal
 
 import numpy as np
 import pytest
 from dolfinx import fem
 from mpi4py import MPI
 
-from fem_bounce import cli, output, scene
+from fem_bounce import output, scene
 from fem_bounce.models.fd3d.flow import taylor_hood_space
 from fem_bounce.models.fd3d.mesh import BoxSpec, create_box_mesh
 from fem_bounce.models.fd3d.transfer import interpolate_state
 from fem_bounce.run import simulate
 from fem_bounce.scene import SceneError
-from test_bad_input import messages
-from test_restart import arguments, assert_same_run, started_past_a_checkpoint
 
 TINY = {"numerics.fd3d.cells_per_diameter": 4, "run.end_time": 0.012}
 
@@ -121,23 +117,3 @@ def test_two_ranks_give_the_serial_trajectory(shared_tmp):
     assert len(a["t"]) == len(b["t"])
     assert np.allclose(a["velocity"], b["velocity"], rtol=1e-7, atol=1e-10)
     assert np.allclose(a["f_sim"], b["f_sim"], rtol=1e-6, atol=1e-9)
-
-
-@pytest.mark.slow
-def test_a_kill_after_a_checkpoint_across_a_new_mesh_then_a_restart_gives_the_uninterrupted_run(tmp_path, capsys):
-    """tests/test_restart.py's "fd3d" case (a checkpoint at step 10, after the first new mesh): SIGKILLed after
-    that checkpoint and continued with --restart, it ends as the uninterrupted run, every row and the summary."""
-    straight, killed = tmp_path / "straight", tmp_path / "killed"
-    assert cli.main(["run", *arguments("fd3d"), "--out", str(straight)]) == 0
-    first = json.loads((straight / "summary.json").read_text())
-    assert first["fd3d"]["remeshes"] >= 2 and first["steps"] > 10
-    process = started_past_a_checkpoint("fd3d", killed, tmp_path)
-    process.send_signal(signal.SIGKILL)
-    process.communicate()
-    assert not (killed / "summary.json").exists(), "the run finished before it was killed"
-    state = json.loads((killed / "checkpoint" / "state.json").read_text())
-    assert state["flow"]["patch_center"] != pytest.approx(0.0152 + 0.00475)  # the checkpoint is on a new mesh
-    capsys.readouterr()
-    assert cli.main(["run", "--restart", str(killed), "--quiet"]) == 0
-    assert messages(capsys.readouterr().err) == []
-    assert_same_run(straight, killed)

@@ -63,7 +63,7 @@ def test_check_table_separates_required_checks_from_targets():
 
 
 def test_a_neutrally_buoyant_free_sphere_is_refused_clearly():
-    # the scene check refuses it for every model (tests/test_bad_input.py), before any model's time step
+    # the scene check refuses it for every model (tests/test_scene_refusals.py), before any model's time step
     with pytest.raises(scene.SceneError, match="neutrally buoyant"):
         scene.load("li2011-case3", {"sphere.density": 1203.0})
 

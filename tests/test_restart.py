@@ -2,16 +2,19 @@
 the models that run them) a pair: a run in a subprocess is SIGKILLed after a checkpoint (or stopped with
 Ctrl-C), continued with --restart, and its summary and trajectory (no row lost or doubled) compared with
 an uninterrupted run's.  Toy sizes, seconds each (the ale pair ~20 s a run).  The ode model writes no
-checkpoints: an interrupted ode run says to run it again (tests/test_bad_input.py)."""
+checkpoints: an interrupted ode run says to run it again (tests/test_interruptions.py).  The states a kill
+can leave between a checkpoint's files, and --restart named from inside the run: the end of this file; a restart
+that is refused: tests/test_restart_refusals.py."""
 import json
+import shutil
 import signal
 
 import pytest
 
 from fem_bounce import cli, fields
 from fem_bounce.models.registry import MODELS
+from helpers import assert_one_line, assert_same_trajectory, messages, run_cli, spawn, wait_for
 from test_ale_pair import FREE_PAIR
-from test_bad_input import assert_one_line, assert_same_trajectory, messages, spawn, wait_for
 
 CASES = {  # a toy run of each model that writes checkpoints, alone and in a pair
     # the fd defaults (the implicit penalisation on the mesh that moves with the sphere, adaptive steps) through
@@ -97,6 +100,9 @@ def test_sigkill_after_a_checkpoint_then_restart_gives_the_uninterrupted_run(str
     process.send_signal(signal.SIGKILL)
     process.communicate()
     assert not (killed / "summary.json").exists(), "the run finished before it was killed"
+    if case == "fd3d":  # the checkpoint is on a new mesh, which the restart must make again
+        state = json.loads((killed / "checkpoint" / "state.json").read_text())
+        assert state["flow"]["patch_center"] != pytest.approx(0.0152 + 0.00475)
     assert cli.main(["run", "--restart", str(killed), "--quiet"]) == 0
     assert messages(capsys.readouterr().err) == []
     assert_same_run(reference, killed)
@@ -139,3 +145,45 @@ def test_an_ale_checkpoint_from_before_issue_25_with_one_spheres_values_as_numbe
     assert cli.main(["run", "--restart", str(killed), "--quiet"]) == 0
     assert messages(capsys.readouterr().err) == []
     assert_same_run(reference, killed)
+
+
+# -- states a kill can leave, and a run named from inside it ----------------------------------------------------------
+
+# the ale model at 4 cells/D through one bounce, with its side file ale_forces.csv
+ALE_TOY = ["li2011-case3", "--model", "ale", "--quiet", "--set", "numerics.ale.cells_per_diameter=4",
+           "--set", "run.bounces=1", "--set", "numerics.ale.checkpoint_every=10"]
+
+
+def test_a_side_file_is_restored_with_the_trajectory(tmp_path):
+    """ale_forces.csv was empty at the kill (buffered) and ended 11 rows short after the restart."""
+    straight, killed = tmp_path / "straight", tmp_path / "KA"
+    assert cli.main(["run", *ALE_TOY, "--out", str(straight)]) == 0
+    process = spawn(["run", *ALE_TOY, "--out", str(killed)], tmp_path)
+    wait_for(lambda: (killed / "checkpoint" / "model.txt").is_file(), process)
+    process.kill()
+    process.wait()
+    assert cli.main(["run", "--restart", str(killed), "--quiet"]) == 0
+    for name in ("ale_forces.csv", "trajectory.csv"):
+        assert (killed / name).read_text() == (straight / name).read_text(), name
+
+
+def test_kill_between_the_checkpoint_renames_restarts(fd_run, fd_copy, capsys):
+    """A kill between the checkpoint's two renames left 'no checkpoint to restart from' with two whole
+    copies on disk.  Here: the new copy still checkpoint.partial, the previous one checkpoint.old, and
+    the trajectory ending in a half-written row."""
+    (fd_copy / "checkpoint").rename(fd_copy / "checkpoint.partial")
+    shutil.copytree(fd_copy / "checkpoint.partial", fd_copy / "checkpoint.old")
+    with open(fd_copy / "trajectory.csv", "a") as stream:
+        stream.write("0.0301,0.00")
+    status, lines = run_cli(capsys, "run", "--restart", str(fd_copy), "--quiet")
+    assert status == 0 and lines == []
+    assert_same_trajectory(fd_run / "trajectory.csv", fd_copy / "trajectory.csv")
+    assert sorted(p.name for p in fd_copy.glob("checkpoint*")) == ["checkpoint"]
+
+
+def test_restart_from_inside_the_run_directory(fd_run, fd_copy, monkeypatch, capsys):
+    """`--restart .` from inside the run directory said "choose another --out", an option --restart does not take."""
+    monkeypatch.chdir(fd_copy)
+    status, lines = run_cli(capsys, "run", "--restart", ".", "--quiet")
+    assert status == 0 and lines == []
+    assert (fd_copy / "trajectory.csv").read_text() == (fd_run / "trajectory.csv").read_text()
