@@ -1,5 +1,5 @@
 # Two commands for a fresh machine (see README.md):
-#   make demo   install everything, then run the default scene
+#   make demo   install everything, then run the default scene (with the front's model: docs/usage.md)
 #   make test   install everything, then lint (ruff) and run the tests serial and under mpiexec -n 2
 # Everything comes from PyPI as binary wheels (FEniCSx 0.11 with PETSc, MUMPS, OpenBLAS and MPICH:
 # pyproject.toml's extras "stack" and "test") into .venv, made from a Python >= 3.12.

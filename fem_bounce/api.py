@@ -295,9 +295,13 @@ def _read_run(scene: Scene, model: str, run_dir: Path, comm, kept: bool) -> Resu
 
 
 @_public
-def simulate(scene: Scene | str | Path, model: str = "ode", out: str | Path | None = None, *, force: bool = False,
-             progress: bool = False, plots: bool = True, comm=None, **settings: Any) -> Result:
+def simulate(scene: Scene | str | Path, model: str | None = None, out: str | Path | None = None, *,
+             force: bool = False, progress: bool = False, plots: bool = True, comm=None, **settings: Any) -> Result:
     """Run `model` on `scene` (a Scene, a preset name or a TOML file), as `fem-bounce run` does.
+
+    model=None takes the model `fem-bounce run` takes without --model: the speed-accuracy front's pick for the
+    scene (models.choose: fd for spheres on the axis, ode off it; docs/usage.md, "Which model a run takes");
+    Result.model names it.  model="ode" is the reduced model, a run in well under a second.
 
     out=None keeps the run in memory: it runs in a temporary directory that is removed afterwards, so
     nothing is left behind; out=DIR writes the run directory (scene.toml, trajectory.csv, summary.json,
@@ -308,7 +312,8 @@ def simulate(scene: Scene | str | Path, model: str = "ode", out: str | Path | No
 
     A run that ends early raises RunDiverged, RunInterrupted or RunFailed (all RunFailed); the exception's
     `result` attribute holds what was computed until then (None when nothing was)."""
-    scene, model, plots = _scene(scene), _model(model), _plots(plots)
+    scene, plots = _scene(scene), _plots(plots)
+    model = _model(model) if model is not None else _models.choose(scene)[0]
     _models.info(model)
     if settings:
         scene = scene.replace(**{key if "." in key else f"numerics.{model}.{key}": value

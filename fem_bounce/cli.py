@@ -48,7 +48,8 @@ def _parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="simulate one scene with one model")
     run.add_argument("scene", nargs="?", default=None, help=f"preset name or TOML file (default {DEFAULT_SCENE})")
-    run.add_argument("--model", default=None, help=f"one of {', '.join(models.MODELS)} (default: the best available)")
+    run.add_argument("--model", default=None, help=f"one of {', '.join(models.MODELS)} (default: the speed-accuracy "
+                                                  "front's pick for the scene, docs/usage.md)")
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value, e.g. --set sphere.density=8000 (repeatable)")
     run.add_argument("--out", default=None, help="run directory (default runs/SCENE-MODEL[-N])")
@@ -159,12 +160,14 @@ def _cmd_run(args) -> int:
         if args.accuracy is not None:
             raise scenes.SceneError("--accuracy does not apply to --restart: the scene is DIR/scene.toml")
         scene, model = run.restart_target(args.restart, args.model)
-        out = args.restart
+        out, chosen = args.restart, None
     else:
         scene = api.load(args.scene or DEFAULT_SCENE, args.overrides)
-        model = args.model if args.model is not None else models.default()
+        model, chosen = args.model, None
         if args.accuracy is not None:
             scene, model = _scene_for_accuracy(scene, args.accuracy, args.model, args.overrides)
+        elif model is None:  # the speed-accuracy front's pick for the scene, and the line that says why
+            model, chosen = models.choose(scene)
         models.get(model)  # fail early on an unknown or missing model
         out = output.out_path(args.out) or _unused_directory(comm, Path("runs") / f"{scene.name}-{model}")
     _route_warnings()
@@ -172,6 +175,8 @@ def _cmd_run(args) -> int:
     command = shlex.join(["fem-bounce", *sys.argv[1:]])
 
     def start_line() -> None:  # once nothing can refuse the run: a refusal prints its one line alone
+        if chosen:  # no --model: which model the run took and why (models.choose)
+            print(f"fem-bounce: {chosen}", file=sys.stderr)
         print(f"fem-bounce: {scene.name} with the {model} model on {comm.size} rank(s) -> {out}", file=sys.stderr)
 
     summary = run.run_logged(scene, model, comm, out, force=args.force, restart=args.restart is not None,

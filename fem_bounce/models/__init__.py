@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from ..errors import Error
 from ..scene import SceneError
 from . import registry
-from .registry import BEST_FIRST, MODELS, ModelInfo
+from .registry import BEST_FIRST, FRONT_PICKS, MODELS, ModelInfo
 
 
 class ModelError(Error, ValueError):
@@ -98,5 +98,51 @@ def available() -> list[str]:
 
 
 def default() -> str:
+    """The highest-fidelity model installed (registry.BEST_FIRST); a run without a model takes choose(scene)."""
     have = available()
     return next(name for name in BEST_FIRST if name in have)
+
+
+def scene_kind(scene) -> str:
+    """Which of registry.FRONT_PICKS a scene is: "oblique" (it leaves the axis: Scene.oblique), "spheres" (more
+    than one sphere on the axis) or "head-on" (one sphere on the axis)."""
+    if scene.oblique:
+        return "oblique"
+    return "spheres" if len(scene.spheres) > 1 else "head-on"
+
+
+def cannot_run(entry: ModelInfo, scene, installed=None) -> str | None:
+    """Why the model cannot run the scene, in a few words (None: it can).  installed: the names to take as
+    installed (None: those whose module imports)."""
+    spheres = len(scene.spheres)
+    if spheres > entry.max_spheres:
+        return f"at most {entry.max_spheres} sphere{'s' if entry.max_spheres > 1 else ''}"
+    if scene.oblique and not entry.oblique:
+        return "head-on only so far"
+    if entry.max_initial_gap is not None and scene.initial_gap > entry.max_initial_gap * scene.sphere.diameter:
+        return f"releases up to {entry.max_initial_gap:g} D"
+    if installed is not None:
+        return None if entry.name in installed else "not installed"
+    try:
+        get(entry.name)
+    except ModelError as err:
+        needs = str(err).partition(" needs ")[2].partition(",")[0]
+        return f"not installed (needs {needs})" if needs else "not installed"
+    return None
+
+
+def choose(scene, installed=None) -> tuple[str, str]:
+    """The model a run takes when none is named, and the line that says which and why: the first model of the
+    scene's registry.FRONT_PICKS that runs it and is installed (`installed`: the names to take as installed;
+    None: those whose module imports).  docs/usage.md, "Which model a run takes"."""
+    pick = FRONT_PICKS[scene_kind(scene)]
+    skipped: dict[str, list[str]] = {}  # why not -> the models passed over for it
+    for name in pick.order:
+        why_not = cannot_run(MODELS[name], scene, installed)
+        if why_not is None:
+            passed = "; ".join(f"{', '.join(names)}: {reason}" for reason, names in skipped.items())
+            why = f"{pick.kind}, and {passed}" if passed else pick.why
+            return name, f"model: {name} ({why}; --model to choose)"
+        skipped.setdefault(why_not, []).append(name)
+    passed = "; ".join(f"{', '.join(names)}: {reason}" for reason, names in skipped.items())
+    raise ModelError(f"no installed model runs {pick.kind} here ({passed}): name one with --model")

@@ -173,8 +173,34 @@ MODELS: dict[str, ModelInfo] = {
         sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP),
 }
 
-BEST_FIRST = ("ale", "fd", "ib", "ode")  # the default model: the first of these that imports
+BEST_FIRST = ("ale", "fd", "ib", "ode")  # models.default(): the highest fidelity that imports (not a run's default)
 FIDELITY = ("ale", "fd", "ib", "ode")  # which model's finest run serves as a study's reference, first found
+
+
+@dataclass(frozen=True)
+class FrontPick:
+    """The models a scene of one kind takes when the run names none, best first (models.choose takes the first
+    that can run the scene and imports)."""
+    kind: str  # what the scene is, as the printed line says it
+    order: tuple  # best first
+    why: str  # why the first is first: the measurement behind it (the printed line)
+
+
+# The packaged picks of `fem-bounce run` and fem_bounce.simulate without a model (docs/usage.md, "Which model a run
+# takes").  What the scene is decides the kind (models.scene_kind): off the axis (Scene.oblique), spheres on the axis
+# (a pair or more), or one sphere on the axis.  A model is taken only if its entry above runs the scene (oblique,
+# max_spheres, max_initial_gap: models.check_scene), so fd3d, first for scenes off the axis, is taken there as soon
+# as its entry says oblique=True; head-on scenes never take it (the axisymmetric fd is closer there in 1/25 the time).
+FRONT_PICKS: dict[str, FrontPick] = {
+    "oblique": FrontPick("a scene off the axis", ("fd3d", "ode"),
+                         "the resolved model that runs scenes off the axis"),
+    "spheres": FrontPick("spheres on the axis", ("fd", "ale", "ode"),
+                         "among the resolved models the best measured accuracy for its time on a pair: "
+                         "docs/validation.md section 12"),
+    "head-on": FrontPick("one sphere on the axis", ("fd", "ale", "ib", "ode"),
+                         "the speed-accuracy front's resolved model for one sphere on the axis: "
+                         "docs/performance.md"),
+}
 
 
 def running(spheres: int) -> list[str]:
