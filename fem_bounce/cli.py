@@ -269,6 +269,14 @@ def _print_records(summary: dict) -> None:
               f"{seen['incidence_deg']:.1f} deg  psi_in = {seen['psi_in']:.3f}  psi_out = {seen['psi_out']:.3f}  "
               f"e_n = {seen['normal_restitution']:.3f}  e_t = {'-' if e_t is None else f'{e_t:.3f}'}  "
               f"mu_eff = {seen['effective_friction']:.3f}  spin after = {seen['spin_out']:.4g} 1/s")
+    for k, impact in enumerate(summary["impacts"], 1):  # the energy audit along the wall (fem_bounce.losses)
+        along = (impact.get("losses") or {}).get("tangential")
+        if along:
+            shares = ", ".join(f"{name.replace('_', ' ')} {100 * sum(values):+.2f} %"
+                               for name, values in along["share"].items())
+            print(f"  energy along the wall {k}: {along['energy_in']:.4g} J in, "
+                  f"{100 * (along['kinetic']['end'] / along['energy_in'] - 1):+.2f} % over the bounce: {shares} "
+                  f"(residual {along['imbalance']:.1e})")
 
 
 def _print_collisions(summary: dict) -> None:

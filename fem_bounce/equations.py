@@ -468,7 +468,6 @@ class BodyEquations:
         if self.tangential is not None:
             along = y[self.tangential_slice]
             row.update(zip(TangentialMotion.names[:3], (float(v) for v in along[:3])))
-            found = self.tangential.terms(along, y[self.wall.gap_index], self._rates(y)[0], self._wall_films[0][0],
-                                          self.wall.record.engaged_now)
-            row.update((name, float(found[name])) for name in ("f_tangential_liquid", "f_friction", "torque_liquid"))
+            row.update(self.tangential.row(along, y[self.wall.gap_index], self._rates(y)[0], self._wall_films[0][0],
+                                           self.wall.record.engaged_now, float(accel[0])))
         return row

@@ -28,6 +28,30 @@ momentum the sphere brought in, m_p V_peak, V_peak its fastest approach in the a
 at delta_sl D, or a little more where the approach still accelerates there).  An approach that starts
 from an apex below delta_sl D starts there.
 
+An oblique collision (the ode model's, fem_bounce.oblique) adds to each audit `tangential`, the energy of the
+motion along the wall and of the spin, E = (m_p + m_l / 2) U^2 / 2 + I Omega^2 / 2 (I = (2/5) m_p a^2; the
+added mass along the wall is the model's), over the same three phases: the work [J] of each term of the
+tangential equations (oblique.TangentialMotion), the trapezoidal sum of its power over the rows,
+
+    film_force    the wall's film along the wall: (F_liquid - F_free) U, the resistance R(h) less the free sphere's
+    film_torque   its torque: (T_liquid - T_free) Omega
+    far_field     the free sphere's drag and torque: F_free U + T_free Omega, F_free = -3 pi mu D phi(Re_t) U,
+                  T_free = -8 pi mu a^3 Omega
+    weight        the weight less the buoyancy along an inclined wall, (m_p - m_l) g sin(theta) U
+    sliding       minus the power the contact dissipates while it slides (Coulomb's mu F_n on the slip the
+                  spring does not take; tangential_contact.TangentialContact.energy)
+    sticking      minus the power it dissipates while it sticks (the damper, and the spring's rescaling as the
+                  stiffness changes)
+    spring        minus the change of the Mindlin spring's stored energy k_t xi^2 / 2 (zero once the contact
+                  has ended: k_t falls to zero with the overlap)
+
+sliding + sticking + spring is the friction's work on the sphere, int F_friction (U - a Omega) dt: each step's
+loss in the contact is that work less the spring's gain, shared between sliding and sticking as the rows'
+dissipation rates share it (`contact_losses`).  The sum of the terms over the phases is the change of E:
+`imbalance` is the trapezoidal sums' miss of it, over the energy brought in along the wall, E at the approach's
+start (`energy_in`; half m_p V_peak^2 for a sphere that brings none), the denominator of the shares too; the
+peak of the spring's stored energy in the contact is `spring_peak` [J].
+
 An impact that cannot be audited gets, instead of `losses`, the reason as `losses_skipped`: a release inside
 delta_sl D (no approach phase), rows that never reach the contact gap, or sums that miss the momentum change
 by more than AUDIT_TOLERANCE (rows too far apart to resolve the contact: numerics.ode.output_interval).
@@ -36,8 +60,11 @@ from __future__ import annotations
 
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
+
+from .oblique import ADDED_MASS, INERTIA_FACTOR
 
 PHASES = ("approach", "contact", "rebound")
 # Of m_p V_peak: the shares are read to a few per cent of the momentum (docs/losses.md's tables), so an audit
@@ -55,6 +82,74 @@ def force_terms(trajectory: dict, net_weight: float) -> dict[str, np.ndarray]:
             "history": blend * trajectory["f_history"], "added_mass": blend * trajectory["f_added_mass"],
             "resolved_flow": (1.0 - blend) * trajectory["f_sim"], "correction": trajectory["f_correction"],
             "contact": trajectory["f_elastic"], "weight": np.full_like(blend, -net_weight)}
+
+
+TANGENTIAL_TERMS = ("film_force", "film_torque", "far_field", "weight", "sliding", "sticking", "spring")
+
+
+@dataclass(frozen=True)
+class AlongWall:
+    """What the tangential audit needs of the sphere: its mass along the wall (with the added mass) [kg], its
+    moment of inertia [kg m^2], radius [m] and the net weight's part along the wall [N]."""
+    mass: float
+    inertia: float
+    radius: float
+    weight: float
+
+
+def tangential_powers(trajectory: dict, along: AlongWall) -> dict[str, np.ndarray]:
+    """The power [W] of the liquid's and the weight's tangential terms at every row (module docstring), and the
+    friction's (`friction`, which the contact's terms split), from the trajectory's oblique columns."""
+    velocity, spin = trajectory["tangential_velocity"], trajectory["spin"]
+    drag, torque = trajectory["f_tangential_drag"], trajectory["torque_drag"]
+    return {"film_force": (trajectory["f_tangential_liquid"] - drag) * velocity,
+            "film_torque": (trajectory["torque_liquid"] - torque) * spin,
+            "far_field": drag * velocity + torque * spin, "weight": along.weight * velocity,
+            "friction": trajectory["f_friction"] * (velocity - along.radius * spin)}
+
+
+def contact_losses(t: np.ndarray, friction: np.ndarray, stored: np.ndarray, sliding: np.ndarray,
+                   sticking: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The energy [J] the contact has dissipated sliding and sticking by each row, from the friction's power on
+    the sphere, the spring's stored energy and the dissipation rates the rows give [W, J, W, W] (module
+    docstring): each step's loss is the friction's work less the spring's gain (trapezoidal; both continuous),
+    shared as the trapezoidal sums of the two rates share it.  Summed directly the rates would miss it where
+    the contact switches between sticking and sliding within a step: the rate jumps there (a sliding contact
+    dissipates what a sticking one stores), by the jump times the step."""
+    steps = np.diff(t)
+    lost = -0.5 * (friction[1:] + friction[:-1]) * steps - np.diff(stored)
+    slid = 0.5 * (sliding[1:] + sliding[:-1]) * steps
+    both = slid + 0.5 * (sticking[1:] + sticking[:-1]) * steps
+    share = np.divide(slid, both, out=np.zeros_like(both), where=both > 0.0)
+    return np.r_[0.0, np.cumsum(lost * share)], np.r_[0.0, np.cumsum(lost * (1.0 - share))]
+
+
+def tangential_audit(trajectory: dict, along: AlongWall, bounds: list[float], powers: dict[str, np.ndarray],
+                     normal_energy: float) -> dict:
+    """The energy audit along the wall over the phases between `bounds` (module docstring); `normal_energy`
+    m_p V_peak^2 / 2, the reference when the sphere brings no energy along the wall."""
+    t = trajectory["t"]
+    energy = 0.5 * (along.mass * trajectory["tangential_velocity"]**2 + along.inertia * trajectory["spin"]**2)
+    phases = list(zip(bounds[:-1], bounds[1:]))
+
+    def change(values: np.ndarray) -> list[float]:  # over each phase, of a quantity given at the rows
+        at = [float(np.interp(b, t, values)) for b in bounds]
+        return [after - before for before, after in zip(at[:-1], at[1:])]
+
+    work = {name: [impulse(t, powers[name], a, b) for a, b in phases] for name in TANGENTIAL_TERMS[:4]}
+    slid, stuck = contact_losses(t, powers["friction"], trajectory["spring_energy"],
+                                 trajectory["dissipation_sliding"], trajectory["dissipation_sticking"])
+    work["sliding"] = [-value for value in change(slid)]
+    work["sticking"] = [-value for value in change(stuck)]
+    work["spring"] = [-value for value in change(trajectory["spring_energy"])]
+    kinetic = [float(np.interp(b, t, energy)) for b in bounds]
+    reference = kinetic[0] if kinetic[0] > 0.0 else normal_energy
+    inside = (t >= bounds[1]) & (t <= bounds[2])
+    total = sum(sum(values) for values in work.values())
+    return {"energy_in": reference, "kinetic": dict(zip(("start", "contact_in", "contact_out", "end"), kinetic)),
+            "work": work, "share": {name: [value / reference for value in values] for name, values in work.items()},
+            "spring_peak": float(trajectory["spring_energy"][inside].max()) if inside.any() else 0.0,
+            "imbalance": (total - (kinetic[-1] - kinetic[0])) / reference}
 
 
 def _at_level(t: np.ndarray, gap: np.ndarray, level: float, k: int) -> float:
@@ -99,15 +194,18 @@ def _apex(t: np.ndarray, velocity: np.ndarray, turn: int, stop: int) -> float:
 
 
 def collision_losses(trajectory: dict, impacts: list[dict], mass: float, net_weight: float,
-                     blend_gap: float) -> list[dict | str]:
+                     blend_gap: float, along: AlongWall | None = None) -> list[dict | str]:
     """The audit of every impact (`impacts`: summary.json's records, each with its time and contact_gap),
-    from one sphere's trajectory columns (arrays), its mass m_p [kg], net weight (m_p - m_l) g [N] and the
-    phases' outer gap delta_sl D [m]; for an impact that cannot be audited, the reason (module docstring).
-    A film collision (contact.model = "ehd") is a jump of the integrator across the contact, between the
-    rows of the handover and of the resumed state: its impulse is the momentum change across it, under the
-    name "film"."""
+    from one sphere's trajectory columns (arrays), its mass m_p [kg], net weight on the wall's normal
+    (m_p - m_l) g cos(theta) [N] and the phases' outer gap delta_sl D [m]; for an impact that cannot be
+    audited, the reason (module docstring).  A film collision (contact.model = "ehd") is a jump of the
+    integrator across the contact, between the rows of the handover and of the resumed state: its impulse is
+    the momentum change across it, under the name "film".  With `along` (an oblique collision's sphere) each
+    audit has the energy audit along the wall too, `tangential` (or the reason it has none,
+    `tangential_skipped`)."""
     t, gap, velocity = trajectory["t"], trajectory["gap"], trajectory["velocity"]
     terms = force_terms(trajectory, net_weight)
+    powers = tangential_powers(trajectory, along) if along is not None else {}
     audits: list[dict | str] = []
     previous = 0  # the row where the previous impact's rebound ended
     for k, impact in enumerate(impacts):
@@ -150,14 +248,19 @@ def collision_losses(trajectory: dict, impacts: list[dict], mass: float, net_wei
             jump = mass * (np.interp(bounds[2], t, velocity) - np.interp(bounds[1], t, velocity))
             impulses["film"] = [0.0, float(jump), 0.0]
         total = sum(sum(values) for values in impulses.values())
-        audits.append({
+        audit = {
             "speed_in": speed_in, "speed_out": speed_out, "peak_speed": peak, "momentum_in": momentum_in,
             "phases": dict(zip(PHASES, zip(bounds[:-1], bounds[1:]))),
             "left_contact": contact_out is not None, "left_blend_gap": out is not None,
             "impulse": impulses,
             "share": {name: [value / momentum_in for value in values] for name, values in impulses.items()},
             "imbalance": (total - mass * (speed_out + speed_in)) / momentum_in,  # of the trapezoidal sums
-        })
+        }
+        if along is not None and film:
+            audit["tangential_skipped"] = "a film collision jumps the contact: its work along the wall is not audited"
+        elif along is not None:
+            audit["tangential"] = tangential_audit(trajectory, along, bounds, powers, 0.5 * mass * peak**2)
+        audits.append(audit)
     return audits
 
 
@@ -174,16 +277,28 @@ def annotate(summary: dict, trajectory: dict) -> str:
     diameter = scene["sphere"]["diameter"]
     volume = math.pi * diameter**3 / 6.0
     mass = scene["sphere"]["density"] * volume
-    net_weight = (mass - scene["liquid"]["density"] * volume) * scene["gravity"]
+    angle = math.radians(scene.get("gravity_angle", 0.0))  # an inclined wall: the weight's part on its normal
+    net_weight = (mass - scene["liquid"]["density"] * volume) * scene["gravity"] * math.cos(angle)
     blend_gap = scene["contact"]["delta_sl"] * diameter
+    along = None  # an oblique collision's, when its trajectory has the columns the tangential audit reads
+    if "spring_energy" in trajectory:
+        along = AlongWall(mass + ADDED_MASS * scene["liquid"]["density"] * volume,
+                          INERTIA_FACTOR * mass * (diameter / 2.0)**2, diameter / 2.0,
+                          (mass - scene["liquid"]["density"] * volume) * scene["gravity"] * math.sin(angle))
     unaudited, first = [], ""  # the impacts left out but for a release inside delta_sl D, and the first reason
     for k, (impact, audit) in enumerate(zip(impacts, collision_losses(trajectory, impacts, mass, net_weight,
-                                                                       blend_gap)), 1):
+                                                                       blend_gap, along)), 1):
         impact.pop("losses", None)
         impact.pop("losses_skipped", None)
         if isinstance(audit, dict) and not abs(audit["imbalance"]) <= AUDIT_TOLERANCE:
             audit = (f"its impulses miss the momentum change by {audit['imbalance']:.3g} of the momentum brought in "
                      f"(allowed {AUDIT_TOLERANCE:g}): the trajectory's rows do not resolve the collision")
+        elif isinstance(audit, dict) and "tangential" in audit and not abs(
+                audit["tangential"]["imbalance"]) <= AUDIT_TOLERANCE:
+            miss = audit.pop("tangential")["imbalance"]
+            audit["tangential_skipped"] = (f"its work along the wall misses the energy change by {miss:.3g} of the "
+                                           f"energy brought in (allowed {AUDIT_TOLERANCE:g}): the trajectory's rows "
+                                           "do not resolve the collision")
         impact["losses" if isinstance(audit, dict) else "losses_skipped"] = audit
         if isinstance(audit, str) and not (k == 1 and trajectory["gap"][0] <= blend_gap):
             unaudited.append(str(k))

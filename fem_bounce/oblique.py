@@ -76,25 +76,40 @@ class TangentialMotion:
         excess = 0.15 * reynolds**0.687
         return -stokes * excess * velocity, -stokes * 1.687 * excess
 
-    def _friction(self, gap: float, rate: float, engaged: float | None, slip: float, stretch: float):
-        """(friction force [N], the stretch's rate [m/s], d force/d slip, d force/d stretch, d rate/d slip,
-        d rate/d stretch) of the contact at the wall's gap and rate."""
+    def _contact_inputs(self, gap: float, rate: float, engaged: float | None, slip: float,
+                        stretch: float) -> tuple | None:
+        """The friction's inputs (TangentialContact.rates's arguments) at the wall's gap and rate, or None while
+        nothing holds the spring."""
         law = self.law
         if engaged is None:
-            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            return None
         push, d_gap, d_rate = law.force_slopes(gap, rate, engaged)
         overlap = engaged - gap
         stiffness, stiffening = self.contact.stiffness(law.stiffness, overlap)
         if push <= 0.0 or stiffness <= 0.0:
-            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            return None
         elastic_rate = 1.5 * law.stiffness * math.sqrt(overlap) * -rate  # d(k x^1.5)/dt
         damping = matched_damping(-d_rate, self.ratio, INERTIA_FACTOR)
-        arguments = (push, elastic_rate, stiffness, stiffening * -rate, slip, stretch, damping)
+        return push, elastic_rate, stiffness, stiffening * -rate, slip, stretch, damping
+
+    def _friction(self, gap: float, rate: float, engaged: float | None, slip: float, stretch: float):
+        """(friction force [N], the stretch's rate [m/s], d force/d slip, d force/d stretch, d rate/d slip,
+        d rate/d stretch) of the contact at the wall's gap and rate."""
+        arguments = self._contact_inputs(gap, rate, engaged, slip, stretch)
+        if arguments is None:
+            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
         state = self.contact.rates(*arguments)
         slopes = self.contact.jacobian(*arguments)
         force, spring = slopes["force"], slopes["stretch_rate"]
         return (float(state.force), float(state.stretch_rate), float(force["slip"][0, 0]),
                 float(force["stretch"][0, 0]), float(spring["slip"][0, 0]), float(spring["stretch"][0, 0]))
+
+    def free_resistance(self, velocity: float, spin: float) -> tuple[float, float]:
+        """(F [N], T [N m]) of the free sphere (far from walls): the drag -3 pi mu D phi(Re_t) U and the torque
+        -8 pi mu a^3 Omega, the far field the loss audit tells apart from the wall's film (R(h) less them)."""
+        excess, _ = self._drag_excess(velocity)
+        return (-3.0 * math.pi * self.viscosity * self.diameter * velocity + excess,
+                -8.0 * math.pi * self.viscosity * self.radius**3 * spin)
 
     def _liquid(self, film_gap: float, velocity: float, spin: float):
         """(F, T, R, dR/d gap, d excess/dU) of the liquid at the film's gap."""
@@ -112,6 +127,25 @@ class TangentialMotion:
         force, torque, _, _, _ = self._liquid(film_gap, velocity, spin)
         return {"f_tangential_liquid": force, "f_friction": friction, "torque_liquid": torque,
                 "stretch_rate": stretch_rate}
+
+    def row(self, state, gap: float, rate: float, film_gap: float, engaged: float | None,
+            acceleration: float) -> dict:
+        """The trajectory's tangential columns but x, U and Omega (output.TANGENTIAL_COLUMNS): `terms`'s forces and
+        torque, the free sphere's part of them (`free_resistance`), the stretch, the spring's stored energy [J] and
+        the power the contact dissipates [W] while it slides and while it sticks (TangentialContact.energy, with
+        the normal force's actual rate from the gap's `acceleration` [m/s^2])."""
+        _, velocity, spin, stretch = state
+        found = self.terms(state, gap, rate, film_gap, engaged)
+        drag, torque = self.free_resistance(velocity, spin)
+        arguments = self._contact_inputs(gap, rate, engaged, velocity - self.radius * spin, stretch)
+        stored, lost, sliding = 0.0, 0.0, False
+        if arguments is not None:
+            _, d_gap, d_rate = self.law.force_slopes(gap, rate, engaged)
+            stored, lost, sliding = self.contact.energy(*arguments, force_rate=d_gap * rate + d_rate * acceleration)
+        return {"f_tangential_liquid": found["f_tangential_liquid"], "f_friction": found["f_friction"],
+                "torque_liquid": found["torque_liquid"], "f_tangential_drag": drag, "torque_drag": torque,
+                "stretch": float(stretch), "spring_energy": stored, "dissipation_sliding": lost if sliding else 0.0,
+                "dissipation_sticking": 0.0 if sliding else lost}
 
     def residual(self, state, rates, gap: float, rate: float, film_gap: float, engaged: float | None) -> np.ndarray:
         """The four rows G = (x' - U, M U' - F, I Omega' - T, xi' - rate) at the tangential `state` and its `rates`

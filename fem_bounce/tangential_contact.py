@@ -75,10 +75,11 @@ def matched_damping(normal_damping: float, ratio: float, inertia_factor: float =
 @dataclass(frozen=True)
 class FrictionState:
     """What `TangentialContact.rates` finds: the tangential force on the sphere [N] (a vector like the slip), the
-    stretch's rate [m/s] and whether the contact slides."""
+    stretch's rate [m/s], whether the contact slides, and the stretch the force is from [m] (sliding, the cap's)."""
     force: np.ndarray
     stretch_rate: np.ndarray
     sliding: bool
+    stretch: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -118,7 +119,7 @@ class TangentialContact:
         slip, stretch = np.asarray(slip, dtype=float), np.asarray(stretch, dtype=float)
         zero = np.zeros_like(slip)
         if normal_force <= 0.0 or stiffness <= 0.0:  # nothing holds the spring (a new contact starts it at zero)
-            return FrictionState(zero, zero, False)
+            return FrictionState(zero, zero, False, zero)
         limit = self.friction * normal_force
         cap = limit / stiffness
         size = float(np.linalg.norm(stretch))
@@ -144,7 +145,7 @@ class TangentialContact:
         size_force = float(np.linalg.norm(force))
         if size_force > limit:
             force = force * (limit / size_force)
-        return FrictionState(force, rate, sliding)
+        return FrictionState(force, rate, sliding, stretch)
 
     def jacobian(self, normal_force: float, normal_force_rate: float, stiffness: float, stiffness_rate: float,
                  slip, stretch, damping: float = 0.0) -> dict[str, dict[str, np.ndarray]]:
@@ -199,6 +200,23 @@ class TangentialContact:
     def stored_energy(self, stiffness: float, stretch) -> float:
         """k_t |xi|^2 / 2 [J]: the spring's elastic energy."""
         return 0.5 * stiffness * float(np.sum(np.asarray(stretch, dtype=float) ** 2))
+
+    def energy(self, normal_force: float, normal_force_rate: float, stiffness: float, stiffness_rate: float,
+               slip, stretch, damping: float = 0.0, force_rate: float | None = None) -> tuple[float, float, bool]:
+        """(E [J], D [W], sliding) for `rates`'s inputs: the spring's stored energy k_t |xi|^2 / 2 of the stretch
+        the force is from, the power the contact dissipates, D = P - dE/dt with P = -F_t . s the power the sphere
+        gives it and dE/dt = k_t xi . dxi/dt + |xi|^2 (dk_t/dt) / 2 along the stretch's rate (never negative:
+        `rates`), and whether it slides (the loss audit, fem_bounce.losses).  `force_rate`, the normal force's
+        actual rate where the spring reads another (the elastic part's): a sliding contact's stretch is the cap
+        mu F_n / k_t, which moves with it, whatever the rate the spring is given."""
+        state = self.rates(normal_force, normal_force_rate, stiffness, stiffness_rate, slip, stretch, damping)
+        held, slip = state.stretch, np.asarray(slip, dtype=float)
+        squared = float(np.sum(held**2))
+        stored_rate = stiffness * float(np.sum(held * state.stretch_rate)) + 0.5 * squared * stiffness_rate
+        if state.sliding and force_rate is not None:  # k_t |xi| d cap/dt, the cap's rate from the actual one
+            stored_rate += math.sqrt(squared) * self.friction * (force_rate - normal_force_rate)
+        power = -float(np.sum(state.force * slip))
+        return 0.5 * stiffness * squared, power - stored_rate, state.sliding
 
 
 @dataclass(frozen=True)
