@@ -28,6 +28,7 @@ import numpy as np
 
 from .bodies import scene_bodies
 from .kinematics import FluidForce, Prediction
+from .scene import pair_diameter
 
 
 def flow_gaps(gaps, diameters, holds, held=None) -> np.ndarray:
@@ -122,12 +123,62 @@ class Predictor:
 GAP_FRACTION = 0.05  # moves the spheres by at most a fraction (the model's) of their gap to what they may hit,
 JERK_TOLERANCE = 1e-3  # keeps the velocity's curvature |dA/dt| dt^2 below this fraction of the speed scale,
 GROWTH = 1.5  # and is at most this many times the step before (variable-step BDF2 is zero-stable below 2.41)
+MAX_GAP_FRACTION = 0.5  # the largest gap_fraction: Approach.longest then keeps every step short of the contact
+
+
+@dataclass(frozen=True)
+class Approach:
+    """How fast the bodies can close the gaps to what they may hit (the wall, their neighbours), for the bound
+    StepLimits puts on every adaptive step, the first included and whatever its floor.
+
+    A contact's gap g closes over a step of length dt by at most s dt + a dt^2 / 2: s bounds how fast it closes
+    now (sphere 1's speed |V_1| for the wall, |V_k| + |V_k+1| for a pair) and a how fast that can grow: each
+    sphere's net weight over its own mass, |1 - rho_l / rho_k| g, more than it ever accelerates (the added mass
+    and the drag only slow it; the liquid gives back at most what it took, which the run's energy bound
+    watches).  Requiring s dt <= f g and a dt^2 / 2 <= f g (f the gap fraction) each, a step closes at most
+    2 f g <= g for f <= MAX_GAP_FRACTION, also from rest, where s = 0 and the speed alone bounds nothing.  Below
+    the contact model's gap delta_sl D (delta_sl 2a* for a pair: the collision is the contact model's there,
+    the flow held at its hold or handing over to f_thr) g is taken as that gap, so the bound never falls to 0."""
+
+    diameters: tuple  # [m], sphere 1 first
+    accelerations: tuple  # each sphere's net weight over its mass [m/s2]
+    contact_gaps: tuple  # delta_sl D1 (the wall's), then delta_sl 2a* of each neighbouring pair [m]
+    wall: bool
+
+    def longest(self, gaps, velocities, fraction: float) -> float:
+        """The longest step [s] from the bodies' `gaps` (lowest points above z = 0 [m]) and `velocities` [m/s]
+        over which no contact closes more than 2 `fraction` of its gap (math.inf: nothing can close)."""
+        gaps, speeds = np.asarray(gaps, dtype=float), np.abs(np.asarray(velocities, dtype=float))
+        accelerations = np.asarray(self.accelerations)
+        between = np.diff(gaps) - np.asarray(self.diameters)[:-1]
+        contacts = [(gaps[0], speeds[0], accelerations[0], self.contact_gaps[0])] if self.wall else []
+        contacts += [(between[k], speeds[k] + speeds[k + 1], accelerations[k] + accelerations[k + 1],
+                      self.contact_gaps[k + 1]) for k in range(len(between))]
+        longest = math.inf
+        for gap, speed, acceleration, contact in contacts:
+            reach = fraction * max(gap, contact)
+            if speed > 0.0:
+                longest = min(longest, reach / speed)
+            if acceleration > 0.0:
+                longest = min(longest, math.sqrt(2.0 * reach / acceleration))
+        return longest
+
+
+def approach_for(scene) -> Approach:
+    """The scene's Approach: its spheres, their net weights and the contact model's gaps."""
+    bodies = scene_bodies(scene)
+    delta = scene.contact.delta_sl
+    accelerations = tuple(0.0 if body.held else abs(body.net_weight) / body.mass for body in bodies)
+    pairs = tuple(delta * pair_diameter(lower.sphere, upper.sphere) for lower, upper in zip(bodies, bodies[1:]))
+    return Approach(tuple(body.diameter for body in bodies), accelerations, (delta * bodies[0].diameter, *pairs),
+                    scene.wall.present)
 
 
 @dataclass(frozen=True)
 class StepLimits:
     """How long an adaptive step may be: between min_factor and max_factor times the model's cfl step
-    `base` [s]; `speed_scale` [m/s] the scene's, `gap_fraction` the part of the gap a step may close.
+    `base` [s]; `speed_scale` [m/s] the scene's, `gap_fraction` the part of the gap a step may close;
+    `approach` (Approach) bounds every step, the first included and below the floor, by the gap it may close.
 
     A collision is a jump of the sphere's velocity within a few tens of microseconds; the flow meets it
     as a jump of its boundary velocity, and its answer (the rebound's drag and history, and how much
@@ -140,25 +191,51 @@ class StepLimits:
     max_factor: float
     speed_scale: float
     gap_fraction: float = GAP_FRACTION
+    approach: Approach | None = None
 
     def next(self, dt: float, gap: float, speed: float, jerk: float) -> float:
         """The coming step [s] after one of length dt [s] that leaves the spheres `gap` [m] from what they
-        may hit, at `speed` [m/s], with their acceleration changing at `jerk` [m/s3]."""
+        may hit, at `speed` [m/s], with their acceleration changing at `jerk` [m/s3]: at least the floor
+        min_factor x base, or GROWTH dt after a step that first() shortened below it (the steps grow back to it,
+        as variable-step BDF2 and the AB2 prediction need: a jump from there to the floor is unstable)."""
         longest = min(self.max_factor * self.base, GROWTH * dt)
         if speed > 0.0:
             longest = min(longest, self.gap_fraction * max(gap, 0.0) / speed)
         if jerk > 0.0:
             longest = min(longest, math.sqrt(JERK_TOLERANCE * self.speed_scale / jerk))
-        return max(self.min_factor * self.base, longest)
+        return max(min(self.min_factor * self.base, GROWTH * dt), longest)
+
+    def first(self, dt: float, gaps, velocities) -> float:
+        """A step of `dt` [s] (next()'s, or the first) that starts with the bodies at `gaps` [m] and `velocities`
+        [m/s], shortened to the longest that closes no contact by more than 2 gap_fraction of its gap, whatever
+        the floor (Approach.longest; without an approach: dt).  FlowModel.start_step applies it."""
+        if self.approach is None:
+            return dt
+        return min(dt, self.approach.longest(gaps, velocities, self.gap_fraction))
 
     def after(self, velocities: list, dt: float, last_step: float, gap: float) -> float:
         """The coming step [s] after one of length dt [s] that ended at velocities[0] (the bodies' last two or
         three velocities, newest first, arrays [m/s]; last_step [s] the step before it, 0 if none): the jerk
-        from the three levels, the fastest body's (none from two)."""
+        from the three levels, the fastest body's (none from two).  Then bounded where it starts by first()."""
         acceleration = (velocities[0] - velocities[1]) / dt
         before = (velocities[1] - velocities[2]) / last_step if last_step and len(velocities) > 2 else acceleration
         jerk = float(np.max(np.abs(acceleration - before))) / (0.5 * (dt + (last_step or dt)))
         return self.next(dt, gap, float(np.max(np.abs(velocities[0]))), jerk)
+
+
+def end_clipped(t_next: float, end_time: float, dt: float) -> float:
+    """The end of a coming step that would reach `t_next` [s]: `end_time` [s] when it would pass it by more than
+    rounding (1e-9 of the step dt [s], as FlowModel.finished's tolerance), so that a run ends at its end time."""
+    return end_time if t_next > end_time + 1e-9 * dt else t_next
+
+
+def fixed_step_time(time: float, step: int, dt: float, last_step: float) -> float:
+    """The end of the coming step [s] of a model with fixed steps dt [s] after `step` steps that reached `time`
+    [s] (last_step [s] the one before): (step + 1) dt; off that grid (a run continued past the end time that
+    shortened its last step, end_clipped) the steps grow back to dt at most GROWTH times a step."""
+    if abs(time - step * dt) <= 1e-9 * dt:
+        return (step + 1) * dt
+    return time + min(dt, GROWTH * last_step) if last_step else time + dt
 
 
 def nearest_gap(gaps, diameters, wall: bool) -> float:
@@ -187,6 +264,9 @@ class FlowModel(ABC):
     steady: bool = False  # held bodies solved for their steady state in one go (steppers.SteadyStep)
     divergences: tuple = ()  # exception types of the model's solvers that mean the run diverged
     fields_at_end: bool = False  # the final state also goes to the field files
+    # the step just made was shortened to end at run.end_time (end_clipped): no checkpoint is written there, so that
+    # a run continued past its end time goes on from the one before, as the uninterrupted longer run did
+    ended_short: bool = False
 
     def __init__(self, scene, comm):
         self.scene = scene
@@ -211,6 +291,11 @@ class FlowModel(ABC):
         return [np.array([body.start_velocity for body in scene_bodies(self.scene)])]
 
     # -- one step ---------------------------------------------------------------------------------
+    def start_step(self, gaps: np.ndarray, velocities: np.ndarray) -> None:
+        """The bodies' gaps [m] (lowest points above z = 0) and velocities [m/s] where the coming step starts,
+        before it is asked for (time_step): a model with adaptive steps bounds it there by the gaps it may close
+        (StepLimits.first)."""
+
     def time_step(self) -> float:
         """The length of the coming step [s] (a model with a fixed step sets self.dt)."""
         return self.dt

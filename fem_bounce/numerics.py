@@ -46,7 +46,9 @@ class FdNumerics:
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
     # moving mesh, as numerics.ale's: the surface's triangles this many times finer than the path's (the error
     # lives in the surface's triangles, the rebound more than the impact); remeshing below min_quality; a remeshed
-    # gap keeps min_gap_cells triangles across; the mesh stops following a sphere at the gap hold_delta D
+    # gap keeps min_gap_cells triangles across; the mesh stops following a sphere at the gap hold_delta D (only where
+    # the near-wall correction does not hold it at delta_sl D: set with the correction holding every contact, or on
+    # the fixed mesh, it is refused)
     surface_refinement: float = _setting(5.0, 1.0, 16.0)
     min_quality: float = _setting(0.3, 0.01, 0.9)
     min_gap_cells: float = _setting(2.0, 0.5, 100.0)
@@ -63,13 +65,15 @@ class FdNumerics:
     # moving mesh, 0.4 on the fixed one, whose band needs the finer step
     cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
     # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
-    # approach to a contact (a step closes at most gap_fraction of the gap) and the changes of the sphere's velocity
-    # ask (flow_model.StepLimits); unset: the constraint's own, true for "implicit" (it assembles every step
-    # anyway) at time_order 1 or 2, false for "penalty" (it keeps its factors: one step length)
+    # approach to a contact (a step closes at most gap_fraction of the gap at the sphere's speed) and the changes of
+    # the sphere's velocity ask (flow_model.StepLimits); unset: the constraint's own, true for "implicit" (it
+    # assembles every step anyway) at time_order 1 or 2, false for "penalty" (it keeps its factors: one step length).
+    # Whatever the floor and from rest, a step closes at most twice gap_fraction of the gap with the sphere's
+    # speed and net weight (flow_model.Approach): at most 0.5, so that no step reaches the contact
     adaptive_step: bool | None = None
     min_step_factor: float = _setting(0.05, 0.001, 1.0)
     max_step_factor: float = _setting(2.0, 1.0, 50.0)
-    gap_fraction: float = _setting(0.5, 0.001, 1.0)
+    gap_fraction: float = _setting(0.5, 0.001, 0.5)
     forcing_number: float = _setting(0.025, 0.001, 10.0)  # penalty only: dt <= this * fine size^2 / nu (rigid interior)
     # "implicit": the friction rho c_B phi (u - U) in the step's matrix, with convection implicit, factorised every
     # step (models/fd/penalised.py): no step bound from either, the interior rigid through a collision.
@@ -77,8 +81,10 @@ class FdNumerics:
     # under forcing_number; its effective surface moves with dt, so radius_offset places it at its default step
     constraint: str = field(default="implicit", metadata={"choices": ("implicit", "penalty")})
     # implicit: c_B over the viscous, convective and step rates; the penalisation's error falls as strength^-1/2
-    # (Angot, Bruneau & Fabrie 1999), so the default is large
-    penalty_strength: float = _setting(1e5, 1.0, 1e8)
+    # (Angot, Bruneau & Fabrie 1999), so the default is large.  Below 100 it no longer holds the sphere (case 3 at
+    # 4 cells/D, moving mesh: V_i +2.2 % at 100, +3.9 % and e +14 % at 20, the run gaining energy and diverging at
+    # 10 and below; +0.6 % at 1e3, 0.08 % at 1e4); "penalty" does not read it (its forcing_number sets its rigidity)
+    penalty_strength: float = _setting(1e5, 100.0, 1e8)
     time_order: int = _setting(2, 1, 3)  # BDF/extrapolation order of the flow
     # "direct": MUMPS LU, factorised once; "fieldsplit": GMRES with a Schur field split and algebraic multigrid
     # (BoomerAMG, or GAMG where PETSc has no hypre; options prefix fd_flow_fieldsplit_), for large meshes on many

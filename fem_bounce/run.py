@@ -287,6 +287,8 @@ class Controller:
     # -- checkpoints: the flow, the stepper (its predictor), the integrator (which carries the run record) --
     def save_checkpoint(self) -> None:
         flow_model, integrator, comm = self.flow_model, self.integrator, self.comm
+        if flow_model.ended_short:  # continued past its end time, the run goes on from the checkpoint before
+            return
         flow, arrays = flow_model.checkpoint_state()  # collective; arrays on rank 0
         state = {"step": flow_model.step, "time": integrator.time, "ranks": comm.size, **self.stepper.state(),
                  "flow": flow, "integrator": integrator.state_dict()}

@@ -61,6 +61,7 @@ class CoupledStep(Stepper):
     def step(self) -> None:
         """One step of the flow and the bodies."""
         flow_model, integrator = self.flow_model, self.integrator
+        flow_model.start_step(integrator.gaps, integrator.velocities)
         prediction = self.predictor.predict(integrator.time, integrator.gaps, integrator.velocities,
                                             flow_model.time_step(), flow_model.previous_time_step())
         fluid = flow_model.linearised_force(prediction)

@@ -74,7 +74,8 @@ from ..fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ..fem.mesh import SPHERE_TAGS, Box, HalfPlane, SphereHole, check_size, create_mesh
 from ..fem.mesh_motion import MeshMotion
 from ..fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
-from ..flow_model import FlowModel, PastLevels, StepLimits, flow_gaps, nearest_gap, steps_to
+from ..flow_model import (FlowModel, PastLevels, StepLimits, end_clipped, fixed_step_time, flow_gaps, nearest_gap,
+                          steps_to)
 from ..kinematics import FluidForce, Prediction
 from ..output import CheckpointError, body_array, per_body, segment_path
 from ..scene import Scene, SceneError, pair_diameter
@@ -218,6 +219,7 @@ class MovingMesh:
         self.make_flow, self.sphere_volume, self.reuse = make_flow, sphere_volume, reuse
         self.cfl_step, self.step_limits, self.adaptive = cfl_step, step_limits, adaptive
         self.dt = cfl_step if first_step is None else first_step  # the coming step [s]
+        self.ended_short = False  # the step just made was shortened to end at run.end_time
         self.bodies = scene_bodies(scene)
         count = len(self.bodies)
         self.sphere_tags = SPHERE_TAGS[:count]
@@ -337,24 +339,44 @@ class MovingMesh:
     # -- the clock ------------------------------------------------------------------------------
     def next_time(self) -> float:
         """The end of the coming step [s]: t_n + dt with adaptive steps, else (n + 1) dt as every constant-step
-        model."""
-        return self.time + self.dt if self.adaptive else (self.step + 1) * self.dt
+        model (flow_model.fixed_step_time); never past run.end_time (flow_model.end_clipped: the last step is
+        shortened, with the variable-step BDF coefficients)."""
+        return end_clipped(self._unclipped_time(), self.scene.run.end_time, self.cfl_step)
+
+    def _unclipped_time(self) -> float:
+        return self.time + self.dt if self.adaptive else fixed_step_time(self.time, self.step, self.dt, self.last_step)
+
+    def step_length(self) -> float:
+        """The length of the coming step [s]: dt, or what is left of it (next_time)."""
+        t_next = self.next_time()
+        regular = t_next == (self.time + self.dt if self.adaptive else (self.step + 1) * self.dt)
+        return self.dt if regular else t_next - self.time
 
     def finished(self, end_time: float) -> bool:
         if self.adaptive:
             return self.time >= end_time - 1e-9 * self.cfl_step
+        if abs(self.time - self.step * self.dt) > 1e-9 * self.dt:  # off the grid: a shortened last step before
+            return self.time >= end_time - 1e-9 * self.cfl_step
         return self.step >= steps_to(end_time, self.dt)
+
+    def start_step(self, gaps: np.ndarray, velocities: np.ndarray) -> None:
+        """Adaptive steps: the coming one no longer than StepLimits.first allows from the spheres' `gaps` [m] and
+        `velocities` [m/s] where it starts (the first step too)."""
+        if self.adaptive:
+            self.dt = self.step_limits.first(self.dt, gaps, velocities)
 
     def previous_time_step(self) -> float | None:
         """The step before the coming one [s] when the steps vary (None: equal steps)."""
-        return self.last_step if self.adaptive and self.last_step else None
+        if self.adaptive:
+            return self.last_step if self.last_step else None
+        return None if self.step_length() == self.dt or not self.last_step else self.last_step
 
-    def _next_step(self, velocity: np.ndarray, prediction: Prediction) -> float:
-        """The coming step [s] (StepLimits.after) from the step just made, which ends at `velocity`, with
-        the spheres' predicted nearest gap (to the wall or a neighbour: where they are, not where the mesh
-        holds them)."""
+    def _next_step(self, velocity: np.ndarray, prediction: Prediction, length: float) -> float:
+        """The coming step [s] (StepLimits.after) from the step just made (of `length` [s]), which ends at
+        `velocity`, with the spheres' predicted gaps (to the wall and their neighbours: where they are, not where
+        the mesh holds them)."""
         gap = nearest_gap(prediction.gaps, self.diameters, self.scene.wall.present)
-        step = self.step_limits.after([velocity, *self.history.velocities[:2]], self.dt, self.last_step, gap)
+        step = self.step_limits.after([velocity, *self.history.velocities[:2]], length, self.last_step, gap)
         self.stats.longest_step = max(self.stats.longest_step, step)
         return step
 
@@ -375,6 +397,7 @@ class MovingMesh:
         velocities and the added mass (module docstring, steps 1-4)."""
         h, settings = self.history, self.settings
         t_next = self.next_time()
+        self._short = t_next != self._unclipped_time()  # shortened to end at run.end_time
         center, held = self.next_centers(prediction)
         gap = float(center[0] - self.radii[0])  # sphere 1's, to the wall
         if gap <= 0.0:
@@ -393,9 +416,10 @@ class MovingMesh:
                 self.remesh(center, quality)
                 remeshed = True
         self.stats.held_steps += held
-        self.flow.set_time_step(self.dt, self.previous_time_step())
+        length = self.step_length()
+        self.flow.set_time_step(length, self.previous_time_step())
         self.motion.move_to(center)
-        self.motion.set_rates(h.rate("centers", center, self.flow.bdf, self.dt))
+        self.motion.set_rates(h.rate("centers", center, self.flow.bdf, length))
         self.stats.min_mesh_gap = min(self.stats.min_mesh_gap, gap)
         reference = h.reference("velocities", self.flow.bdf)
         start = time.perf_counter()
@@ -406,20 +430,22 @@ class MovingMesh:
         if not (np.all(np.isfinite(force)) and np.all(np.isfinite(added_mass))):
             raise FloatingPointError(f"the fluid force became {force} N at t = {t_next:.6g} s")
         self.last_force = (force, added_mass)
-        self._pending = (t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction)
+        self._pending = (t_next, length, center, gap, reference, force, slope, added_mass, quality, remeshed,
+                         prediction)
         self._integrator_start = time.perf_counter()
         return FluidForce(explicit=force, added_mass=added_mass)
 
     def complete(self, velocities: np.ndarray) -> StepRecord:
         """The step's field for the velocities the spheres reached; t_n <- t_{n+1} and the history's new level."""
         self.stats.integrator_s += time.perf_counter() - self._integrator_start
-        t_next, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction = self._pending
+        t_next, length, center, gap, reference, force, slope, added_mass, quality, remeshed, prediction = self._pending
         velocity = np.array(velocities, dtype=float)  # the flow's own copy of the integrator's
         change = velocity - reference
         self.flow.commit(change)
         if self.adaptive:
-            self.dt = self._next_step(velocity, prediction)
+            self.dt = self._next_step(velocity, prediction, length)
         self.step += 1
+        self.ended_short = self._short
         self.last_step, self.time = t_next - self.time, t_next
         self.history.push(velocities=velocity, centers=center)
         return StepRecord(t_next, gap, force + slope @ change, added_mass,
@@ -550,8 +576,11 @@ class MovingMeshModel(FlowModel):
     def initial_velocities(self) -> list[np.ndarray]:
         return list(self.moving.history.velocities)
 
+    def start_step(self, gaps: np.ndarray, velocities: np.ndarray) -> None:
+        self.moving.start_step(gaps, velocities)
+
     def time_step(self) -> float:
-        return self.moving.dt
+        return self.moving.step_length()
 
     def next_time(self) -> float:
         return self.moving.next_time()
@@ -567,7 +596,7 @@ class MovingMeshModel(FlowModel):
 
     def complete(self, velocities: np.ndarray, time_now: float) -> StepRecord:
         record = self.moving.complete(velocities)
-        self.step = self.moving.step
+        self.step, self.ended_short = self.moving.step, self.moving.ended_short
         return record
 
     def checkpoint_state(self) -> tuple[dict, dict]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from ...bodies import scene_bodies
 from ...fem.domain import speed_scale
-from ...flow_model import StepLimits
+from ...flow_model import StepLimits, approach_for
 from ...scene import Scene
 
 
@@ -19,9 +19,11 @@ def time_step(scene: Scene) -> float:
 
 def step_limits(scene: Scene) -> StepLimits:
     """The adaptive step's bounds (numerics.ale.adaptive_step; flow_model.StepLimits): each step between
-    min_step_factor and max_step_factor times the cfl step, closing at most GAP_FRACTION of the gap."""
+    min_step_factor and max_step_factor times the cfl step, closing at most GAP_FRACTION of the gap (and never
+    more than twice that, from rest and below the floor too: flow_model.Approach)."""
     ale = scene.numerics.ale
-    return StepLimits(time_step(scene), ale.min_step_factor, ale.max_step_factor, speed_scale(scene, "ale"))
+    return StepLimits(time_step(scene), ale.min_step_factor, ale.max_step_factor, speed_scale(scene, "ale"),
+                      approach=approach_for(scene))
 
 
 def is_steady(scene: Scene) -> bool:

@@ -88,12 +88,14 @@ class FlowSolver:
     def set_time_step(self, dt: float, previous: float | None = None, order: int | None = None) -> None:
         """The coming step's length dt [s] and the one before it (default dt): the BDF and extrapolation
         coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ),
-        of a lower `order` than the flow's for a cold start (the older levels then weigh 0).
+        of a lower `order` than the flow's for a cold start (the older levels then weigh 0), and order 2 for a
+        step of another length than the one before at time_order 3 (a run's shortened last step).
         The matrix holds c: a solver that keeps its factors (this one) takes one step length only; the
         penalised flow assembles every step."""
         self.dt = dt
-        order = order or self.order
-        bdf, ext = step_coefficients(order, dt / previous if previous else 1.0)
+        ratio = dt / previous if previous else 1.0
+        order = order or (self.order if ratio == 1.0 else min(self.order, 2))
+        bdf, ext = step_coefficients(order, ratio)
         padding = (0.0,) * (self.order - order)
         self.bdf, self.ext = bdf + padding, ext + padding
         self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference(u^n, u^{n-1}, ...))

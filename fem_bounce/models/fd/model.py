@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import resource
 import time
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +40,8 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import check_size, create_mesh
 from ...fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 from ...fem.solver import SolverError
-from ...flow_model import FlowModel, PastLevels, StepLimits, flow_gaps, nearest_gap, steps_to
+from ...flow_model import (FlowModel, PastLevels, StepLimits, approach_for, end_clipped, fixed_step_time, flow_gaps,
+                           nearest_gap, steps_to)
 from ...kinematics import FluidForce, Prediction
 from ...motion import is_stream
 from ...output import CheckpointError, body_array, per_body, segment_path
@@ -108,8 +110,8 @@ class FictitiousDomainModel(FlowModel):
         self.adaptive = self.settings.resolved("adaptive_step")  # steps of their own length (StepLimits)
         fd = self.settings
         self.step_limits = StepLimits(self.cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"),
-                                      fd.gap_fraction)
-        self.time, self.last_step = 0.0, 0.0  # t_n and the step that reached it (adaptive steps) [s]
+                                      fd.gap_fraction, approach_for(scene))
+        self.time, self.last_step = 0.0, 0.0  # t_n and the step that reached it [s]
         self.step_range = [math.inf, 0.0]  # the shortest and longest step taken [s]
         self.bodies = scene_bodies(scene)
         self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
@@ -131,11 +133,27 @@ class FictitiousDomainModel(FlowModel):
         if self.adaptive and (not self.implicit or fd.time_order == 3):
             raise SceneError("numerics.fd.adaptive_step = true needs numerics.fd.constraint = \"implicit\" (the "
                              "penalty keeps its factors for one step length) and time_order 1 or 2")
+        self._check_unread(scene)
         if self.steady and (not self.held.all() or is_stream(scene)):
             raise SceneError("numerics.fd.steady_stokes = true needs every sphere's mode = \"fixed\" (motion.mode, "
                              "second_sphere.mode) without a stream")
         if len(self.bodies) > 1:
             self._check_spheres(scene)
+
+    def _check_unread(self, scene) -> None:
+        """Settings this mesh and constraint would read nowhere, refused (as the moving mesh refuses the fixed mesh's,
+        moving.FIXED_MESH_ONLY)."""
+        fd, defaults = self.settings, {f.name: f.default for f in fields(self.settings)}
+        if fd.hold_delta != defaults["hold_delta"]:
+            raise SceneError(f"numerics.fd.hold_delta = {fd.hold_delta:g} shapes the moving mesh only (where it stops "
+                             "following a sphere); the fixed mesh places its spheres at the contact model's holds "
+                             "(contact.delta_sl under the near-wall correction): unset it, or set numerics.fd.mesh = "
+                             "\"moving\"")
+        if not self.implicit and fd.penalty_strength != defaults["penalty_strength"]:
+            raise SceneError(f"numerics.fd.penalty_strength = {fd.penalty_strength:g} sets the implicit constraint's "
+                             "friction; constraint = \"penalty\" forces with rho c phi, c = 3 / (2 dt), and reads it "
+                             "nowhere: unset it, and set numerics.fd.forcing_number (its rigidity: dt <= "
+                             "forcing_number h^2 / nu) or numerics.fd.constraint = \"implicit\"")
 
     def _check_spheres(self, scene) -> None:
         """What more than one sphere needs, refused here, before the run writes anything."""
@@ -222,16 +240,50 @@ class FictitiousDomainModel(FlowModel):
     def initial_velocities(self) -> list[np.ndarray]:
         return list(self.history.velocities)
 
+    # The clock: t_n + dt with adaptive steps, (n + 1) dt with fixed ones, the last step shortened to end at
+    # run.end_time (flow_model.end_clipped) with the variable-step BDF coefficients (order 2 for time_order 3, that
+    # step only: fluid.FlowSolver.set_time_step).  The one-shot penalty keeps its factors for one step length, so
+    # its last step is a whole one and may end past the end time (by less than a step).
     def previous_time_step(self) -> float | None:
-        return self.last_step if self.adaptive and self.last_step else None
+        if self.adaptive:
+            return self.last_step if self.last_step else None
+        return None if self.step_length() == self.dt or not self.last_step else self.last_step
+
+    def start_step(self, gaps: np.ndarray, velocities: np.ndarray) -> None:
+        """Adaptive steps: the coming one no longer than StepLimits.first allows from the spheres' `gaps` [m] and
+        `velocities` [m/s] where it starts (the first step too)."""
+        if self.adaptive:
+            self.dt = self.step_limits.first(self.dt, gaps, velocities)
+
+    def time_step(self) -> float:
+        return self.step_length()
 
     def next_time(self) -> float:
-        return self.time + self.dt if self.adaptive else super().next_time()
+        if not self.implicit:
+            return (self.step + 1) * self.dt
+        return end_clipped(self._unclipped_time(), self.scene.run.end_time, self.cfl_step)
+
+    def _unclipped_time(self) -> float:
+        if self.adaptive:
+            return self.time + self.dt
+        return fixed_step_time(self._now(), self.step, self.dt, self.last_step)
+
+    def step_length(self) -> float:
+        """The length of the coming step [s]: dt, or what is left of it (next_time)."""
+        t_next = self.next_time()
+        regular = t_next == (self.time + self.dt if self.adaptive else (self.step + 1) * self.dt)
+        return self.dt if regular else t_next - self._now()
+
+    def _now(self) -> float:
+        """t_n [s] (a checkpoint of fixed steps from before time was kept: n dt)."""
+        if self.time is None:
+            self.time = self.step * self.dt
+        return self.time
 
     def finished(self, end_time: float) -> bool:
-        if self.adaptive:
-            return self.time >= end_time - 1e-9 * self.cfl_step
-        return super().finished(end_time)
+        if self.adaptive or (self.implicit and abs(self._now() - self.step * self.dt) > 1e-9 * self.dt):
+            return self._now() >= end_time - 1e-9 * self.cfl_step  # (fixed steps: off their grid, past a restart)
+        return self.step >= steps_to(end_time, self.dt)
 
     # -- one step -------------------------------------------------------------------------
     def predicted_centers(self, prediction: Prediction) -> np.ndarray:
@@ -248,9 +300,12 @@ class FictitiousDomainModel(FlowModel):
         centers = self.predicted_centers(prediction)
         if self.patches is not None:
             self.follow(centers)
-        if self.adaptive:
-            self.flow.set_time_step(self.dt, self.previous_time_step())
+        self._length = self.step_length()
+        self._short = self.implicit and self.next_time() != self._unclipped_time()  # shortened to end at end_time
+        if self.implicit:  # (fixed steps: the same coefficients every step but a shortened last one)
+            self.flow.set_time_step(self._length, self.previous_time_step())
             self.history.bdf = self.flow.bdf
+        if self.adaptive:
             self._gap = nearest_gap(prediction.gaps, [body.diameter for body in self.bodies], self.scene.wall.present)
         if self.implicit:
             self.flow.place(self.immersed, centers)
@@ -294,12 +349,15 @@ class FictitiousDomainModel(FlowModel):
         flow.commit(new)
         if self.adaptive:
             self._advance_time(velocities)
+        else:
+            self.time, self.last_step = self.next_time(), self._length
         self.history.push(velocities, interiors)
         self.step += 1
+        self.ended_short = self._short
 
     def _advance_time(self, velocities: np.ndarray) -> None:
         """t_n <- t_{n+1}, and the coming step from the one just made (StepLimits.after)."""
-        dt, levels = self.dt, [velocities, *self.history.velocities[:2]]  # BDF1 keeps one level: no jerk
+        dt, levels = self._length, [velocities, *self.history.velocities[:2]]  # BDF1 keeps one level: no jerk
         self.step_range = [min(self.step_range[0], dt), max(self.step_range[1], dt)]
         self.dt = self.step_limits.after(levels, dt, self.last_step, self._gap)
         self.time, self.last_step = self.time + dt, dt
@@ -309,13 +367,10 @@ class FictitiousDomainModel(FlowModel):
         forces = self.steady_forces()
         return FluidForce(explicit=forces, added_mass=np.zeros((len(forces), len(forces))))
 
-    def steady_end_time(self, end_time: float) -> float:
-        """The end of the step that reaches end_time [s]."""
-        return steps_to(end_time, self.dt) * self.dt
-
     def complete_steady(self, time_now: float) -> None:
+        """The steady state held to the end time, counted as the steps that reach it."""
         self.step = steps_to(self.scene.run.end_time, self.dt)
-        self.time = self.step * self.dt
+        self.time = time_now
 
     def steady_forces(self) -> np.ndarray:
         """The steady Stokes forces on the held spheres [N], their surfaces moving at their velocities
@@ -348,9 +403,13 @@ class FictitiousDomainModel(FlowModel):
         and of the spheres' velocities and interior integrals (a list per level, one value per sphere)."""
         patches = {} if self.patches is None else {
             "patch_centers": list(self.patches), "placed_centers": [sphere.center for sphere in self.immersed.spheres]}
-        steps = {"time": self.time, "step_length": self.dt, "last_step": self.last_step,
-                 "step_range": self.step_range} if self.adaptive else {}
-        return ({"dt": self.cfl_step, **steps, **self.history.state(), **patches},
+        steps = {"time": self._now(), "last_step": self.last_step,
+                 **({"step_length": self.dt, "step_range": self.step_range} if self.adaptive else {})}
+        operator = self.flow.operator  # the run's counts so far, which a restart continues (report)
+        counts = {"remeshes": self.remeshes, "remesh_s": self.remesh_s,
+                  "back_solves": operator.back_solves + self.retired["back_solves"],
+                  "factorisations": getattr(self.flow, "factorisations", 0) + self.retired["factorisations"]}
+        return ({"dt": self.cfl_step, **steps, **self.history.state(), **patches, "counts": counts},
                 gather_history(self.flow.states))
 
     def restore(self, state: dict, arrays) -> None:
@@ -364,6 +423,9 @@ class FictitiousDomainModel(FlowModel):
             except (KeyError, TypeError, ValueError):
                 raise CheckpointError("the checkpoint has no adaptive step (time, step_length, last_step): it was made "
                                       "with numerics.fd.adaptive_step = false") from None
+        else:  # fixed steps: t_n and the last step (n dt and dt in a checkpoint from before they were kept)
+            self.time = float(state["time"]) if "time" in state else None
+            self.last_step = float(state.get("last_step", self.dt))
         if self.patches is not None and state.get("patch_centers") != self.patches:  # moved: that mesh again
             try:
                 patches, placed = ([float(z) for z in state[key]] for key in ("patch_centers", "placed_centers"))
@@ -381,6 +443,10 @@ class FictitiousDomainModel(FlowModel):
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.domain.fine_size)
         except (ValueError, KeyError, CheckpointMismatch) as err:
             raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
+        counts = state.get("counts")  # (none in a checkpoint from before they were kept: this segment's only)
+        if counts is not None:  # the flow built for the restart starts its own counts at 0
+            self.remeshes, self.remesh_s = int(counts["remeshes"]), float(counts["remesh_s"])
+            self.retired = {key: int(counts[key]) for key in ("back_solves", "factorisations")}
         velocities, interiors = ([body_array(v) for v in state[key]] for key in ("velocities", "interiors"))
         count = len(self.bodies)
         if any(len(v) != count for v in velocities):
@@ -414,7 +480,7 @@ class FictitiousDomainModel(FlowModel):
         """Cost and discretisation details for summary.json (per-sphere values: a number for one sphere,
         a list for more; the added mass's row i over sphere i's displaced mass)."""
         self.timings["steps"] = self.loop_seconds
-        steps = max(self.steps_this_run, 1)
+        steps = max(self.steps_this_run, 1)  # this segment's (its loop's time); the counts are the run's
         operator = self.flow.operator
         solves = operator.back_solves + self.retired["back_solves"]
         single = operator.single_solve_time / operator.single_solves if operator.single_solves else None
@@ -425,7 +491,7 @@ class FictitiousDomainModel(FlowModel):
             "timings_s": self.timings,
             "time_per_step_s": self.timings["steps"] / steps,
             "back_solves": solves,
-            "back_solves_per_step": solves / steps,
+            "back_solves_per_step": solves / max(self.step, 1),
             "back_solve_s": single,
             "step_cost_in_back_solves": self.timings["steps"] / steps / single if single else None,
             "peak_memory_bytes": self.comm.allreduce(peak),  # sum over ranks of each rank's peak RSS

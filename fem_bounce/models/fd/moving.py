@@ -26,7 +26,7 @@ from ...fem.domain import speed_scale
 from ...fem.mesh import SPHERE_TAGS
 from ...fem.mesh_motion import MeshMotion
 from ...fem.solver import SolverError
-from ...flow_model import StepLimits
+from ...flow_model import StepLimits, approach_for
 from ...kinematics import FluidForce, Prediction
 from ...scene import SceneError
 from ..moving_mesh import MovingMesh, MovingMeshModel, checked_domain
@@ -37,6 +37,13 @@ from .penalised import PenalisedFlow
 
 # settings of the fixed mesh that the moving one does not read: its patches, its wall box and the band's edge
 FIXED_MESH_ONLY = ("patch", "patch_margin", "wall_cells_per_diameter", "wall_layer", "wall_radius", "radius_offset")
+
+
+def correction_holds_every_contact(scene) -> bool:
+    """Whether the near-wall correction holds the flow at every contact that can close (the wall's, when there is one,
+    and every neighbouring pair's), each at its delta_sl gap (integrator.hold_gaps): numerics.fd.hold_delta, the
+    moving mesh's own hold where the contact model has none, is then read nowhere."""
+    return scene.near_wall_law == "correction" and all(body.free for body in scene_bodies(scene))
 
 
 class MovingPenalisedFlow(PenalisedFlow):
@@ -134,9 +141,16 @@ class MovingFictitiousDomainModel(MovingMeshModel):
                 raise SceneError(f"numerics.fd.{name} = {shown} shapes the fixed mesh only; the moving mesh refines "
                                  "each sphere's surface (surface_refinement) and ends the band on it: unset it, or "
                                  'set numerics.fd.mesh = "fixed"')
+        if fd.hold_delta != defaults["hold_delta"] and correction_holds_every_contact(scene):
+            raise SceneError(f"numerics.fd.hold_delta = {fd.hold_delta:g} has no effect here: the near-wall correction "
+                             f"(contact.near_wall = \"{scene.contact.near_wall}\", resolved \"correction\") holds each "
+                             "sphere at the contact model's gap contact.delta_sl D (delta_sl 2a* for a pair) instead: "
+                             "unset it, and set contact.delta_sl to move the hold (or contact.near_wall = \"blend\" "
+                             "for the mesh to hold at hold_delta)")
         cfl_step = time_step(scene)
         adaptive = fd.resolved("adaptive_step")
-        limits = StepLimits(cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"), fd.gap_fraction)
+        limits = StepLimits(cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"), fd.gap_fraction,
+                            approach_for(scene))
         self.penalty_rate = penalty_rate(scene, domain.surface_size)  # on the surface's triangles
         self.moving = MovingMesh(scene, comm, fd, domain, self.make_flow, self.sphere_volume, cfl_step=cfl_step,
                                  step_limits=limits, adaptive=adaptive,
