@@ -13,7 +13,7 @@ From Python (the command line's scenes, runs and studies; docs/usage.md, section
 Scenes:   Scene (scene.replace(**{"key": value}) is a checked variant), load, save, presets, model_names
 Runs:     simulate, resume, Result (impacts, rebounds, collisions, trajectory, to_pandas, draw),
           Impact, Rebound, Collision
-Studies:  restitution (e against St), compare (several models on one scene), Table
+Studies:  restitution (e against St), compare (several models on one scene), band (predictions with bands), Table
 Errors:   Error, the base of SceneError, ModelError, OutputError, CheckpointError, RunnerError,
           RunFailed, RunDiverged, RunInterrupted
 """
@@ -34,13 +34,13 @@ except ImportError:  # conda-forge or a system FEniCSx: nothing to order
 
 from .api import (
     Collision, CheckpointError, Error, Impact, ModelError, OutputError, Rebound, Result, RunDiverged, RunFailed,
-    RunInterrupted, RunnerError, Scene, SceneError, Table, compare, load, model_names, presets, restitution, resume,
-    save, simulate)
+    RunInterrupted, RunnerError, Scene, SceneError, Table, band, compare, load, model_names, presets, restitution,
+    resume, save, simulate)
 
 __all__ = [  # what help(fem_bounce) lists
     "Scene", "load", "save", "presets", "model_names",
     "simulate", "resume", "Result", "Impact", "Rebound", "Collision",
-    "restitution", "compare", "Table",
+    "restitution", "compare", "band", "Table",
     "Error", "SceneError", "ModelError", "OutputError", "CheckpointError", "RunnerError",
     "RunFailed", "RunDiverged", "RunInterrupted",
 ]

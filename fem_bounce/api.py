@@ -379,7 +379,9 @@ class Table(list):
 @_public
 def restitution(model: str = "ode", *, points: int | None = None, st_range: tuple[float, float] = (1.0, 1000.0),
                 overrides: Mapping[str, Any] | Iterable[str] | None = None, out: str | Path | None = None,
-                jobs: int = 1, executor: str = "local", cache: str | Path | None = None, comm=None) -> Table:
+                jobs: int = 1, executor: str = "local", cache: str | Path | None = None, comm=None,
+                band: int | None = None, vary: Iterable[str] = (), defaults: bool = True, design: str = "sobol",
+                seed: int = 0) -> Table:
     """The coefficient of restitution against impact Stokes number, as `fem-bounce restitution`: the Table 3
     material sets launched at the wall without gravity, `points` Stokes numbers over st_range (default 40
     for ode, 12 otherwise) plus one every factor 1.3 over St 3-30, e and St where the gap passes 0.2 D
@@ -387,7 +389,12 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
     fit, status, failed, ...); `summary` compares them with the Legendre et al. (2006) fit (rms_to_fit,
     max_abs_to_fit, critical_St, failed).  Runs go through the study cache `cache` and are spread over
     `jobs` local processes or an mpi4py.futures pool (executor="mpi"), as --jobs and --executor.
-    out=DIR also writes restitution.csv, .json and .png there; out=None keeps only the cache."""
+    out=DIR also writes restitution.csv, .json and .png there; out=None keeps only the cache.
+
+    band=N (`--band --samples N`): e(St) with its band, N runs per Stokes number over the uncertain properties
+    (`vary`, `defaults`, `design`, `seed` as in band()); a row per Stokes number (St_p5/p50/p95, e_p5/p50/p95,
+    fit, fit_inside, leading, ...) and `summary` band.json (fit_inside_St, leading_below_St, warnings, ...);
+    out=DIR also writes restitution_band.csv, samples.csv, band.json and restitution_band.png there."""
     from .studies import restitution as study
     from .studies.runner import study_runner
 
@@ -410,9 +417,57 @@ def restitution(model: str = "ode", *, points: int | None = None, st_range: tupl
     out = _output.out_path(out)
     changes = _overrides(overrides)
     comm, runner = study_runner(jobs, executor, None if comm is None else _world(comm), cache)
+    if band is not None:
+        from .studies import band as bands
+
+        with runner, _Scratch(comm) if out is None else contextlib.nullcontext(out) as where:
+            found = bands.restitution_band(model, comm, where, points, (st_min, st_max), changes, _texts(vary, "vary"),
+                                           bool(defaults), band, design, seed, runner=runner)
+        return Table(found["stations"], found)
     with runner, _Scratch(comm) if out is None else contextlib.nullcontext(out) as where:
         rows = study.run(model, comm, where, points, (st_min, st_max), overrides=changes, runner=runner)
     return Table(rows, study.compare(rows))
+
+
+def _texts(values, what: str) -> list[str]:
+    """A text or texts (--vary KEY=RANGE) as a list; SceneError for anything else."""
+    if isinstance(values, str):
+        return [values]
+    if not isinstance(values, Iterable) or not all(isinstance(v, str) for v in values):
+        raise SceneError(f"{what} = {values!r} must be texts KEY=RANGE, e.g. ['liquid.viscosity=+-7%']")
+    return list(values)
+
+
+@_public
+def band(scene: Scene | str | Path, model: str = "ode", samples: int = 64, *, vary: Iterable[str] = (),
+         defaults: bool = True, design: str = "sobol", seed: int = 0,
+         overrides: Mapping[str, Any] | Iterable[str] | None = None, out: str | Path | None = None, jobs: int = 1,
+         executor: str = "local", cache: str | Path | None = None, comm=None) -> Table:
+    """A prediction with its band, as `fem-bounce study band`: `samples` runs of `model` on `scene` over its
+    uncertain properties (a seeded Sobol' design, or design="lhs" or "saltelli"), each through the study cache.
+    The ranges: the scene file's [uncertain] table, else the packaged defaults (unless defaults=False), with each
+    `vary` text KEY=RANGE added or replacing one (LOW:HIGH, LOW:HIGH:log, MEAN~SD, +-P%, ~P%; docs/usage.md).
+    A row per sample (the varied values, status and every summary quantity), and `summary` band.json: the 5/50/95 %
+    percentiles of each quantity (`quantities`), the measurement inside the band or not (`measured`), the Sobol'
+    indices (`indices`), the leading setting per quantity (`leading`) and `warnings`.  out=DIR also writes
+    band.json, samples.csv, band_trajectory.csv, band_trajectory.png and sensitivity.png there."""
+    from . import uncertain
+    from .studies import band as study
+    from .studies.runner import study_runner
+
+    model = _model(model)
+    _models.get(model)
+    table = uncertain.scene_table(scene) if isinstance(scene, (str, PathLike)) else None
+    where = f"{scene} [uncertain]"
+    scene = _scene(scene)
+    if overrides:
+        scene = scene.replace(**_overrides(overrides))
+    ranges = uncertain.ranges_for(scene, _texts(vary, "vary"), table, bool(defaults), where=where)
+    out = _output.out_path(out)
+    comm, runner = study_runner(jobs, executor, None if comm is None else _world(comm), cache)
+    with runner, _Scratch(comm) if out is None else contextlib.nullcontext(out) as place:
+        result, rows = study.run(scene, model, comm, place, ranges, samples, design, seed, runner=runner)
+    return Table(rows, result)
 
 
 @_public

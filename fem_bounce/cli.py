@@ -5,7 +5,7 @@
     fem-bounce scenes show NAME        print a scene as TOML (it runs unchanged as a scene file)
     fem-bounce restitution [--model M] coefficient of restitution against impact Stokes number
     ... [--jobs N | --executor mpi]     (restitution, study) the runs at once over N processes or an MPI pool
-    fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures
+    fem-bounce study KIND [...]        convergence | speed-accuracy | stability | restitution | figures | band
     fem-bounce compare [SCENE] --models ode,fd,ib,...     several models on one scene: one figure, one table
 
 Only this module, the Python API behind it (api.py, the default communicator of fem_bounce.simulate), the study
@@ -90,6 +90,10 @@ def _parser() -> argparse.ArgumentParser:
     rest.add_argument("--out", default=None, help="directory for CSV and PNG (default results/restitution-MODEL)")
     rest.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                       help="override a value of every scene the sweep runs")
+    rest.add_argument("--band", action="store_true",
+                      help="e(St) with its 5-95 %% band: --samples runs per Stokes number over the uncertain "
+                           "properties (the default ranges, --vary)")
+    _band_options(rest, samples=32)
     _parallel_options(rest)
     study = sub.add_parser("study", help="studies that run many simulations (cached, resumable)")
     kinds = study.add_subparsers(dest="kind", required=True)
@@ -121,12 +125,32 @@ def _parser() -> argparse.ArgumentParser:
     tilt.add_argument("scene", help="a scene whose sphere is launched at the wall, e.g. foerster1994-glass")
     tilt.add_argument("--angles", default=None, help="comma-separated degrees from the normal (default: 40, 2-80)")
     tilt.add_argument("--model", default="ode", choices=["ode"], help="the model that runs oblique scenes (ode)")
-    for kind in (conv, speed, stab, figs, tilt):
+    bands = kinds.add_parser("band", help="predictions with bands: percentiles and Sobol' indices over the "
+                                          "uncertain properties")
+    bands.add_argument("scene", help="preset name or TOML file (its [uncertain] table, if any, gives the ranges)")
+    bands.add_argument("--model", default="ode", help="any model (default ode)")
+    _band_options(bands, samples=64)
+    for kind in (conv, speed, stab, figs, tilt, bands):
         kind.add_argument("--out", default=None, help="study directory (default results/study-...)")
         kind.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                           help="override a value of every scene the study runs")
         _parallel_options(kind)
     return parser
+
+
+def _band_options(parser: argparse.ArgumentParser, samples: int) -> None:
+    parser.add_argument("--samples", type=int, default=samples,
+                        help=f"runs of the design (default {samples}; a power of two for --design sobol)")
+    parser.add_argument("--vary", action="append", default=[], metavar="KEY=RANGE",
+                        help="an uncertain setting: LOW:HIGH (uniform), LOW:HIGH:log, MEAN~SD (normal), +-P%% or "
+                             "~P%% of the scene's value; adds to or replaces the defaults (repeatable)")
+    parser.add_argument("--no-defaults", action="store_true",
+                        help="vary only the --vary settings, not the packaged default ranges")
+    parser.add_argument("--design", default="sobol", choices=["sobol", "lhs", "saltelli"],
+                        help="sobol (scrambled Sobol' points, default), lhs (Latin hypercube) or saltelli (Saltelli's "
+                             "scheme: first-order and total indices, N (d + 2) runs)")
+    parser.add_argument("--seed", type=int, default=0, help="the design's seed (default 0): the same seed, the same "
+                                                            "samples")
 
 
 def _parallel_options(parser: argparse.ArgumentParser) -> None:
@@ -321,6 +345,8 @@ def _cmd_scenes(args) -> int:
 def _cmd_restitution(args) -> int:
     from mpi4py import MPI
 
+    if args.band:
+        return _restitution_band(args)
     out = Path("results") / f"restitution-{args.model}" if args.out is None else output.out_path(args.out)
     rows = api.restitution(args.model, points=args.points, st_range=(args.st_min, args.st_max),
                            overrides=args.overrides, out=out, jobs=args.jobs, executor=args.executor)
@@ -345,6 +371,28 @@ def _cmd_restitution(args) -> int:
             f"not counted as e = 0): " + "; ".join(found["failed"][:3]) + (" ..." if len(found["failed"]) > 3 else ""))
         return 1
     return 0
+
+
+def _restitution_band(args) -> int:
+    from mpi4py import MPI
+
+    out = Path("results") / f"restitution-band-{args.model}" if args.out is None else output.out_path(args.out)
+    table = api.restitution(args.model, points=args.points, st_range=(args.st_min, args.st_max),
+                            overrides=args.overrides, out=out, jobs=args.jobs, executor=args.executor,
+                            band=args.samples, vary=args.vary, defaults=not args.no_defaults, design=args.design,
+                            seed=args.seed)
+    found = table.summary
+    if (MPI.COMM_SELF if args.executor == "mpi" else MPI.COMM_WORLD).rank == 0:
+        print(f"{len(found['stations'])} Stokes numbers x {found['samples']} samples -> {out}/band.json, "
+              f"{out}/restitution_band.csv, {out}/samples.csv, {out}/restitution_band.png")
+        inside = ", ".join(f"{x:.3g}" for x in found["fit_inside_St"]) or "none"
+        print(f"the experiments' fit inside the 5-95 % band at St {inside}; outside at "
+              f"{len(found['fit_outside_St'])} stations")
+        if found["leading_below_St"]:
+            print(f"below St {found['below_St']:g} the band's leading property is {found['leading_below_St']} "
+                  f"(mean first-order index {found['mean_S1_below_St'][found['leading_below_St']]:.2f})")
+    failed = sum(s["failed"] for s in found["stations"])
+    return 1 if failed else 0
 
 
 def _runs(count: int) -> str:
@@ -411,6 +459,17 @@ def _study(args, comm, runner) -> int:
 
         angles = numbers(args.angles, "--angles") if args.angles else oblique.ANGLES
         oblique.run(scenes.load(args.scene, changes), comm, out, angles, runner=runner)
+    elif args.kind == "band":
+        from . import uncertain
+        from .studies import band
+
+        scene = scenes.load(args.scene, changes)
+        ranges = uncertain.ranges_for(scene, args.vary, uncertain.scene_table(args.scene), not args.no_defaults,
+                                      where=f"{args.scene} [uncertain]")
+        result, _ = band.run(scene, args.model, comm, out, ranges, args.samples, args.design, args.seed,
+                             runner=runner)
+        if comm.rank == 0:
+            print(band.format_table(result))
     else:
         studies.figures.run(args.model, comm, out, overrides=changes, runner=runner)
     if comm.rank == 0:

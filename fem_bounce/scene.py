@@ -966,6 +966,7 @@ def load(source: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
     except RecursionError:
         raise SceneError(f"{source}: its tables or arrays are nested too deeply to read") from None
     data.setdefault("name", default_name)
+    data.pop("uncertain", None)  # the band study's ranges (fem_bounce.uncertain reads them); a run takes the values
     if overrides:
         data = _set_dotted(data, overrides)
     return from_dict(data)

@@ -28,6 +28,7 @@ LAYERS = {
     # the scene imports none of the physics that reads it
     "fem_bounce.scene": SCENE,
     "fem_bounce.settings_reference": SCENE,  # the settings reference, generated from the scene's metadata
+    "fem_bounce.uncertain": SCENE,  # uncertain settings: ranges checked against the scene's metadata
     "fem_bounce.motion": BODIES,
     "fem_bounce.bodies": BODIES,
     "fem_bounce.kinematics": BODIES,
@@ -110,6 +111,7 @@ LAYERS = {
     "fem_bounce.cache": STUDIES,
     "fem_bounce.mpi_pool": STUDIES,
     "fem_bounce.studies": STUDIES,
+    "fem_bounce.studies.band": STUDIES,
     "fem_bounce.studies.common": STUDIES,
     "fem_bounce.studies.compare": STUDIES,
     "fem_bounce.studies.convergence": STUDIES,

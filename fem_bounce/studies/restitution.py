@@ -74,6 +74,23 @@ def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), o
         raise scenes.SceneError(f"--points {points}: allowed 2 to {MAX_POINTS} Stokes numbers per sweep")
     study = StudyDirectory(out, comm)
     runner = runner or Runner(comm)
+    planned = plan_points(points, st_range, overrides, runner)
+    trials = [restitution.bounce_scene(scenes.load(name, overrides), launch) for name, _, launch in planned]
+    measured = measure_all([(trial, model, f"{name} St ~ {target:.3g}")
+                            for trial, (name, target, _) in zip(trials, planned)], study, runner)
+    rows = [_row(name, target, launch, trial, found)
+            for (name, target, launch), trial, found in zip(planned, trials, measured)]
+    study.write_csv("restitution.csv", rows)
+    study.write_json("restitution.json", compare(rows))
+    if comm.rank == 0:
+        ode = restitution.sweep(ode_points, st_range, runner.map, overrides) if model != "ode" else None
+        figure(rows, ode, model, out / "restitution.png")
+    return rows
+
+
+def plan_points(points: int, st_range, overrides: dict | None, runner: Runner) -> list[tuple[str, float, float]]:
+    """The sweep's (preset, target St, launch speed [m/s]), planned by the ODE model on the presets with the --set
+    `overrides` (the band tabulation's runs spread by `runner`); SceneError when no set reaches st_range."""
     restitution.tabulate_bands(restitution.MATERIAL_SETS, runner.map, overrides)
     planned = restitution.plan(points, st_range, restitution.MATERIAL_SETS, overrides=overrides)  # those tabulated
     if not planned:
@@ -90,17 +107,7 @@ def run(model: str, comm, out: Path, points: int = 12, st_range=(1.0, 1000.0), o
         lo, hi = restitution.stokes_band(restitution.DSS_PLUS_5, overrides)[1][[0, -1]]
         planned += [(restitution.DSS_PLUS_5, st, restitution.launch_for_stokes(restitution.DSS_PLUS_5, st, overrides))
                     for name, st, _ in planned if name == "li2011-table3-steel-85" and lo <= st <= hi]
-    trials = [restitution.bounce_scene(scenes.load(name, overrides), launch) for name, _, launch in planned]
-    measured = measure_all([(trial, model, f"{name} St ~ {target:.3g}")
-                            for trial, (name, target, _) in zip(trials, planned)], study, runner)
-    rows = [_row(name, target, launch, trial, found)
-            for (name, target, launch), trial, found in zip(planned, trials, measured)]
-    study.write_csv("restitution.csv", rows)
-    study.write_json("restitution.json", compare(rows))
-    if comm.rank == 0:
-        ode = restitution.sweep(ode_points, st_range, runner.map, overrides) if model != "ode" else None
-        figure(rows, ode, model, out / "restitution.png")
-    return rows
+    return planned
 
 
 def _row(name: str, target: float, launch: float, trial: scenes.Scene, found: dict) -> dict:
