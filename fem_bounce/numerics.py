@@ -185,24 +185,33 @@ class Fd3dNumerics:
     """The three-dimensional fictitious-domain model (fem_bounce.models.fd3d): a head-on sphere in the half box
     y >= 0 of tetrahedra.  Sizes are per sphere diameter D."""
 
-    # tetrahedra D / this on the sphere's surface (the penalty's band) within the patch, and in the gap below it
+    # tetrahedra D / this on the sphere's surface (on the fixed mesh wherever the patch lets it lie), and in the gap
     cells_per_diameter: float = _setting(8.0, 2.0, 100.0)
     coarse_cells_per_diameter: float = _setting(0.5, 0.02, 100.0)  # largest tetrahedra, far away
     grading: float = _setting(0.3, 0.05, 2.0)  # size growth per unit distance from the fine shell
-    # the fine shell covers every place of the sphere within patch_margin / 2 D of the patch's centre along z; a new
-    # mesh (the flow interpolated and made divergence-free) when the sphere strays farther
+    # "moving": the mesh moves with the sphere (models/fd3d/motion.py: the ball and a layer of cells around it
+    # rigidly), so the penalty stays on the same cells and the step's factors are kept over many steps; "fixed": the
+    # sphere moves through a mesh fine in a patch around it
+    mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
+    # moving mesh: the sphere's surface's tetrahedra this many times finer than cells_per_diameter's (the gap below
+    # and the rest keep those)
+    surface_refinement: float = _setting(1.0, 1.0, 8.0)
+    # a new mesh (the flow interpolated and made divergence-free) when the sphere has moved patch_margin / 2 D from
+    # where the mesh was made (on the fixed mesh the fine shell covers every place within that; on the moving mesh
+    # also when the gap under the sphere has halved or doubled since)
     patch_margin: float = _setting(0.75, 0.1, 20.0)
     gap_cells: float = _setting(2.0, 0.0, 20.0)  # at least this many tetrahedra across the gap under the sphere
     far_field: float = _setting(6.0, 2.0, 100.0)  # the box: half width and headroom above the path's top, in D
-    interface_width: float = _setting(2.0, 0.5, 10.0)  # the indicator's band inside the surface, in fine cells
-    # c_B over the viscous, convective and step rates (numerics.fd.penalty_strength's meaning)
-    penalty_strength: float = _setting(1e5, 1.0, 1e8)
+    # fixed mesh: the indicator's band inside the surface, in fine cells (the moving mesh holds the ball's cells whole)
+    interface_width: float = _setting(2.0, 0.5, 10.0)
+    # c_B over the viscous, convective and step rates (numerics.fd.penalty_strength's meaning and floor)
+    penalty_strength: float = _setting(1e5, 100.0, 1e8)
     cfl: float = _setting(0.4, 0.01, 50.0)  # dt = cfl * fine size / (1.5 speed scale)
     # each step between min_step_factor and max_step_factor times the cfl step, as short as the approach to the
     # wall and the changes of the sphere's velocity ask (flow_model.StepLimits; numerics.fd's meaning)
     adaptive_step: bool = True
     min_step_factor: float = _setting(0.05, 0.001, 1.0)
     max_step_factor: float = _setting(2.0, 1.0, 50.0)
-    gap_fraction: float = _setting(0.5, 0.001, 1.0)
+    gap_fraction: float = _setting(0.5, 0.001, 0.5)
     output_every: int = _setting(0, 0, 10**9)  # XDMF fields every N steps; 0: none
     checkpoint_every: int = _setting(100, 0, 10**9)  # 0: no checkpoints

@@ -90,6 +90,7 @@ LAYERS = {
     "fem_bounce.models.fd3d.indicator": MODELS,
     "fem_bounce.models.fd3d.mesh": MODELS,
     "fem_bounce.models.fd3d.model": MODELS,
+    "fem_bounce.models.fd3d.motion": MODELS,
     "fem_bounce.models.fd3d.response": MODELS,
     "fem_bounce.models.fd3d.transfer": MODELS,
     "fem_bounce.models.ib": MODELS,

@@ -27,7 +27,8 @@ Every integral is the geometry's (its weight doubles the half box's), so the for
 Sides (by the mesh's facet groups, mesh.py): "no-slip" (u = 0), "slip" (zero normal velocity), "inflow"
 (u = `inflow`, a vector or a function of x), "outflow" (do nothing); the half box's symmetry plane always has
 u_y = 0.  Without an outflow side the pressure is pinned at the box's top far corner.  Each PETSc solver has
-its own options prefix: `{prefix}steady_` and `{prefix}step_` (-fd3d_step_pc_factor_mat_solver_type ...).
+its own options prefix: `{prefix}steady_`, `{prefix}step_` (-fd3d_step_pc_factor_mat_solver_type ...) and, for the
+kept factors, `{prefix}reuse_` (-fd3d_reuse_ksp_gmres_restart ...).
 """
 from __future__ import annotations
 
@@ -72,7 +73,7 @@ class PenalisedFlow3D:
 
     def __init__(self, geometry, facet_tags, sides: dict[int, str], density: float, viscosity: float,
                  sphere: SphereIndicator, penalty_rate: float, inflow=(0.0, 0.0, 0.0), prefix: str = "fd3d_",
-                 step_solver: str = "direct", moving: tuple[str, ...] | None = None):
+                 step_solver: str = "direct", moving: tuple[str, ...] | None = None, mesh_velocity=None):
         if step_solver not in STEP_SOLVERS:
             raise ValueError(f"step_solver must be one of {STEP_SOLVERS}, not {step_solver!r}")
         for kind in sides.values():
@@ -83,6 +84,9 @@ class PenalisedFlow3D:
         self.geometry, self.mesh = geometry, geometry.mesh
         self.density, self.viscosity, self.penalty_rate = density, viscosity, penalty_rate
         self.sphere, self.prefix, self.step_solver = sphere, prefix, step_solver
+        # "reuse": a factorisation's cost in Krylov iterations (fem.solver.ReusedFactorOperator's renewal rule)
+        self.factorisation_cost = 40.0
+        self.mesh_velocity = mesh_velocity  # w of a moving mesh (UFL; motion.MeshMotion3D), None on a fixed one
         self.W = taylor_hood_space(self.mesh)
         self.bcs = self._boundary_conditions(facet_tags, sides, inflow)
         (self.u, self.p), (self.v, self.q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
@@ -174,8 +178,12 @@ class PenalisedFlow3D:
         extrapolated = self.weights[0] * past[0] + self.weights[1] * past[1]
         history = rho * (self.rates[1] * past[0] + self.rates[2] * past[1])
         a = (g.stokes_operator(self.u, self.p, self.v, self.q, rho * self.rates[0], self.viscosity)
-             + rho * g.convection(extrapolated, self.u, self.v) + self.penalty(self.u, self.v))
+             + rho * g.convection(self.convecting(extrapolated), self.u, self.v) + self.penalty(self.u, self.v))
         return a, g.source(history, self.v)
+
+    def convecting(self, extrapolated):
+        """The velocity that convects: u* on a fixed mesh, u* - w on a moving one (the non-conservative ALE form)."""
+        return extrapolated if self.mesh_velocity is None else extrapolated - self.mesh_velocity
 
     # -- the rigid modes' vectors ----------------------------------------------------------------
     def _place_modes(self) -> None:
@@ -263,8 +271,9 @@ class PenalisedFlow3D:
     def step(self, responses: bool = True) -> RigidResponse:
         """Assemble and factorise the step's matrix (prefix `{prefix}step_`), solve for x_0 and (`responses`; not
         needed for a sphere held at rest, s = 0) each x_j.  With
-        step_solver "reuse" only the first step factorises (the later ones iterate: `step_operator.iterations`;
-        a ReusedFactorOperator factorises again by itself when FGMRES fails in 200 iterations)."""
+        step_solver "reuse" the factors are kept while they precondition FGMRES well enough
+        (`step_operator.iterations`; fem.solver.ReusedFactorOperator's renewal rule with `factorisation_cost`,
+        and at once when FGMRES fails in 200 iterations)."""
         start = time.perf_counter()
         if self._step is None:
             a, L = self.step_forms()
@@ -272,13 +281,14 @@ class PenalisedFlow3D:
             matrix = FormMatrix(a, self.bcs)
             assembled = time.perf_counter()
             if self.step_solver == "reuse":
-                operator = ReusedFactorOperator(matrix.petsc, f"{self.prefix}step_", rtol=1e-10,
+                operator = ReusedFactorOperator(matrix.petsc, f"{self.prefix}reuse_", rtol=1e-10,
+                                                factorisation_cost=self.factorisation_cost,
                                                 max_iterations=10**6, limit=200,
                                                 fixed_rows=owned_dirichlet_rows(self.bcs))
             else:
                 operator = FactorizedOperator(matrix.petsc, f"{self.prefix}step_")
+                self.factorisations += 1
             self._step = (matrix, operator, a, L)
-            self.factorisations += 1
         else:
             matrix, operator, a, L = self._step
             matrix.assemble()
@@ -286,10 +296,15 @@ class PenalisedFlow3D:
             if self.step_solver == "direct":
                 operator.refactor()
                 self.factorisations += 1
+            elif operator.stale:
+                operator.refactor()
         matrix, operator, a, L = self._step
         factorised = time.perf_counter()
         self._place_modes()
         response = self._solve(operator, self.step_rhs(), responses)
+        if self.step_solver == "reuse":
+            operator.end_step()
+            self.factorisations = operator.factorisations
         self.assembly_s += assembled - start
         self.factorise_s += factorised - assembled
         self.solve_s += time.perf_counter() - factorised

@@ -7,22 +7,36 @@ integrator's one degree of freedom per sphere, the velocity along z, is the whol
 numerics.fd3d.far_field D wide on each side of the path and as high above the release's top; the wall is
 no-slip (slip when wall.present is false), the other sides slip, as the axisymmetric models' unbounded domain.
 
-The mesh (mesh.create_box_mesh) is fine only in a patch: a shell that covers the sphere's surface wherever its
-centre lies within patch_margin / 2 D of the patch's centre along z (BoxSpec.travel), and the gap below the lowest
-of those places.  The sphere moves through this fixed mesh; when its centre strays from the patch, a new mesh is
-made around it (patch centres on a grid of patch_margin / 2 D, so that a restart makes its run's meshes again,
-and gmsh's cache gives them bit for bit), the flow's two BDF levels interpolated onto it (transfer.py) and made
+Two meshes (numerics.fd3d.mesh; mesh.create_box_mesh), fine only in a patch around the sphere and in the gap below:
+
+- "moving" (the default): the sphere's surface is a surface of the mesh (BoxSpec.conforming, its polyhedron's
+  volume restored to the sphere's: mesh.restore_ball_volume), the penalty holds the ball's cells whole
+  (indicator.ConformingBall: the velocity's kink lies on the cells' faces, where the P2 space has it), and the mesh
+  moves with the sphere (motion.MeshMotion3D: the ball and a layer of cells around it rigidly, the rest stretched
+  by a harmonic extension), so the step's matrix changes only where the mesh outside deforms: its LU factors
+  precondition FGMRES over many steps (flow.PenalisedFlow3D's "reuse", factorised again when the iterations make
+  that cheaper: fem.solver.ReusedFactorOperator).  The flow takes the non-conservative ALE form (convection by
+  u* - w).  A new mesh is made where the sphere will be when it has moved patch_margin / 2 D from where the mesh
+  was made, or the gap under it has halved or doubled; surface_refinement makes the surface's cells finer;
+- "fixed": the sphere moves through the mesh, whose fine shell covers its surface wherever its centre lies within
+  patch_margin / 2 D of the patch's centre along z (BoxSpec.travel), and the gap below the lowest of those places;
+  a new mesh when the centre strays from the patch (patch centres on a grid of patch_margin / 2 D).  Every step
+  factorises (the penalty's place in the matrix moves, so kept factors would not precondition the next step's for
+  long: issue 55's measurement).
+
+Either way a restart makes its run's meshes again (gmsh's cache gives them bit for bit), and a new mesh takes the
+flow's two BDF levels interpolated onto it (transfer.py: on the moving mesh at the sphere's place at t_n) and made
 discretely divergence-free (fem.transfer.DivergenceFreeProjection).
 
 One fluid step of length dt (the run's CoupledStep):
 
-1. place the indicator where the AB2 prediction puts the centre at t_{n+1}, no lower than the contact model's
+1. place the sphere where the AB2 prediction puts its centre at t_{n+1}, no lower than the contact model's
    hold gap above the wall (flow_model.flow_gaps: below delta_sl the near-wall correction adds what the flow
    misses, as in every resolved model);
-2. assemble and factorise the step's matrix (the penalty's place in it moves every step, so a kept factorisation
-   would not precondition the next step's for long: issue 55's measurement) and solve for the flow affine in the
-   rigid amplitudes, u(s) = x_0 + sum_j s_j x_j, in one pass over the factors;
-3. hand the body integrator the force along z linearised in the acceleration, exactly as the axisymmetric
+2. (moving mesh) move the mesh there, its velocity the BDF rate of the centre;
+3. assemble the step's matrix, factorise it (fixed mesh; moving: when the kept factors are stale) and solve for the
+   flow affine in the rigid amplitudes, u(s) = x_0 + sum_j s_j x_j, in one pass over the factors;
+4. hand the body integrator the force along z linearised in the acceleration, exactly as the axisymmetric
    implicit constraint does (models/fd/penalised.py): the penalty's reaction plus the rate of the held ball's
    momentum,
 
@@ -30,11 +44,12 @@ One fluid step of length dt (the run's CoupledStep):
 
    I(w) = int phi w . e_z, G = int phi, B = 4/3 pi a^3 the ball the friction holds, J the BDF history of B U;
    F = F* - M c (U - U_ref) with F* = F(U_ref) and the numerical added mass M = -dF/dU / c;
-4. set the step's field for the velocity U the bodies reached: u = x_0 + U x_z.
+5. set the step's field for the velocity U the bodies reached: u = x_0 + U x_z.
 
 Steps of their own length (numerics.fd3d.adaptive_step, flow_model.StepLimits, the fd model's controller): the
 variable-step BDF2; short through the collision.  A checkpoint holds the two BDF levels by dof coordinates
-(fem.functions), the patch's and the sphere's centres, so a restart makes the mesh again and continues exactly.
+(fem.functions), the patch's and the sphere's centres (at t_n and t_{n-1} for the mesh's velocity), and the moving
+mesh's factors are renewed at the step after it, so a restart makes the mesh again and continues exactly.
 """
 from __future__ import annotations
 
@@ -48,13 +63,14 @@ import ufl
 from dolfinx import fem, la
 from dolfinx.io import XDMFFile
 
+from ... import numerics
 from ...bodies import scene_bodies
 from ...fem.domain import speed_scale
 from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.geometry import Cartesian
 from ...fem.solver import SolverError
 from ...fem.transfer import DivergenceFreeProjection
-from ...flow_model import FlowModel, StepLimits, flow_gaps, nearest_gap
+from ...flow_model import FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, nearest_gap
 from ...kinematics import FluidForce, Prediction
 from ...motion import is_free, is_stream
 from ...output import CheckpointError, body_array, segment_path
@@ -62,22 +78,32 @@ from ...scene import SceneError
 from ..fd.domain import PEAK_SPEED_FACTOR
 from ..fd.model import History
 from .flow import PenalisedFlow3D
-from .indicator import SphereIndicator
-from .mesh import SIDE_X, SIDE_Y, TOP, WALL, BoxSpec, create_box_mesh
+from .indicator import ConformingBall, SphereIndicator
+from .mesh import BALL, SIDE_X, SIDE_Y, TOP, WALL, BoxSpec, create_box_mesh, restore_ball_volume
+from .motion import MeshMotion3D
 from .transfer import interpolate_state
 
 MODE = "U_z"  # the one rigid mode a head-on bounce moves
+RIGID_LAYER = 2.0  # the moving mesh carries the sphere and this many fine cells around it rigidly
+GAP_RATIO = 0.5  # the moving mesh is made again when the gap under the sphere has fallen or grown by this factor
 
 
 class FieldWriter3D:
     """The velocity, pressure and vorticity component omega_y = du_x/dz - du_z/dx (normal to the symmetry plane y = 0,
     the plane of the motion) of a Taylor-Hood state as P1 fields at the vertices, one XDMF time series per mesh
     (dolfinx's parallel writer).  omega_y is the lumped-mass L2 projection of the P2 velocity's curl (each vertex
-    the volume-weighted mean around it), as fem.vertex_fields does in 2-D (whose writer is axisymmetric only)."""
+    the volume-weighted mean around it), as fem.vertex_fields does in 2-D (whose writer is axisymmetric only).
+    On a moving mesh (`motion`) the file holds the mesh as it was made and each snapshot its displacement
+    (mesh_displacement: ParaView's Warp By Vector puts the mesh where it was)."""
 
-    def __init__(self, comm, mesh, W, path: Path):
+    def __init__(self, comm, mesh, W, path: Path, motion: MeshMotion3D | None = None):
         scalars = fem.functionspace(mesh, ("Lagrange", 1))
-        self.velocity = fem.Function(fem.functionspace(mesh, ("Lagrange", 1, (3,))), name="velocity")
+        vectors = fem.functionspace(mesh, ("Lagrange", 1, (3,)))
+        self.motion = motion
+        if motion is not None:
+            self.displacement = fem.Function(vectors, name="mesh_displacement")
+            mesh.geometry.x[:] = motion.reference  # the file's mesh as made
+        self.velocity = fem.Function(vectors, name="velocity")
         self.pressure = fem.Function(scalars, name="pressure")
         self.vorticity = fem.Function(scalars, name="vorticity_y")
         self.state = fem.Function(W)
@@ -85,6 +111,8 @@ class FieldWriter3D:
         self._forms = (fem.form(z * ufl.dx), fem.form((u[0].dx(2) - u[2].dx(0)) * z * ufl.dx))
         self.file = XDMFFile(comm, str(path), "w")
         self.file.write_mesh(mesh)
+        if motion is not None:
+            motion.move_to(motion.reference_center + motion.shift)
 
     def write(self, state: fem.Function, t: float) -> None:
         self.state.x.array[:] = state.x.array
@@ -95,7 +123,11 @@ class FieldWriter3D:
             vector.scatter_reverse(la.InsertMode.add)
             vector.scatter_forward()
         self.vorticity.x.array[:] = curl.array / lumped.array
-        for function in (self.velocity, self.pressure, self.vorticity):
+        written = [self.velocity, self.pressure, self.vorticity]
+        if self.motion is not None:  # psi s at the vertices (the P1 spaces share their layout)
+            self.displacement.x.array[:] = np.outer(self.motion.psi.x.array, self.motion.shift).ravel()
+            written.append(self.displacement)
+        for function in written:
             self.file.write_function(function, t)
 
     def close(self) -> None:
@@ -116,6 +148,8 @@ class FictitiousDomain3DModel(FlowModel):
         self.bodies = scene_bodies(scene)
         self.diameter, self.radius = sphere.diameter, sphere.radius
         self.fine_size = self.diameter / s.cells_per_diameter
+        self.moving = s.mesh == "moving"
+        self.surface_size = self.fine_size / s.surface_refinement  # 1 on the fixed mesh (_check_scene)
         self.coarse_size = max(self.diameter / s.coarse_cells_per_diameter, self.fine_size)
         self.travel = 0.5 * s.patch_margin * self.diameter  # the patch covers the centre within this of its own
         self.half_width = s.far_field * self.diameter
@@ -123,18 +157,21 @@ class FictitiousDomain3DModel(FlowModel):
         speed = speed_scale(scene, "fd3d")
         self.dt = self.cfl_step = s.cfl * self.fine_size / (PEAK_SPEED_FACTOR * speed)
         nu = scene.liquid.kinematic_viscosity
-        self.penalty_rate = s.penalty_strength * max(nu / self.fine_size**2, speed / self.fine_size,
+        self.penalty_rate = s.penalty_strength * max(nu / self.surface_size**2, speed / self.surface_size,
                                                      1.5 / self.cfl_step)
         self.adaptive = s.adaptive_step
-        self.step_limits = StepLimits(self.cfl_step, s.min_step_factor, s.max_step_factor, speed, s.gap_fraction)
+        self.step_limits = StepLimits(self.cfl_step, s.min_step_factor, s.max_step_factor, speed, s.gap_fraction,
+                                      approach_for(scene))
         self.time, self.last_step = 0.0, 0.0  # t_n and the step that reached it (adaptive steps) [s]
         self.step_range = [math.inf, 0.0]
         self.sides = {WALL: "no-slip" if scene.wall.present else "slip", TOP: "slip", SIDE_X: "slip",
                       SIDE_Y: "slip"}
+        self.motion: MeshMotion3D | None = None
         self.flow: PenalisedFlow3D | None = None
         self.fields: FieldWriter3D | None = None
         self.remeshes, self.remesh_s = 0, 0.0
-        self.retired = {"factorisations": 0, "factorise_s": 0.0, "solve_s": 0.0, "assembly_s": 0.0}
+        self.retired = {"factorisations": 0, "factorise_s": 0.0, "solve_s": 0.0, "assembly_s": 0.0,
+                        "krylov_iterations": 0}
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
         self.last_force: FluidForce | None = None
 
@@ -147,6 +184,13 @@ class FictitiousDomain3DModel(FlowModel):
                              "spin = 0")
         if not is_free(scene) or is_stream(scene):
             raise SceneError('the fd3d model runs a free sphere (motion.mode = "free") without a stream')
+        s, defaults = scene.numerics.fd3d, numerics.Fd3dNumerics()
+        if s.mesh == "fixed" and s.surface_refinement != defaults.surface_refinement:
+            raise SceneError("numerics.fd3d.surface_refinement refines the moving mesh only: unset it, or set "
+                             'numerics.fd3d.mesh = "moving"')
+        if s.mesh == "moving" and s.interface_width != defaults.interface_width:
+            raise SceneError("numerics.fd3d.interface_width shapes the fixed mesh's band only; the moving mesh holds "
+                             'the ball\'s cells whole: unset it, or set numerics.fd3d.mesh = "fixed"')
         if not scene.container.unbounded:
             raise SceneError('the fd3d model meshes a box, not a cylindrical container: give container = "unbounded"')
 
@@ -156,6 +200,7 @@ class FictitiousDomain3DModel(FlowModel):
         start = time.perf_counter()
         self.hold = float(integrator.hold_gaps[0])
         center = self.bodies[0].initial_gap + self.radius
+        self.placed = [center, center]  # the flow's sphere centre z at t_n and t_{n-1} [m]
         self.patch = self.patch_center(center)
         self._make_flow(center)
         velocities = np.array([body.start_velocity for body in self.bodies])
@@ -163,28 +208,52 @@ class FictitiousDomain3DModel(FlowModel):
         self.timings["setup"] = time.perf_counter() - start
 
     def patch_center(self, center: float) -> float:
-        """The patch's centre [m] for a sphere centred at z = center [m]: on a grid of the patch's travel, and no
-        lower than puts the lowest place it covers at the flow's hold above the wall (or a fine cell)."""
+        """The patch's centre [m] for a sphere centred at z = center [m].  Fixed mesh: on a grid of the patch's
+        travel, and no lower than puts the lowest place it covers at the flow's hold above the wall (or a fine
+        cell).  Moving mesh: the centre rounded to 1e-4 D (so that gmsh never meshes on a tie in the last bits of
+        its input), no lower than the hold."""
+        if self.moving:
+            quantum = 1e-4 * self.diameter
+            return max(round(center / quantum) * quantum, self.radius + max(self.hold, 0.05 * self.fine_size))
         grid = round(center / self.travel) * self.travel
         return max(grid, self.radius + max(self.hold, self.fine_size) + self.travel)
 
     def spec(self) -> BoxSpec:
         s = self.settings
         return BoxSpec(half_width=self.half_width, height=self.height, center=(0.0, 0.0, self.patch),
-                       radius=self.radius, surface_size=self.fine_size, coarse_size=self.coarse_size,
-                       grading=s.grading, gap_cells=s.gap_cells, mirrored=True, travel=self.travel)
+                       radius=self.radius, surface_size=self.surface_size, coarse_size=self.coarse_size,
+                       gap_size=None if self.surface_size == self.fine_size else self.fine_size,
+                       grading=s.grading, gap_cells=s.gap_cells, mirrored=True,
+                       travel=0.0 if self.moving else self.travel, conforming=self.moving)
 
     def _make_flow(self, center: float) -> None:
-        """The patch's mesh, its penalised flow at rest and the indicator at z = center [m]."""
+        """The patch's mesh, its penalised flow at rest and the indicator at z = center [m] (the moving mesh
+        moved there from the patch's centre)."""
         liquid, s = self.scene.liquid, self.settings
-        self.mesh, _, facet_tags = create_box_mesh(self.comm, self.spec())
-        sphere = SphereIndicator(self.mesh, self.radius, s.interface_width * self.fine_size, (0.0, 0.0, center))
+        spec = self.spec()
+        self.mesh, cell_tags, facet_tags = create_box_mesh(self.comm, spec)
+        if self.moving:  # the ball's cells, held whole, carried rigidly with the sphere
+            self.ball_scale = restore_ball_volume(self.mesh, cell_tags, spec)
+            rigid = self.radius + RIGID_LAYER * self.surface_size
+            self.motion = MeshMotion3D(self.mesh, facet_tags, spec.center, rigid)
+            self.motion.move_to((0.0, 0.0, center))
+            velocity, solver = self.motion.velocity, "reuse"
+            sphere = ConformingBall(self.mesh, cell_tags.find(BALL), self.radius, self.surface_size,
+                                    (0.0, 0.0, center))
+        else:
+            velocity, solver = None, "direct"
+            sphere = SphereIndicator(self.mesh, self.radius, s.interface_width * self.fine_size, (0.0, 0.0, center))
         self.flow = PenalisedFlow3D(Cartesian(self.mesh, mirrored=True), facet_tags, self.sides, liquid.density,
-                                    liquid.viscosity, sphere, self.penalty_rate, prefix="fd3d_", moving=(MODE,))
+                                    liquid.viscosity, sphere, self.penalty_rate, prefix="fd3d_", moving=(MODE,),
+                                    step_solver=solver, mesh_velocity=velocity)
         self.flow.set_time_step(self.dt)
         self.mode = self.flow.geometry.mode_names.index(MODE)
 
     def strays(self, center: float) -> bool:
+        """Whether the sphere centred at z = center [m] needs a new patch (module docstring)."""
+        if self.moving:
+            ratio = (center - self.radius) / (self.patch - self.radius)
+            return abs(center - self.patch) > self.travel * (1.0 + 1e-9) or not GAP_RATIO <= ratio <= 1.0 / GAP_RATIO
         return abs(center - self.patch) > self.travel * (1.0 + 1e-9)
 
     def follow(self, center: float) -> None:
@@ -195,7 +264,7 @@ class FictitiousDomain3DModel(FlowModel):
         start = time.perf_counter()
         old = self.flow
         self.patch = self.patch_center(center)
-        self._make_flow(center)
+        self._make_flow(self.placed[0])  # a moving mesh where the fields are, at t_n
         projection = DivergenceFreeProjection(self.flow.W, self.flow.bcs, prefix="fd3d_projection_",
                                               geometry=self.flow.geometry)
         try:
@@ -213,9 +282,15 @@ class FictitiousDomain3DModel(FlowModel):
 
     def _retire(self, flow: PenalisedFlow3D) -> None:
         self.retired["factorisations"] += flow.factorisations
+        self.retired["krylov_iterations"] += self._iterations(flow)
         for key in ("factorise_s", "solve_s", "assembly_s"):
             self.retired[key] += getattr(flow, key)
         flow.destroy()
+
+    @staticmethod
+    def _iterations(flow: PenalisedFlow3D) -> int:
+        """FGMRES iterations of a flow's steps (0 when it factorises every step)."""
+        return getattr(flow.step_operator, "iterations", 0)
 
     def initial_velocities(self) -> list[np.ndarray]:
         return list(self.history.velocities)
@@ -223,8 +298,23 @@ class FictitiousDomain3DModel(FlowModel):
     def previous_time_step(self) -> float | None:
         return self.last_step if self.adaptive and self.last_step else None
 
+    # adaptive steps: bounded where they start by the gaps they may close (StepLimits.first), the last one shortened
+    # to end at run.end_time (flow_model.end_clipped); fixed steps are whole
+    def start_step(self, gaps: np.ndarray, velocities: np.ndarray) -> None:
+        if self.adaptive:
+            self.dt = self.step_limits.first(self.dt, gaps, velocities)
+
     def next_time(self) -> float:
-        return self.time + self.dt if self.adaptive else super().next_time()
+        if self.adaptive:
+            return end_clipped(self.time + self.dt, self.scene.run.end_time, self.cfl_step)
+        return super().next_time()
+
+    def step_length(self) -> float:
+        """The coming step's length [s]: dt, or what is left of it before the end time."""
+        return self.next_time() - self.time if self.adaptive else self.dt
+
+    def time_step(self) -> float:
+        return self.step_length()
 
     def finished(self, end_time: float) -> bool:
         if self.adaptive:
@@ -245,10 +335,17 @@ class FictitiousDomain3DModel(FlowModel):
         self.follow(center)
         flow, history = self.flow, self.history
         previous = self.previous_time_step()
-        flow.set_time_step(self.dt, 2, self.dt / previous if previous else 1.0)
+        length = self._length = self.step_length()
+        flow.set_time_step(length, 2, length / previous if previous else 1.0)
         history.bdf = flow.bdf
         self._gap = nearest_gap(prediction.gaps, [self.diameter], self.scene.wall.present)
+        if self.moving:  # the mesh to the sphere's place at t_{n+1}, its velocity the BDF rate of the centre
+            self.motion.move_to((0.0, 0.0, center))
+            b = flow.bdf
+            self.motion.set_rate((0.0, 0.0, (b[0] * center + b[1] * self.placed[0] + b[2] * self.placed[1]) / length))
+            flow.sphere.tabulate()
         flow.sphere.place((0.0, 0.0, center))
+        self._center = center
         response = flow.step()
         k, rho, c = self.mode, self.scene.liquid.density, flow.c
         ball = response.ball_mass[k, k]
@@ -272,11 +369,13 @@ class FictitiousDomain3DModel(FlowModel):
         if not math.isfinite(self.flow.states[0].x.petsc_vec.norm()):
             raise FloatingPointError(f"the flow field became non-finite at t = {self.next_time():.6g} s")
         if self.adaptive:
-            dt, levels = self.dt, [velocities, *self.history.velocities[:2]]
+            dt, levels = self._length, [velocities, *self.history.velocities[:2]]
+            self.ended_short = dt < self.dt * (1.0 - 1e-12)
             self.step_range = [min(self.step_range[0], dt), max(self.step_range[1], dt)]
             self.dt = self.step_limits.after(levels, dt, self.last_step, self._gap)
             self.time, self.last_step = self.time + dt, dt
         self.history.push(velocities, velocities * self._ball)  # the held ball's momentum / rho
+        self.placed = [self._center, self.placed[0]]
         self.step += 1
 
     # -- checkpoints and fields -------------------------------------------------------------
@@ -286,8 +385,10 @@ class FictitiousDomain3DModel(FlowModel):
         steps = {"time": self.time, "step_length": self.dt, "last_step": self.last_step,
                  "step_range": self.step_range} if self.adaptive else {}
         placed = float(self.flow.sphere.center.value[2])
+        if self.moving and self.flow.step_operator is not None:
+            self.flow.step_operator.stale = True  # fresh factors at the next step, as a restart from here has
         return ({"dt": self.cfl_step, **steps, **self.history.state(), "patch_center": self.patch,
-                 "placed_center": placed}, gather_history(self.flow.states))
+                 "placed_center": placed, "placed_centers": self.placed}, gather_history(self.flow.states))
 
     def restore(self, state: dict, arrays) -> None:
         if not math.isclose(state["dt"], self.cfl_step, rel_tol=1e-12):
@@ -299,15 +400,18 @@ class FictitiousDomain3DModel(FlowModel):
                                                                                     "last_step"))
                 self.step_range = [float(value) for value in state["step_range"]]
             patch, placed = float(state["patch_center"]), float(state["placed_center"])
+            self.placed = [float(value) for value in state["placed_centers"]]
         except (KeyError, TypeError, ValueError):
             raise CheckpointError("the checkpoint lacks the fd3d model's patch or adaptive step (patch_center, "
-                                  "placed_center, time, step_length): the scene was changed") from None
+                                  "placed_center(s), time, step_length): the scene was changed") from None
         if patch != self.patch:  # the sphere had moved on: that patch's mesh again
             self._retire(self.flow)
             self.patch = patch
             self._make_flow(placed)
-        else:
-            self.flow.sphere.place((0.0, 0.0, placed))
+        elif self.moving:
+            self.motion.move_to((0.0, 0.0, placed))
+            self.flow.sphere.tabulate()
+        self.flow.sphere.place((0.0, 0.0, placed))
         try:
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.fine_size)
         except (ValueError, KeyError, CheckpointMismatch) as err:
@@ -324,7 +428,7 @@ class FictitiousDomain3DModel(FlowModel):
 
     def _open_fields(self) -> None:
         path = self.comm.bcast(segment_path(self.fields_dir) if self.comm.rank == 0 else None, root=0)
-        self.fields = FieldWriter3D(self.comm, self.mesh, self.flow.W, path)
+        self.fields = FieldWriter3D(self.comm, self.mesh, self.flow.W, path, self.motion if self.moving else None)
 
     def write_fields(self, time_now: float) -> None:
         self.fields.write(self.flow.states[0], time_now)
@@ -358,12 +462,14 @@ class FictitiousDomain3DModel(FlowModel):
             "assembly_s": flow.assembly_s + self.retired["assembly_s"],
             "factorise_s": flow.factorise_s + self.retired["factorise_s"],
             "solve_s": flow.solve_s + self.retired["solve_s"],
+            "krylov_iterations": self._iterations(flow) + self.retired["krylov_iterations"],
             "peak_memory_bytes": self.comm.allreduce(peak),  # sum over ranks of each rank's peak RSS
             "factorisation_memory_bytes": operator.factor_memory() if operator is not None else None,
             "mesh_key": self.spec().key(),
             "remeshes": self.remeshes,
             "remesh_s": self.remesh_s,
             "penalty_rate_per_s": self.penalty_rate,
+            **({"ball_radius_scale": self.ball_scale} if self.moving else {}),
             "interior_slip_m_s": slip,
             "added_mass_over_displaced": (float(last.added_mass[0, 0] / self.bodies[0].displaced_mass)
                                           if last is not None else None),
