@@ -6,6 +6,10 @@ DIR/fields-KKK.xdmf + .h5 (dolfinx's writer, one segment per restart), the ib mo
     snapshots[0].fields["velocity"] (N, 2), ["pressure"] (N,), ["vorticity"] (N,)   [SI]
     vorticity_figure("runs/li2011-case7-fd")       # -> DIR/vorticity.png
 
+The fd3d model's files (tetrahedra of the half box y >= 0) are read in its symmetry plane y = 0, the plane of
+incidence: points (N, 2) in (x, z) where the mesh was at that instant (a moving mesh's mesh_displacement added),
+triangles the mesh's faces on that plane, fields["velocity"] (N, 2) = (u_x, u_z), ["pressure"], ["vorticity_y"].
+
 Files only: nothing here needs dolfinx, so figures can be redrawn anywhere with
 h5py and matplotlib.  Segments written by restarts (fields-001, ...) continue the
 series; where a later segment starts, the earlier one's later snapshots are dropped.
@@ -43,6 +47,9 @@ def _data_item(folder: Path, item) -> np.ndarray:
 def _read_segment(path: Path) -> list[Snapshot]:
     folder = path.parent
     domain = ElementTree.parse(path).getroot().find("Domain")
+    topology = domain.find("Grid/Topology")
+    if topology is not None and topology.get("TopologyType") == "Tetrahedron":
+        return _read_plane_segment(path, domain)
     grids = domain.findall("Grid")
     meshes = {g.get("Name"): g for g in grids if g.get("GridType") == "Uniform"}
     read: dict[str, tuple] = {}
@@ -79,8 +86,35 @@ def _read_segment(path: Path) -> list[Snapshot]:
     return [by_time[t] for t in sorted(by_time)]
 
 
+def _read_plane_segment(path: Path, domain) -> list[Snapshot]:
+    """A 3-D segment (one mesh of tetrahedra, as fd3d writes it) in its plane y = 0."""
+    folder = path.parent
+    grids = domain.findall("Grid")
+    mesh = next(g for g in grids if g.get("GridType") == "Uniform")
+    x = _data_item(folder, mesh.find("Geometry/DataItem"))
+    tetrahedra = _data_item(folder, mesh.find("Topology/DataItem")).astype(np.int64)
+    on = np.abs(x[:, 1]) <= 1e-9 * np.ptp(x, axis=0).max()
+    faces = np.concatenate([np.delete(tetrahedra, k, axis=1) for k in range(4)])
+    faces = faces[on[faces].all(axis=1)]  # on the boundary plane: each belongs to one tetrahedron
+    kept = np.flatnonzero(on)
+    number = np.full(len(x), -1, dtype=np.int64)
+    number[kept] = np.arange(len(kept))
+    found: dict[float, dict] = {}
+    for series in (g for g in grids if g.get("GridType") == "Collection"):
+        for grid in series.findall("Grid"):
+            attribute = grid.find("Attribute")
+            values = _data_item(folder, attribute.find("DataItem"))[kept]
+            found.setdefault(float(grid.find("Time").get("Value")), {})[attribute.get("Name")] = (
+                values[:, [0, 2]] if values.shape[-1] == 3 else values.reshape(len(kept), -1)[:, 0])
+    snapshots = []
+    for t in sorted(found):
+        points = x[kept][:, [0, 2]] + found[t].get("mesh_displacement", 0.0)
+        snapshots.append(Snapshot(t, points, number[faces], found[t]))
+    return snapshots
+
+
 def read_snapshots(run_dir: Path) -> list[Snapshot]:
-    """Every snapshot of a run, in time order, restart segments merged."""
+    """Every snapshot of a run, in time order, restart segments merged (a 3-D run's in its plane y = 0)."""
     segments = sorted(Path(run_dir).glob("fields-*.xdmf")) or sorted(Path(run_dir).glob("fields.xdmf"))
     if not segments:
         raise FileNotFoundError(f"{run_dir} has no fields-*.xdmf or fields.xdmf (run with "
@@ -113,14 +147,16 @@ def default_times(summary: dict) -> list[float]:
 
 
 def vorticity_figure(run_dir: Path, times: list[float] | None = None, path: Path | None = None,
-                     extent: tuple[float, float] = (2.5, 4.0)) -> Path:
+                     extent: tuple[float, float] = (2.5, 4.0), dpi: int = 130) -> Path:
     """(a) the trajectory with the snapshot instants, (b) vorticity contours omega sqrt(D/g) from -0.5 to
-    0.5 every 0.05 (as the paper's Fig. 11) near the axis, the sphere drawn black; extent = (r, z) in D."""
+    0.5 every 0.05 (as the paper's Fig. 11) near the axis, the sphere drawn black; extent = (r, z) in D.
+    A 3-D run (fd3d): omega_y in the plane y = 0 over -extent[0] < x/D < extent[0], the sphere's outline where the
+    flow has it (no lower than the contact's hold gap, flow_model.flow_gaps) and dashed where it is when lower."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Wedge
+    from matplotlib.patches import Circle, Wedge
     from matplotlib.tri import Triangulation
 
     from . import output, plots
@@ -131,8 +167,17 @@ def vorticity_figure(run_dir: Path, times: list[float] | None = None, path: Path
     snapshots = read_snapshots(run_dir)
     available = np.array([s.time for s in snapshots])
     chosen = [snapshots[int(np.argmin(np.abs(available - t)))] for t in (times or default_times(summary))]
-    fig = plt.figure(figsize=(3.0 + 2.4 * len(chosen), 4.2))
-    grid = fig.add_gridspec(1, len(chosen) + 1, width_ratios=[1.4] + [1.0] * len(chosen))
+    plane = "vorticity_y" in chosen[0].fields  # a 3-D run's plane of incidence, both sides of the axis
+    left = -extent[0] if plane else 0.0
+    hold = 0.0
+    if plane:
+        from .contact import ContactModel
+        from .scene import from_dict
+
+        hold = ContactModel(from_dict(summary["scene"])).hold_gap
+    width = (extent[0] - left) / 2.5  # a panel's width, the axisymmetric default's 1
+    fig = plt.figure(figsize=(3.0 + 2.4 * width * len(chosen), 4.2))
+    grid = fig.add_gridspec(1, len(chosen) + 1, width_ratios=[1.4] + [width] * len(chosen))
     ax = fig.add_subplot(grid[0])
     ax.plot(trajectory["t"] / t_unit, trajectory["gap"] / diameter, lw=1.0, color="k")
     for k, snap in enumerate(chosen, 1):
@@ -147,24 +192,31 @@ def vorticity_figure(run_dir: Path, times: list[float] | None = None, path: Path
     for k, snap in enumerate(chosen, 1):
         ax = fig.add_subplot(grid[k])
         tri = Triangulation(snap.points[:, 0] / diameter, snap.points[:, 1] / diameter, snap.triangles)
-        omega = np.clip(snap.fields["vorticity"] * t_unit, levels[0], levels[-1])
+        omega = np.clip(snap.fields["vorticity_y" if plane else "vorticity"] * t_unit, levels[0], levels[-1])
         ax.tricontourf(tri, omega, levels=levels, cmap="RdBu_r", extend="both")
         ax.tricontour(tri, omega, levels=levels[levels != 0.0], colors="k", linewidths=0.3)
-        center = (np.interp(snap.time, trajectory["t"], trajectory["gap"]) + radius) / diameter
-        ax.add_patch(Wedge((0.0, center), 0.5, -90, 90, color="k"))
+        gap = np.interp(snap.time, trajectory["t"], trajectory["gap"])
+        center = (gap + radius) / diameter
+        if plane:
+            ax.add_patch(Circle((0.0, (max(gap, hold) + radius) / diameter), 0.5, fill=False, lw=1.0, color="k"))
+            if gap < hold:
+                ax.add_patch(Circle((0.0, center), 0.5, fill=False, lw=0.8, ls="--", color="k"))
+        else:
+            ax.add_patch(Wedge((0.0, center), 0.5, -90, 90, color="k"))
         ax.axhline(0.0, color="k", lw=2)
-        ax.set_xlim(0.0, extent[0])
+        ax.set_xlim(left, extent[0])
         ax.set_ylim(0.0, extent[1])
         ax.set_aspect("equal")
         ax.set_title(f"({k}) t = {snap.time / t_unit:.2f}", fontsize=9)
-        ax.set_xlabel("r/D")
+        ax.set_xlabel("x/D" if plane else "r/D")
         if k == 1:
             ax.set_ylabel("z/D")
-    fig.suptitle(f"{summary['scene']['name']}: vorticity $\\omega\\sqrt{{D/g}}$, levels -0.5:0.05:0.5 "
+    fig.suptitle(f"{summary['scene']['name']}: vorticity $\\omega{'_y' if plane else ''}\\sqrt{{D/g}}$"
+                 f"{' in the plane y = 0' if plane else ''}, levels -0.5:0.05:0.5 "
                  f"({summary['model']} model)", fontsize=10)
     fig.tight_layout()
     out = Path(path) if path else run_dir / "vorticity.png"
-    fig.savefig(out, dpi=130)
+    fig.savefig(out, dpi=dpi)
     plt.close(fig)
     return out
 
