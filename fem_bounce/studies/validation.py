@@ -69,12 +69,16 @@ def _run(comm, name: str, out_dir: Path, overrides: dict | None, model: str = "f
 
 def brenner_drag(comm, out_dir: Path, deltas=(1.0, 0.5, 0.25), overrides: dict | None = None) -> list[dict]:
     """lambda = F / (6 pi mu a V) of a held sphere approaching the wall at Re -> 0, one gap at a time
-    (numerics.fd.steady_stokes: the step's exact steady state)."""
+    (numerics.fd.steady_stokes: the step's exact steady state).  The gap is delta times the sphere's diameter,
+    the preset's 0.01 m unless `overrides` sets sphere.diameter."""
     table = {row["delta"]: row["lambda_brenner"] for row in reference.table("brenner1961_wall_drag")}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        diameter = scenes.load("brenner-approach", overrides).sphere.diameter
     rows = []
     for delta in deltas:
         scene, summary, trajectory = _run(comm, "brenner-approach", Path(out_dir) / f"delta-{delta:g}", overrides,
-                                          **{"initial_gap": delta * 0.01, "numerics.fd.steady_stokes": True})
+                                          **{"initial_gap": delta * diameter, "numerics.fd.steady_stokes": True})
         stokes = 6.0 * math.pi * scene.liquid.viscosity * scene.sphere.radius * abs(scene.motion.velocity)
         measured = -trajectory["f_sim"][-1] * math.copysign(1.0, scene.motion.velocity) / stokes
         rows.append({"delta": delta, "lambda": measured, "reference": table[delta],
