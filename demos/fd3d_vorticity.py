@@ -1,15 +1,15 @@
 """Demo: the vorticity in the plane of incidence around a sphere bouncing in 3-D.
 
-What it solves.  Li, Hunt & Colonius (2011) case 3 (steel in glycerol-water, released 1.6 D above the wall, Re ~ 90
-at impact) with the 3-D fictitious-domain model (fd3d: Taylor-Hood tetrahedra of the half box y >= 0, the mesh
-moving with the sphere) at 6 cells/D to the first apex, writing velocity, pressure and omega_y = du_x/dz - du_z/dx
-to XDMF every two steps.  The figure is then drawn from those files only (fem_bounce.fields reads a 3-D run in its
-symmetry plane y = 0, the moving mesh's displacement added): (a) the trajectory with the snapshot instants, then
-contours of omega_y sqrt(D/g) from -0.5 to 0.5 every 0.05, as demos/case7_vorticity.py draws the axisymmetric
-models', on both sides of the axis: approaching (gap 1 D), just before contact, rebounding, at the apex.  The
-sphere's outline is where the flow has it: below delta_sl D = 0.2 D the flow holds it there and the contact model
-adds what it misses (docs/physics.md section 3.3); dashed, where the sphere is then.  The PNG is saved with 128
-colours (a fifth of the size, the same look).
+What it solves. Li, Hunt & Colonius (2011) case 3 (steel in glycerol-water, released 1.6 D above the wall, Re ~ 90 at
+impact) with the 3-D fictitious-domain model (fd3d: Taylor-Hood tetrahedra of the half box y >= 0, the mesh moving
+with the sphere) at 6 cells/D, its surface unrefined (a fifth of the default's cost), to the first apex, writing
+velocity, pressure and omega_y = du_x/dz - du_z/dx to XDMF every two steps. The figure is then drawn from those files
+only (fem_bounce.fields reads a 3-D run in its symmetry plane y = 0, the moving mesh's displacement added): (a) the
+trajectory with the snapshot instants, then contours of omega_y sqrt(D/g) from -0.5 to 0.5 every 0.05, as
+demos/case7_vorticity.py draws the axisymmetric models', on both sides of the axis: approaching (gap 1 D), just
+before contact, rebounding, at the apex. The sphere's outline is where the flow has it: below delta_sl D = 0.2 D the
+flow holds it there and the contact model adds what it misses (docs/physics.md section 3.3); dashed, where the sphere
+is then. The PNG is saved with 128 colours (a fifth of the size, the same look).
 
 Run (at 6 cells/D on the moving mesh, about 1.5 minutes on one core; `--toy`: 4 cells/D to t = 0.02 s, a few seconds):
 
@@ -40,8 +40,8 @@ parser.add_argument("--figure", type=Path, default=None, help="the figure's path
 parser.add_argument("--redraw", action="store_true", help="no run: the figure and the checks from OUT's files")
 args = parser.parse_args()
 
-settings = {"numerics.fd3d.mesh": "moving", "numerics.fd3d.cells_per_diameter": 6, "numerics.fd3d.output_every": 2,
-            "run.bounces": 1}
+settings = {"numerics.fd3d.mesh": "moving", "numerics.fd3d.cells_per_diameter": 6,
+            "numerics.fd3d.surface_refinement": 1, "numerics.fd3d.output_every": 2, "run.bounces": 1}
 if args.toy:
     settings.update({"numerics.fd3d.cells_per_diameter": 4, "run.end_time": 0.02})
 if not args.redraw:

@@ -186,7 +186,7 @@ class Fd3dNumerics:
     y >= 0 of tetrahedra.  Sizes are per sphere diameter D."""
 
     # tetrahedra D / this on the sphere's surface (on the fixed mesh wherever the patch lets it lie), and in the gap
-    cells_per_diameter: float = _setting(8.0, 2.0, 100.0)
+    cells_per_diameter: float = _setting(6.0, 2.0, 100.0)
     coarse_cells_per_diameter: float = _setting(0.5, 0.02, 100.0)  # largest tetrahedra, far away
     grading: float = _setting(0.3, 0.05, 2.0)  # size growth per unit distance from the fine shell
     # "moving": the mesh moves with the sphere (models/fd3d/motion.py: the ball and a layer of cells around it
@@ -194,8 +194,8 @@ class Fd3dNumerics:
     # sphere moves through a mesh fine in a patch around it
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
     # moving mesh: the sphere's surface's tetrahedra this many times finer than cells_per_diameter's (the gap below
-    # and the rest keep those)
-    surface_refinement: float = _setting(1.0, 1.0, 8.0)
+    # and the rest keep those): the rebound's error lives in the surface's cells
+    surface_refinement: float = _setting(3.0, 1.0, 8.0)
     # a new mesh (the flow interpolated and made divergence-free) when the sphere has moved patch_margin / 2 D from
     # where the mesh was made (on the fixed mesh the fine shell covers every place within that; on the moving mesh
     # also when the gap under the sphere has halved or doubled since)

@@ -25,6 +25,8 @@ TINY = {"numerics.fd3d.cells_per_diameter": 4, "run.end_time": 0.012}
 
 def run(tmp, model="fd3d", comm=MPI.COMM_WORLD, **overrides):
     settings = {**TINY, **overrides} if model == "fd3d" else overrides
+    if model == "fd3d" and settings.get("numerics.fd3d.mesh", "moving") == "moving":
+        settings.setdefault("numerics.fd3d.surface_refinement", 1)  # the toy's surface unrefined
     return simulate(scene.load("li2011-case3", settings), model, comm, tmp, force=True, progress=False, plots=False)
 
 

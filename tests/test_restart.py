@@ -42,6 +42,7 @@ CASES = {  # a toy run of each model that writes checkpoints, alone and in a pai
     # the 3-D model at 4 cells/D with a short patch (0.1 D of travel): 3 new meshes in 18 steps, the checkpoint at
     # step 10 after the first, so the restart must make that mesh again
     "fd3d": ["li2011-case3", "--model", "fd3d", "--set", "numerics.fd3d.cells_per_diameter=4", "--set",
+             "numerics.fd3d.surface_refinement=1", "--set",
              "numerics.fd3d.patch_margin=0.2", "--set", "run.end_time=0.03", "--set",
              "numerics.fd3d.checkpoint_every=10"],
 }

@@ -149,7 +149,7 @@ class FictitiousDomain3DModel(FlowModel):
         self.diameter, self.radius = sphere.diameter, sphere.radius
         self.fine_size = self.diameter / s.cells_per_diameter
         self.moving = s.mesh == "moving"
-        self.surface_size = self.fine_size / s.surface_refinement  # 1 on the fixed mesh (_check_scene)
+        self.surface_size = self.fine_size / (s.surface_refinement if self.moving else 1.0)
         self.coarse_size = max(self.diameter / s.coarse_cells_per_diameter, self.fine_size)
         self.travel = 0.5 * s.patch_margin * self.diameter  # the patch covers the centre within this of its own
         self.half_width = s.far_field * self.diameter
