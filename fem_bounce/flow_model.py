@@ -164,6 +164,21 @@ class Approach:
         return longest
 
 
+def safe_fixed_step(scene, speed: float) -> float:
+    """The longest fixed step [s] that closes no contact by more than its gap (Approach.longest at MAX_GAP_FRACTION)
+    where that gap is least, at the contact model's gap (delta_sl D; delta_sl 2a* for a pair), every moving body at
+    the scene's speed scale `speed` [m/s] (a pair closing at twice it) and pulled by its net weight: a step at the
+    impact speed then carries a sphere at most half across the contact's gap, so that the approach into it and the
+    rebound out of it take steps of their own (math.inf: nothing can close).  What a model whose steps cannot be
+    shortened refuses a longer step by (numerics.fd.constraint = "penalty")."""
+    approach, bodies = approach_for(scene), scene_bodies(scene)
+    gaps = [approach.contact_gaps[0]]
+    for k in range(1, len(bodies)):
+        gaps.append(gaps[-1] + bodies[k - 1].diameter + approach.contact_gaps[k])
+    velocities = [0.0 if body.held else speed for body in bodies]
+    return approach.longest(gaps, velocities, MAX_GAP_FRACTION)
+
+
 def approach_for(scene) -> Approach:
     """The scene's Approach: its spheres, their net weights and the contact model's gaps."""
     bodies = scene_bodies(scene)

@@ -62,14 +62,17 @@ class FdNumerics:
     wall_radius: float = _setting(0.6, 0.05, 10.0)
     # dt <= cfl * fine size / (1.5 speed scale); unset: the constraint's own, 0.2 for "penalty" (its convection is
     # explicit, and this is its stability bound), for "implicit" an accuracy choice (no step bound): 0.8 on the
-    # moving mesh, 0.4 on the fixed one, whose band needs the finer step
+    # moving mesh, 0.4 on the fixed one, whose band needs the finer step.  "penalty" refuses a step that could close
+    # more than a contact's gap (its steps are never shortened: flow_model.safe_fixed_step names the largest cfl)
     cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
     # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
     # approach to a contact (a step closes at most gap_fraction of the gap at the sphere's speed) and the changes of
     # the sphere's velocity ask (flow_model.StepLimits); unset: the constraint's own, true for "implicit" (it
     # assembles every step anyway) at time_order 1 or 2, false for "penalty" (it keeps its factors: one step length).
     # Whatever the floor and from rest, a step closes at most twice gap_fraction of the gap with the sphere's
-    # speed and net weight (flow_model.Approach): at most 0.5, so that no step reaches the contact
+    # speed and net weight (flow_model.Approach): at most 0.5, so that no step reaches the contact; fixed steps
+    # (false, "implicit") are shortened only where they could close more than the gap (for one sphere never at the
+    # default cfl)
     adaptive_step: bool | None = None
     min_step_factor: float = _setting(0.05, 0.001, 1.0)
     max_step_factor: float = _setting(2.0, 1.0, 50.0)
@@ -124,7 +127,8 @@ class IbNumerics:
     """Immersed-boundary model (fem_bounce.models.ib).  Lengths in sphere diameters or fine cells."""
 
     cells_per_diameter: float = _setting(32.0, 2.0, 400.0)  # fine uniform spacing h = D / this
-    cfl: float = _setting(0.4, 0.01, 2.0)  # dt = cfl * h / speed scale (the expected impact speed)
+    # dt = cfl * h / speed scale (the expected impact speed), halved where a step could close more than the gap
+    cfl: float = _setting(0.4, 0.01, 2.0)
     max_cfl: float = _setting(1.0, 0.05, 5.0)  # measured CFL above this halves dt (refactorises)
     viscous_cfl: float = _setting(5.0, 0.1, 1e6)  # and dt <= viscous_cfl * h^2 / nu
     far_field: float = _setting(15.0, 1.0, 200.0)  # unbounded: slip boundary this far beyond the fine region
@@ -157,7 +161,7 @@ class AleNumerics:
     time_order: int = _setting(2, 1, 2)  # BDF order of the flow and the mesh motion
     # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
     # approach to a contact and the changes of the sphere's velocity ask (models/ale/domain.py next_time_step);
-    # false: the cfl step throughout
+    # false: the cfl step throughout, shortened only where it could close more than the gap (flow_model.Approach)
     adaptive_step: bool = False
     min_step_factor: float = _setting(0.125, 0.001, 1.0)
     max_step_factor: float = _setting(4.0, 1.0, 50.0)

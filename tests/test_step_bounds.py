@@ -1,11 +1,17 @@
 """Issue 58, items 1, 2, 6, 7 and 8: how long the resolved models' steps are, and what their summaries count.
 
 - A run ends at run.end_time: the last step is shortened (with the variable-step BDF coefficients), on every mesh
-  and with fixed or adaptive steps (before: up to a whole step past it; a held fd sphere's steady state to the end
-  of a whole cfl step, 0.67 s for an end time of 0.2 s).
+  and with fixed or adaptive steps, the one-shot penalty's (its matrix factorised once more) and the ib model's (K
+  refactorised) too (before: up to a whole step past it; a held fd sphere's steady state to the end of a whole cfl
+  step, 0.67 s for an end time of 0.2 s).
 - No adaptive step jumps a collision: every step, the first included and below the step floor, closes at most
   twice gap_fraction of each gap (flow_model.Approach; before: a sphere released from rest has speed 0, so the
   first step, the cfl step, was unbounded, and the floor min_step_factor x cfl step overrode the gap's bound).
+- Nor does a fixed step: on the moving meshes (ale's default, fd's with adaptive_step = false), on the fixed mesh
+  with the implicit constraint and in the ib model (halving dt) a fixed step is shortened where it could close more
+  than the gap (Approach.longest at MAX_GAP_FRACTION; never at the defaults); the one-shot penalty, whose factors
+  keep one step length, refuses a step longer than flow_model.safe_fixed_step (before: cfl 50 or 20, in range, put
+  the whole bounce in one or two steps).
 - numerics.fd.penalty_strength below 100 is refused (it no longer holds the sphere); hold_delta where the near-wall
   correction holds every contact, or on the fixed mesh, and penalty_strength with constraint = "penalty" are
   refused naming what to set instead (before: read nowhere, silently).
@@ -20,10 +26,14 @@ import numpy as np
 import pytest
 
 import fem_bounce as fb
-from fem_bounce.flow_model import Approach, StepLimits, approach_for
+from mpi4py import MPI
+
+from fem_bounce.flow_model import Approach, StepLimits, approach_for, safe_fixed_step
+from fem_bounce.models.fd.model import FictitiousDomainModel
 
 TOY = {"numerics.fd.cells_per_diameter": 4}
 ALE_TOY = {"numerics.ale.cells_per_diameter": 4}
+IB_TOY = {"numerics.ib.cells_per_diameter": 6}
 
 
 # -- 1. the end time ------------------------------------------------------------------------------------------------
@@ -37,6 +47,7 @@ ALE_TOY = {"numerics.ale.cells_per_diameter": 4}
             "numerics.fd.time_order": 3}),  # its last step BDF2 with the variable-step coefficients
     ("ale", ALE_TOY),  # fixed steps (the ale default)
     ("ale", {**ALE_TOY, "numerics.ale.adaptive_step": True}),
+    ("fd", {**TOY, "numerics.fd.mesh": "fixed", "numerics.fd.constraint": "penalty"}),  # refactorised once for it
 ])
 def test_a_run_ends_at_its_end_time(model, settings):
     """Case 3 to 0.0123 s, within a step of none of the models' grids: the last row is at the end time (before:
@@ -94,6 +105,78 @@ def test_an_in_range_cfl_does_not_put_the_bounce_in_one_step(model, settings, le
     assert result.summary["steps"] >= least
     restitution = result.rebounds[0].restitution
     assert 0.7 < restitution < 0.85  # (the default cfl: 0.790 fd, 0.802 ale)
+
+
+def test_the_safe_fixed_step_is_half_the_contact_gap_at_the_impact_speed():
+    """flow_model.safe_fixed_step: at the contact model's gap delta_sl D and the speed scale U a step closes at most
+    that gap (half of it from the speed, half from the net weight); a pair closes at both speeds, over its own gap
+    delta_sl 2a* (a* = a / 2 for equal spheres); nothing held closes."""
+    case3 = fb.load("li2011-case3")
+    contact = case3.contact.delta_sl * case3.sphere.diameter
+    assert safe_fixed_step(case3, 0.4) == pytest.approx(0.5 * contact / 0.4)
+    pair = fb.load("yang-hunt2006-pair")  # no wall, no gravity: the pair's gap alone
+    assert safe_fixed_step(pair, 0.3) == pytest.approx(0.5 * pair.contact.delta_sl * pair.sphere.radius / 0.6)
+    assert safe_fixed_step(fb.load("sphere-drag-re100"), 0.1) == math.inf  # a held sphere
+
+
+@pytest.mark.parametrize("model, settings, least", [
+    ("ale", {**ALE_TOY, "numerics.ale.cfl": 20.0}, 8),  # ale's default fixed steps; before: 2 steps, e 0.875
+    ("fd", {**TOY, "numerics.fd.cfl": 50.0, "numerics.fd.adaptive_step": False}, 8),  # before: 1 step, e 0.881
+    ("fd", {**TOY, "numerics.fd.cfl": 50.0, "numerics.fd.adaptive_step": False, "numerics.fd.mesh": "fixed"},
+     8),  # before: 1 step, e 0.886
+    ("ib", {**IB_TOY, "numerics.ib.cfl": 2.0, "numerics.ib.max_cfl": 5.0}, 35),  # before: 19 steps, e 0.872
+])
+def test_a_large_cfl_with_fixed_steps_no_longer_jumps_the_collision(model, settings, least):
+    """Fixed steps had no gap bound: ale's cfl 20 (its default fixed steps) took case 3's fall, collision and
+    rebound in 2 steps, fd's cfl 50 with adaptive_step = false in 1 (e 0.875-0.886 against 0.79-0.80 at the
+    defaults).  Where the moving mesh, the implicit constraint or the ib model can shorten a step they now do,
+    where it could close more than the gap (Approach.longest at MAX_GAP_FRACTION; measured: 10-11 steps, e
+    0.828-0.835; ib with its measured-CFL halving pushed out of the way, max_cfl 5: 42 steps, e 0.855 against
+    0.848 at its default cfl)."""
+    result = fb.simulate(fb.load("li2011-case3", {**settings, "run.bounces": 1}), model, plots=False)
+    assert result.summary["steps"] >= least
+    assert 0.75 < result.rebounds[0].restitution < 0.86
+
+
+def test_a_one_shot_penalty_step_that_could_jump_a_collision_is_refused(tmp_path):
+    """The one-shot penalty keeps its factors for one step length, so its steps are not shortened near the wall:
+    cfl 5 at 4 cells/D (in range; its step then set by forcing_number, 0.00338 s) ran 25 steps to e 0.846.  Refused
+    before anything is written, with the largest cfl and forcing_number this scene allows (a step at the impact speed
+    scale carrying the sphere at most half across delta_sl D: 0.00196 s) and the alternative; the default cfl 0.2
+    and cfl 0.5 pass."""
+    penalty = {**TOY, "numerics.fd.mesh": "fixed", "numerics.fd.constraint": "penalty"}
+    with pytest.raises(fb.SceneError, match=r"numerics.fd.cfl = 5 with forcing_number = 0.025 .* fixed step "
+                                            r"0.00338 s, longer than the 0.00196 s this scene allows .* "
+                                            r"numerics.fd.cfl up to 0.6, or forcing_number up to 0.0145; or set "
+                                            r"numerics.fd.constraint = \"implicit\""):
+        fb.simulate(fb.load("li2011-case3", {**penalty, "numerics.fd.cfl": 5.0}), "fd", out=tmp_path / "run",
+                    plots=False)
+    assert not (tmp_path / "run").exists()
+    FictitiousDomainModel(fb.load("li2011-case3", {**penalty, "numerics.fd.cfl": 0.5}), MPI.COMM_WORLD)
+
+
+@pytest.mark.parametrize("model, settings", [
+    ("ib", {**IB_TOY, "numerics.ib.checkpoint_every": 3}),
+    ("fd", {**TOY, "numerics.fd.mesh": "fixed", "numerics.fd.constraint": "penalty", "numerics.fd.patch": False,
+            "numerics.fd.checkpoint_every": 3}),
+])
+def test_a_run_continued_past_a_shortened_last_step_is_the_longer_run(tmp_path, model, settings):
+    """The ib model's and the one-shot penalty's last step is shortened to end at run.end_time (a new K, a new
+    matrix; before: they ended at the end of the step that passed it, the ib model by up to a step of 1.3 ms here)
+    and writes no checkpoint: a run to 0.03 s continued to 0.05 s goes on from the checkpoint before it, on whole
+    steps, as the run to 0.05 s did.  (The ib step is at most end_time / 20: these end times leave it the cfl's.)"""
+    whole = fb.simulate(fb.load("li2011-case3", {**settings, "run.end_time": 0.05}), model, plots=False)
+    first = fb.simulate(fb.load("li2011-case3", {**settings, "run.end_time": 0.03}), model, out=tmp_path / "run",
+                        plots=False)
+    assert first.summary["final"]["time"] == pytest.approx(0.03, rel=1e-12, abs=0.0)
+    assert first.trajectory["t"][-1] == pytest.approx(0.03, rel=1e-12, abs=0.0)
+    assert first.summary["steps"] < whole.summary["steps"]
+    toml = Path(tmp_path / "run" / "scene.toml")
+    toml.write_text(toml.read_text().replace("end_time = 0.03", "end_time = 0.05"))
+    resumed = fb.resume(tmp_path / "run", plots=False)
+    assert resumed.summary["final"]["time"] == pytest.approx(0.05, rel=1e-12)
+    assert resumed.summary["steps"] == whole.summary["steps"]
+    assert resumed.trajectory["velocity"][-1] == pytest.approx(whole.trajectory["velocity"][-1], rel=1e-9)
 
 
 def test_a_gap_fraction_above_a_half_is_refused():

@@ -231,6 +231,11 @@ class ImmersedBodies:
         stale = [sphere for sphere in self.spheres if sphere.unit_stale]
         return [sphere.unit_forcing() for sphere in stale], [sphere.unit for sphere in stale]
 
+    def forget_units(self) -> None:
+        """Every y1_j stale (the step's c and matrix changed: the one-shot penalty's shortened last step)."""
+        for sphere in self.spheres:
+            sphere._unit_at = None
+
     def forcing(self, predicted: fem.Function) -> PETSc.Vec:
         """-rho c sum_i phi_i u~, ready for the flow solver; its response y0 goes to `self.forced`."""
         flow = self.flow

@@ -40,14 +40,14 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.mesh import check_size, create_mesh
 from ...fem.transfer import DivergenceFreeProjection, SerialField, interpolate_from
 from ...fem.solver import SolverError
-from ...flow_model import (FlowModel, PastLevels, StepLimits, approach_for, end_clipped, fixed_step_time, flow_gaps,
-                           nearest_gap, steps_to)
+from ...flow_model import (MAX_GAP_FRACTION, FlowModel, PastLevels, StepLimits, approach_for, end_clipped,
+                           fixed_step_time, flow_gaps, nearest_gap, safe_fixed_step, steps_to)
 from ...kinematics import FluidForce, Prediction
 from ...motion import is_stream
 from ...output import CheckpointError, body_array, per_body, segment_path
 from ...scene import SceneError, pair_diameter
 from . import coupling
-from .domain import Domain, domain_for, patch_center, penalty_rate, time_step
+from .domain import PEAK_SPEED_FACTOR, Domain, domain_for, patch_center, penalty_rate, time_step
 from .fluid import FlowSolver
 from .immersed import ImmersedBodies, check_hold, interior_slip
 from .penalised import PenalisedFlow
@@ -112,6 +112,7 @@ class FictitiousDomainModel(FlowModel):
         self.step_limits = StepLimits(self.cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"),
                                       fd.gap_fraction, approach_for(scene))
         self.time, self.last_step = 0.0, 0.0  # t_n and the step that reached it [s]
+        self.bound = math.inf  # fixed implicit steps: the longest the gaps allow where the coming step starts [s]
         self.step_range = [math.inf, 0.0]  # the shortest and longest step taken [s]
         self.bodies = scene_bodies(scene)
         self.held = np.array([body.held for body in self.bodies])  # the flow holds them where they start
@@ -139,6 +140,8 @@ class FictitiousDomainModel(FlowModel):
                              "second_sphere.mode) without a stream")
         if len(self.bodies) > 1:
             self._check_spheres(scene)
+        if not self.implicit and not self.steady:
+            self._check_penalty_step(scene)
 
     def _check_unread(self, scene) -> None:
         """Settings this mesh and constraint would read nowhere, refused (as the moving mesh refuses the fixed mesh's,
@@ -154,6 +157,25 @@ class FictitiousDomainModel(FlowModel):
                              "friction; constraint = \"penalty\" forces with rho c phi, c = 3 / (2 dt), and reads it "
                              "nowhere: unset it, and set numerics.fd.forcing_number (its rigidity: dt <= "
                              "forcing_number h^2 / nu) or numerics.fd.constraint = \"implicit\"")
+
+    def _check_penalty_step(self, scene) -> None:
+        """The one-shot penalty keeps its factors for one step length, so its steps are never shortened near a
+        contact: a step that could close more than the contact's gap (flow_model.safe_fixed_step: at the impact
+        speed scale, half of delta_sl D) is refused, naming the setting that makes it."""
+        fd, speed = self.settings, speed_scale(scene, "fd")
+        safe = safe_fixed_step(scene, speed)
+        if self.cfl_step <= safe * (1.0 + 1e-9):
+            return
+        fine, nu = scene.sphere.diameter / fd.cells_per_diameter, scene.liquid.kinematic_viscosity
+        cfl = fd.resolved("cfl")  # dt = min(cfl h / (1.5 U), forcing_number h^2 / nu): either one shortens it
+        raise SceneError(f"numerics.fd.cfl = {cfl:g} with forcing_number = {fd.forcing_number:g} makes the one-shot "
+                         f"penalty's fixed step {self.cfl_step:.3g} s, longer than the {safe:.3g} s this scene allows "
+                         f"(a step at the impact speed scale, {speed:.3g} m/s, carrying a sphere "
+                         "at most half across the contact model's gap delta_sl D): the step could jump a collision, "
+                         "and the penalty's factors keep one step length.  Allowed for this scene: numerics.fd.cfl up "
+                         f"to {safe * PEAK_SPEED_FACTOR * speed / fine:.3g}, "
+                         f"or forcing_number up to {safe * nu / fine**2:.3g}; or set numerics.fd.constraint = "
+                         "\"implicit\" (its adaptive steps are bounded by the gaps)")
 
     def _check_spheres(self, scene) -> None:
         """What more than one sphere needs, refused here, before the run writes anything."""
@@ -242,31 +264,35 @@ class FictitiousDomainModel(FlowModel):
 
     # The clock: t_n + dt with adaptive steps, (n + 1) dt with fixed ones, the last step shortened to end at
     # run.end_time (flow_model.end_clipped) with the variable-step BDF coefficients (order 2 for time_order 3, that
-    # step only: fluid.FlowSolver.set_time_step).  The one-shot penalty keeps its factors for one step length, so
-    # its last step is a whole one and may end past the end time (by less than a step).
+    # step only: fluid.FlowSolver.set_time_step).  The one-shot penalty keeps its factors for one step length: its
+    # shortened last step assembles and factorises its matrix once more (_shorten_penalty_step), and its steps are
+    # not shortened near a contact (a step that could jump one is refused: _check_penalty_step).
     def previous_time_step(self) -> float | None:
         if self.adaptive:
             return self.last_step if self.last_step else None
-        return None if self.step_length() == self.dt or not self.last_step else self.last_step
+        length = self.step_length()
+        return None if not self.last_step or math.isclose(length, self.last_step, rel_tol=1e-9) else self.last_step
 
     def start_step(self, gaps: np.ndarray, velocities: np.ndarray) -> None:
         """Adaptive steps: the coming one no longer than StepLimits.first allows from the spheres' `gaps` [m] and
-        `velocities` [m/s] where it starts (the first step too)."""
+        `velocities` [m/s] where it starts (the first step too).  Fixed implicit steps: shortened only where the
+        gaps ask for it, closing no contact by more than its gap (Approach.longest at MAX_GAP_FRACTION, as the
+        moving mesh's fixed steps: for one sphere never at the default cfl)."""
         if self.adaptive:
             self.dt = self.step_limits.first(self.dt, gaps, velocities)
+        elif self.implicit:
+            self.bound = self.step_limits.approach.longest(gaps, velocities, MAX_GAP_FRACTION)
 
     def time_step(self) -> float:
         return self.step_length()
 
     def next_time(self) -> float:
-        if not self.implicit:
-            return (self.step + 1) * self.dt
         return end_clipped(self._unclipped_time(), self.scene.run.end_time, self.cfl_step)
 
     def _unclipped_time(self) -> float:
         if self.adaptive:
             return self.time + self.dt
-        return fixed_step_time(self._now(), self.step, self.dt, self.last_step)
+        return min(fixed_step_time(self._now(), self.step, self.dt, self.last_step), self._now() + self.bound)
 
     def step_length(self) -> float:
         """The length of the coming step [s]: dt, or what is left of it (next_time)."""
@@ -281,7 +307,7 @@ class FictitiousDomainModel(FlowModel):
         return self.time
 
     def finished(self, end_time: float) -> bool:
-        if self.adaptive or (self.implicit and abs(self._now() - self.step * self.dt) > 1e-9 * self.dt):
+        if self.adaptive or abs(self._now() - self.step * self.dt) > 1e-9 * self.dt:
             return self._now() >= end_time - 1e-9 * self.cfl_step  # (fixed steps: off their grid, past a restart)
         return self.step >= steps_to(end_time, self.dt)
 
@@ -301,7 +327,7 @@ class FictitiousDomainModel(FlowModel):
         if self.patches is not None:
             self.follow(centers)
         self._length = self.step_length()
-        self._short = self.implicit and self.next_time() != self._unclipped_time()  # shortened to end at end_time
+        self._short = self.next_time() != self._unclipped_time()  # shortened to end at end_time
         if self.implicit:  # (fixed steps: the same coefficients every step but a shortened last one)
             self.flow.set_time_step(self._length, self.previous_time_step())
             self.history.bdf = self.flow.bdf
@@ -312,6 +338,8 @@ class FictitiousDomainModel(FlowModel):
             linear = self.flow.linearise(self.history.momentum_history, self.history.reference_velocity)
         else:
             self.immersed.place(centers)
+            if self._short:
+                self._shorten_penalty_step()
             linear = self._linearise_penalty()
         if not (np.all(np.isfinite(linear.explicit)) and np.all(np.isfinite(linear.added_mass))):
             raise FloatingPointError(f"the fluid force became {linear.explicit} N at "
@@ -321,6 +349,18 @@ class FictitiousDomainModel(FlowModel):
         implicit = self.settings.coupling == "implicit"
         return FluidForce(explicit=linear.explicit, added_mass=linear.added_mass if implicit
                           else np.zeros_like(linear.added_mass))
+
+    def _shorten_penalty_step(self) -> None:
+        """The one-shot penalty's last step, shortened to end at run.end_time: its matrix (rho c M + mu K, c of the
+        variable-step BDF2) assembled and factorised once more, the unit responses (rho c phi) made again.  The run
+        ends with it, and no checkpoint is written there (FlowModel.ended_short): a run continued past its end time
+        goes on from the checkpoint before, on the whole step's factors."""
+        flow = self.flow
+        flow.set_time_step(self._length, self.previous_time_step())
+        flow.assembler.assemble()
+        flow.operator.refactor()
+        self.history.bdf = flow.bdf
+        self.immersed.forget_units()  # y1 = A^-1 rho c phi: both changed
 
     def _linearise_penalty(self) -> coupling.Linearised:
         """The penalty forcing rho c sum_i phi_i (U_i - u~) (the default scheme): the predictor and the unit

@@ -1,7 +1,11 @@
 """The immersed-boundary model (`--model ib`): the paper's own method (section 2.1).
 
 Each fluid step of size dt (fixed, chosen from the CFL number and the expected
-impact speed; halved if the measured CFL number exceeds `max_cfl`):
+impact speed; halved if the measured CFL number exceeds `max_cfl`, or where the
+step could close more than the gap to the wall, flow_model.Approach at
+MAX_GAP_FRACTION, never at the defaults; the last one shortened to end at
+run.end_time: each new dt refactorises K, which Crank-Nicolson and the
+variable-step AB2 convection allow):
 
 1. predict the sphere's gap at t + dt from its last two velocities and place
    the Lagrangian points there;
@@ -43,7 +47,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ...errors import RunDiverged
-from ...flow_model import FlowModel
+from ...flow_model import MAX_GAP_FRACTION, FlowModel, approach_for
 from ...kinematics import FluidForce, Prediction
 from ...motion import is_free, is_held, series_speed
 from ...output import CheckpointError
@@ -83,6 +87,9 @@ class ImmersedBoundaryModel(FlowModel):
         self.ops = AxisymmetricOperators(self.grid)
         self.held = is_held(scene)  # at its initial gap: the flow meets motion.velocity there, no f1 is needed
         self.dt, self.speed_scale = time_step(scene, self.grid.h)
+        self.approach = approach_for(scene)
+        self.bound = math.inf  # the longest step the gap allows where the coming one starts [s] (start_step)
+        self._short = False
         h = self.grid.h
         exclusion = self.opts.wall_exclusion * h if self.grid.boundaries.bottom == WALL else -math.inf
         self.surface = SphereSurface(scene.sphere.radius, self.opts.point_spacing * h,
@@ -147,6 +154,23 @@ class ImmersedBoundaryModel(FlowModel):
 
     def initial_velocities(self) -> list[np.ndarray]:
         return [np.array([self._start_velocity]), np.array([self.warm.v_old])]
+
+    def start_step(self, gaps: np.ndarray, velocities: np.ndarray) -> None:
+        """The coming step: dt halved while it could close more than the gap to the wall (Approach.longest at
+        MAX_GAP_FRACTION: at most the gap, delta_sl D where less), and shortened to end at run.end_time when it would
+        pass it; either refactorises K (and drops the force tables, which depend on dt)."""
+        solver, end_time = self.solver, self.scene.run.end_time
+        self.bound = math.inf if self.held else self.approach.longest(gaps, velocities, MAX_GAP_FRACTION)
+        dt = solver.dt
+        while dt > self.bound:
+            dt *= 0.5
+        self._short = self.time + dt > end_time + 1e-9 * dt
+        if self._short:
+            dt = end_time - self.time
+        if dt != solver.dt:
+            solver.set_time_step(dt)
+            self.preconditioner.clear()
+            self.stats.refactorised()
 
     def time_step(self) -> float:
         return self.solver.dt
@@ -217,8 +241,10 @@ class ImmersedBoundaryModel(FlowModel):
             raise RunDiverged(f"t = {self.time:.5g} s: the flow or the sphere became NaN")
         self.time = time_now
         self.step = stats.steps
+        self.ended_short = self._short  # no checkpoint there: a run continued past its end goes on from the one before
         self.drag_history.append((time_now, explicit))
-        self._adapt_time_step(solver, self.preconditioner, stats)
+        if not self._short:
+            self._adapt_time_step(solver, self.preconditioner, stats)
 
     # -- checkpoints: everything the next step reads, so a restart continues to the same numbers --
     def checkpoint_state(self) -> tuple[dict, dict]:
@@ -296,7 +322,7 @@ class ImmersedBoundaryModel(FlowModel):
         new_dt = None
         if stats.cfl > limit:
             new_dt = 0.5 * solver.dt
-        elif stats.calm_steps >= 50 and solver.dt < self.dt:
+        elif stats.calm_steps >= 50 and solver.dt < self.dt and 2.0 * solver.dt <= self.bound:
             new_dt = min(2.0 * solver.dt, self.dt)
         if new_dt is not None:
             solver.set_time_step(new_dt)
