@@ -70,7 +70,7 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.geometry import Cartesian
 from ...fem.solver import SolverError
 from ...fem.transfer import DivergenceFreeProjection
-from ...flow_model import FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, nearest_gap
+from ...flow_model import FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, nearest_gap, safe_fixed_step
 from ...kinematics import FluidForce, Prediction
 from ...motion import is_free, is_stream
 from ...output import CheckpointError, body_array, segment_path
@@ -160,6 +160,14 @@ class FictitiousDomain3DModel(FlowModel):
         self.penalty_rate = s.penalty_strength * max(nu / self.surface_size**2, speed / self.surface_size,
                                                      1.5 / self.cfl_step)
         self.adaptive = s.adaptive_step
+        safe = safe_fixed_step(scene, speed)
+        if not self.adaptive and self.cfl_step > safe * (1.0 + 1e-9):  # fixed steps are never shortened
+            raise SceneError(f"numerics.fd3d.cfl = {s.cfl:g} with adaptive_step = false makes a fixed step of "
+                             f"{self.cfl_step:.3g} s, longer than the {safe:.3g} s this scene allows (a step at the "
+                             f"impact speed scale, {speed:.3g} m/s, carrying the sphere at most half across the "
+                             "contact model's gap delta_sl D): it could jump a collision.  Allowed for this scene: "
+                             f"numerics.fd3d.cfl up to {safe * PEAK_SPEED_FACTOR * speed / self.fine_size:.3g}, or "
+                             "adaptive_step = true (its steps are bounded by the gaps)")
         self.step_limits = StepLimits(self.cfl_step, s.min_step_factor, s.max_step_factor, speed, s.gap_fraction,
                                       approach_for(scene))
         self.time, self.last_step = 0.0, 0.0  # t_n and the step that reached it (adaptive steps) [s]
