@@ -113,7 +113,24 @@ def markdown() -> str:
         lines += [f"| `{_cell(row.key)}` | {_cell(row.default)} | {_cell(row.allowed)} | {_cell(row.unit)} | "
                   f"{_cell(row.note)} |" for row in rows]
         parts.append("\n".join(lines))
+        unread = _unread_list(prefix)
+        if unread:
+            parts.append(unread)
     return "\n\n".join(parts) + "\n"
+
+
+def _unread_list(prefix: str) -> str:
+    """The settings of a numerics table that a mode of its model reads nowhere (models/unread.py RULES), refused when
+    set away from their defaults; "" for a table without any."""
+    from .models.unread import RULES
+
+    model = prefix.removeprefix("numerics.")
+    rules = RULES.get(model, ()) if prefix.startswith("numerics.") else ()
+    if not rules:
+        return ""
+    items = [f"- {rule.mode}: " + ", ".join(f"`{name}`" for name in rule.names) for rule in rules]
+    return ("Read nowhere, and so refused when set away from its default, in these modes (a one-line error saying "
+            "what to set instead; `fem_bounce/models/unread.py`):\n\n" + "\n".join(items))
 
 
 # -- reading the dataclasses -----------------------------------------------------------------------

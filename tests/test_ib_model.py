@@ -14,7 +14,10 @@ TOY = {"numerics.ib.cells_per_diameter": 8, "numerics.ib.far_field": 4.0, "numer
 
 
 def toy(name, **changes):
-    return scene.load(name, {**TOY, **changes})
+    settings = {**TOY, **changes}
+    if "container" in changes or not scene.load(name).container.unbounded:
+        del settings["numerics.ib.far_field"]  # it sizes the unbounded domain only (models/unread.py)
+    return scene.load(name, settings)
 
 
 @pytest.mark.mpi

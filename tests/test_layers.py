@@ -27,7 +27,6 @@ LAYERS = {
     "fem_bounce.materials": FOUNDATIONS,
     # the scene imports none of the physics that reads it
     "fem_bounce.scene": SCENE,
-    "fem_bounce.settings_reference": SCENE,  # the settings reference, generated from the scene's metadata
     "fem_bounce.uncertain": SCENE,  # uncertain settings: ranges checked against the scene's metadata
     "fem_bounce.motion": BODIES,
     "fem_bounce.bodies": BODIES,
@@ -106,6 +105,9 @@ LAYERS = {
     "fem_bounce.models.ale.domain": MODELS,
     "fem_bounce.models.ale.flow": MODELS,
     "fem_bounce.models.ale.model": MODELS,
+    "fem_bounce.models.unread": MODELS,  # the settings each model's modes read nowhere, refused
+    # the settings reference, generated from the scene's metadata and the models' refusals (models.unread)
+    "fem_bounce.settings_reference": MODELS,
     # one run: the controller, run_logged, restart_target
     "fem_bounce.run": RUN,
     # many runs: the cache of finished runs, the workers, the studies

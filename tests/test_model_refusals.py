@@ -92,3 +92,107 @@ def test_settings_say_what_they_do(case, tmp_path, monkeypatch, capsys, mpiexec)
                                 "--out", "notes", "--force"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
         assert ended.returncode == 2
         assert_one_line(ended.stderr.splitlines(), "error: notes is not a fem-bounce run directory")
+
+
+# -- settings a mode reads nowhere (models/unread.py) -----------------------------------------------------------------
+
+# a scene in each mode of models/unread.py RULES (preset, settings), and a value away from the default for each
+# setting a rule names
+MODE_SCENES = {
+    ("fd", "steady_stokes = true"): ("brenner-approach", {"numerics.fd.steady_stokes": True}),
+    ("fd", 'steady_stokes = true with constraint = "implicit"'): ("brenner-approach",
+                                                                  {"numerics.fd.steady_stokes": True}),
+    ("fd", 'the fixed mesh (mesh = "fixed", or steady_stokes)'): ("li2011-case3", {"numerics.fd.mesh": "fixed"}),
+    ("fd", "every sphere held, on the fixed mesh"): ("brenner-approach", {"numerics.fd.mesh": "fixed"}),
+    ("fd", "the fixed mesh without patches (patch = false, or every sphere held)"):
+        ("li2011-case3", {"numerics.fd.mesh": "fixed", "numerics.fd.patch": False}),
+    ("fd", "the fixed mesh without a wall box (wall_cells_per_diameter no finer than cells_per_diameter, or a "
+           "stream)"): ("li2011-case3", {"numerics.fd.mesh": "fixed"}),
+    ("fd", 'fixed steps (adaptive_step false, set or resolved: constraint = "penalty", time_order 3)'):
+        ("li2011-case3", {"numerics.fd.adaptive_step": False}),
+    ("fd", 'constraint = "implicit"'): ("li2011-case3", {}),
+    ("fd", "the moving mesh"): ("li2011-case3", {}),
+    ("fd", "a container"): ("tencate2002-e4", {}),
+    ("ale", 'every sphere held and fixed_solver = "steady"'): ("sphere-drag-re100", {}),
+    ("ale", "fixed steps (adaptive_step = false)"): ("li2011-case3", {}),
+    ("ale", 'factorisation = "every-step"'): ("li2011-case3", {"numerics.ale.factorisation": "every-step"}),
+    ("ale", "a sphere not held"): ("li2011-case3", {}),
+    ("ale", "the near-wall correction holding every contact"): ("yang-hunt2006-pair", {}),
+    ("ale", "a container"): ("tencate2002-e4", {}),
+    ("ib", "a container"): ("tencate2002-e4", {}),
+    ("ib", "a stream"): ("sphere-drag-re100", {}),
+    ("ib", "a held sphere"): ("sphere-drag-re100", {}),
+}
+AWAY = {"adaptive_step": False, "min_step_factor": 0.1, "max_step_factor": 1.0, "gap_fraction": 0.2,
+        "coupling": "explicit", "time_order": 1, "solver": "fieldsplit", "surface_refinement": 3.0,
+        "min_quality": 0.2, "min_gap_cells": 3.0, "patch": False, "patch_margin": 0.5,
+        "wall_cells_per_diameter": 4.0, "wall_layer": 0.5, "wall_radius": 1.0, "forcing_number": 0.05,
+        "far_field": 20.0, "cfl": 0.2, "factorisation": "every-step", "factorisation_cost": 10.0,
+        "reuse_iterations": 10, "krylov_rtol": 1e-6, "fixed_solver": "march", "hold_delta": 0.01,
+        "wall_exclusion": 1.0}
+AWAY_ALE = {"adaptive_step": True}  # the ale model's own default differs from fd's
+
+
+def _unread_cases():
+    from fem_bounce.models.unread import RULES
+
+    for model, rules in RULES.items():
+        for rule in rules:
+            if rule.refused_by:  # refused (and tested) where it was written first
+                continue
+            for name in rule.names:
+                yield pytest.param(model, rule, name, id=f"{model}-{name}-{rule.mode}")
+
+
+@pytest.mark.parametrize("model, rule, name", list(_unread_cases()))
+def test_a_setting_its_mode_reads_nowhere_is_refused(model, rule, name):
+    """Issue 53 ("about 12 fd settings that do nothing") and 58 item 7: each setting of a numerics table that a mode
+    of its model reads nowhere (models/unread.py: the fixed fd mesh's surface_refinement, forcing_number under the
+    implicit constraint, the adaptive steps' bounds with fixed steps, ale's reuse settings with every-step
+    factorisations, far_field with a container, ...) ran silently.  Set away from its default it is refused by the
+    model's scene check, before anything is written, in one line saying why and what to set instead; the same
+    scene without it is admitted (a default is never refused)."""
+    from mpi4py import MPI
+
+    from fem_bounce import models
+    from fem_bounce import scene as scenes
+
+    preset, settings = MODE_SCENES[(model, rule.mode)]
+    value = (AWAY_ALE if model == "ale" else {}).get(name, AWAY[name])
+
+    def build(scene):
+        return models.flow_model_class(models.info(model), scene)(scene, MPI.COMM_SELF)  # its scene check
+
+    build(scenes.load(preset, settings))  # admitted: its flow is made later (FlowModel.build)
+    scene = scenes.load(preset, {**settings, f"numerics.{model}.{name}": value})
+    with pytest.raises(scenes.SceneError) as refusal:
+        build(scene)
+    message = str(refusal.value)
+    reason = rule.reason(scene) if callable(rule.reason) else rule.reason
+    assert message.startswith(f"numerics.{model}.{name} = ") and message.endswith(reason), message
+    assert "\n" not in message and ("unset it" in message)
+
+
+def test_a_setting_read_nowhere_is_refused_before_anything_is_written(tmp_path, monkeypatch, capsys):
+    """The command line's refusal of one (numerics.fd.forcing_number under the default implicit constraint): exit 2,
+    one line, nothing written."""
+    refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", "--model", "fd", "--quiet", "--out", "r",
+            "--set", "numerics.fd.forcing_number=0.05",
+            message='numerics.fd.forcing_number = 0.05 has no effect with numerics.fd.constraint = "implicit"')
+
+
+def test_a_time_step_ladder_scales_only_the_limits_the_run_reads():
+    """The fd model's time-step ladder scales forcing_number with cfl (the one-shot penalty's dt is usually set by
+    it), but the default implicit constraint reads it nowhere: the ladder leaves it out there, so that a study's runs
+    are not refused."""
+    from fem_bounce import scene as scenes
+    from fem_bounce.studies import common
+
+    assert common.LADDERS["fd"].time_step(scenes.load("li2011-case3"), 0.4) == {"numerics.fd.cfl": 0.4}
+
+
+def test_a_convergence_study_takes_no_time_ladder_where_the_run_takes_no_steps(tmp_path, monkeypatch, capsys):
+    """Held spheres the ale model solves steady read no numerics.ale.cfl: the study's --cfls are refused up front
+    (without them it leaves the time ladder out: four equal steady solves before)."""
+    refused(capsys, tmp_path, monkeypatch, "study", "convergence", "sphere-drag-re100", "--model", "ale", "--cfls",
+            "0.2,0.1", "--out", "s", message="numerics.ale.cfl = 0.2 is read nowhere here: every sphere is held")

@@ -18,6 +18,7 @@ from .. import scene as scenes
 from ..errors import OutputError
 from ..output import MARKER, is_run_directory, read_summary, read_trajectory
 from ..models.registry import MODELS
+from ..models.unread import unread
 from ..motion import is_held, is_stream
 from ..run import on_root
 from .runner import Runner
@@ -39,11 +40,15 @@ class Ladder:
 
     def time_step(self, scene: scenes.Scene, cfl: float) -> dict:
         """Scene changes that set the CFL number to `cfl` and scale the other step limits by the
-        same factor, so that the time step itself changes whichever limit is binding."""
+        same factor, so that the time step itself changes whichever limit is binding (those the scene's run
+        reads: the fd model's forcing_number with the one-shot penalty only, models.unread)."""
         if self.time_step_key is None:
             return {}
         factor = cfl / _setting(scene, self.time_step_key)
-        return {self.time_step_key: cfl, **{k: factor * _setting(scene, k) for k in self.scaled_with_time_step}}
+        _, model, _ = self.time_step_key.split(".")
+        ignored = unread(scene, model)
+        return {self.time_step_key: cfl, **{k: factor * _setting(scene, k) for k in self.scaled_with_time_step
+                                            if k.rsplit(".", 1)[1] not in ignored}}
 
     def scaled_step(self, scene: scenes.Scene, factor: float) -> dict:
         """Scene changes that multiply the scene's time step by `factor` (its CFL number and the other

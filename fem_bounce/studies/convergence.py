@@ -4,16 +4,17 @@
     fem-bounce study convergence sphere-drag-re100 --model fd --levels 8,12,16,24
 
 A ladder of resolutions at the default time step, and a ladder of time steps (CFL) at the default
-resolution; errors of the scene's quantities (impact speed and first rebound apex, Cd, or peak settling
-speed) against the finest run, observed orders between levels, and Richardson extrapolation from the
-three finest levels where they converge monotonically.  Writes convergence.csv, convergence.json and
-convergence.png into the study directory.
+resolution (none where the run takes no steps: held spheres the ale model solves steady, models/unread.py);
+errors of the scene's quantities (impact speed and first rebound apex, Cd, or peak settling speed) against the
+finest run, observed orders between levels, and Richardson extrapolation from the three finest levels where they
+converge monotonically.  Writes convergence.csv, convergence.json and convergence.png into the study directory.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
 from .. import scene as scenes
+from ..models.unread import refuse_unread, unread
 from .common import CFL_LADDER, LADDERS, StudyDirectory, measure_all, observed_orders, primary, richardson
 from .runner import Runner
 
@@ -24,12 +25,15 @@ def run(scene: scenes.Scene, model: str, comm, out: Path, levels: tuple | None =
     if cfls and ladder.time_step_key is None:
         raise scenes.SceneError(f"--cfls {','.join(f'{c:g}' for c in cfls)!r}: the {model} model has no time-step "
                                 "setting (its tolerance sets its steps; --levels refines it): drop --cfls")
+    timed = ladder.time_step_key and ladder.time_step_key.rsplit(".", 1)[1] not in unread(scene, model)
+    if cfls and ladder.time_step_key and not timed:  # no steps (held spheres solved steady): say why, up front
+        refuse_unread(scene.replace(**ladder.time_step(scene, cfls[0])), model)
     levels = tuple(levels or ladder.values)
     study = StudyDirectory(out, comm)
     names = primary(scene)
     plan = [("space", value, ladder.spacing(value), scene.replace(**{ladder.key: value}),
              f"{ladder.key} = {value:g}") for value in levels]
-    if ladder.time_step_key:
+    if timed:
         plan += [("time", cfl, cfl, scene.replace(**ladder.time_step(scene, cfl)), f"{ladder.time_step_key} = {cfl:g}")
                  for cfl in cfls or CFL_LADDER]
     measured = measure_all([(trial, model, label) for *_, trial, label in plan], study, runner)

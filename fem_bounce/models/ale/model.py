@@ -29,6 +29,7 @@ from ...fem.solver import SolverError
 from ...kinematics import FluidForce
 from ...motion import is_stream
 from ..moving_mesh import MovingMesh, MovingMeshModel, StepRecord, checked_domain
+from ..unread import refuse_unread
 from .domain import is_steady, step_limits, time_step
 from .flow import SphereFlow
 
@@ -54,6 +55,7 @@ class AleModel(MovingMeshModel):
 
     def __init__(self, scene, comm):
         super().__init__(scene, comm)
+        refuse_unread(scene, self.name)  # settings this scene's run reads nowhere (models/unread.py)
         self.steady = is_steady(scene)
         self.moving = MovingMesh(scene, comm, self.settings, checked_domain(scene, self.name), self.make_flow,
                                  self.sphere_volume, cfl_step=time_step(scene), step_limits=step_limits(scene),

@@ -46,6 +46,7 @@ from ...kinematics import FluidForce, Prediction
 from ...motion import is_stream
 from ...output import CheckpointError, body_array, per_body, segment_path
 from ...scene import SceneError, pair_diameter
+from ..unread import refuse_unread
 from . import coupling
 from .domain import PEAK_SPEED_FACTOR, Domain, domain_for, patch_center, penalty_rate, time_step
 from .fluid import FlowSolver
@@ -157,6 +158,7 @@ class FictitiousDomainModel(FlowModel):
                              "friction; constraint = \"penalty\" forces with rho c phi, c = 3 / (2 dt), and reads it "
                              "nowhere: unset it, and set numerics.fd.forcing_number (its rigidity: dt <= "
                              "forcing_number h^2 / nu) or numerics.fd.constraint = \"implicit\"")
+        refuse_unread(scene, "fd")  # the other settings this mesh and constraint read nowhere (models/unread.py)
 
     def _check_penalty_step(self, scene) -> None:
         """The one-shot penalty keeps its factors for one step length, so its steps are never shortened near a

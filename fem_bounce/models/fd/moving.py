@@ -30,20 +30,10 @@ from ...flow_model import StepLimits, approach_for
 from ...kinematics import FluidForce, Prediction
 from ...scene import SceneError
 from ..moving_mesh import MovingMesh, MovingMeshModel, checked_domain
+from ..unread import FIXED_MESH_ONLY, correction_holds_every_contact, refuse_unread
 from .domain import penalty_rate, time_step
 from .immersed import ImmersedBodies
 from .penalised import PenalisedFlow
-
-
-# settings of the fixed mesh that the moving one does not read: its patches, its wall box and the band's edge
-FIXED_MESH_ONLY = ("patch", "patch_margin", "wall_cells_per_diameter", "wall_layer", "wall_radius", "radius_offset")
-
-
-def correction_holds_every_contact(scene) -> bool:
-    """Whether the near-wall correction holds the flow at every contact that can close (the wall's, when there is one,
-    and every neighbouring pair's), each at its delta_sl gap (integrator.hold_gaps): numerics.fd.hold_delta, the
-    moving mesh's own hold where the contact model has none, is then read nowhere."""
-    return scene.near_wall_law == "correction" and all(body.free for body in scene_bodies(scene))
 
 
 class MovingPenalisedFlow(PenalisedFlow):
@@ -147,6 +137,7 @@ class MovingFictitiousDomainModel(MovingMeshModel):
                              "sphere at the contact model's gap contact.delta_sl D (delta_sl 2a* for a pair) instead: "
                              "unset it, and set contact.delta_sl to move the hold (or contact.near_wall = \"blend\" "
                              "for the mesh to hold at hold_delta)")
+        refuse_unread(scene, "fd")  # the other settings this mesh reads nowhere (models/unread.py)
         cfl_step = time_step(scene)
         adaptive = fd.resolved("adaptive_step")
         limits = StepLimits(cfl_step, fd.min_step_factor, fd.max_step_factor, speed_scale(scene, "fd"), fd.gap_fraction,

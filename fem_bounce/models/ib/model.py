@@ -52,6 +52,7 @@ from ...kinematics import FluidForce, Prediction
 from ...motion import is_free, is_held, series_speed
 from ...output import CheckpointError
 from ...scene import SceneError
+from ..unread import refuse_unread
 from .body import SphereSurface
 from .delta import SUPPORT, interpolation_matrix
 from .domain import build_grid
@@ -80,6 +81,7 @@ class ImmersedBoundaryModel(FlowModel):
 
     def __init__(self, scene, comm):
         super().__init__(scene, comm)
+        refuse_unread(scene, self.name)  # settings this scene's run reads nowhere (models/unread.py)
         self.opts = self.settings
         self.solver: FlowSolver | None = None
         self.writer: SnapshotWriter | None = None
