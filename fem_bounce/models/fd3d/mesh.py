@@ -21,7 +21,10 @@ fd3d model moves it through, model.py): |d_S| is then the distance from the near
 (zero in the shell they sweep), and the gap rule takes the lowest of them.  One gmsh MathEval field evaluates
 the law (`size_at` is the same in numpy, for checks and for estimates).  The faces carry physical groups: WALL
 (z = 0), TOP (z = H), SIDE_X (x = +-L), SIDE_Y (y = +-L, or y = L in the half box) and SYMMETRY (y = 0 in the
-half box).
+half box).  With `conforming` (the moving mesh's) the sphere is cut out of the box and put back (gmsh's OCC
+fragment), so its surface is a surface of the mesh (facet group SURFACE) and its inside the cell group BALL;
+gmsh puts the surface's vertices on the sphere, and `restore_ball_volume` moves them out to give the polyhedron
+the sphere's volume.
 
 gmsh meshes on rank 0 and dolfinx.io.gmsh distributes the mesh.  With `cache` the .msh file is kept in the
 mesh cache directory (fem_bounce.cachedir, folder meshes/) under a hash of the spec and the gmsh version,
