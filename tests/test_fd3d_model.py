@@ -152,6 +152,16 @@ def test_case3_falls_as_the_axisymmetric_fd_model_does(tmp_path, mesh):
     assert (tmp_path / "fd3d" / "fields-000.xdmf").is_file() and (tmp_path / "fd3d" / "fields-000.h5").is_file()
 
 
+@pytest.mark.parametrize("adaptive", [True, False])
+def test_a_run_ends_at_its_end_time(tmp_path, adaptive):
+    """The last step, adaptive or fixed, is shortened to end at run.end_time (through the variable-step BDF2)."""
+    end = 0.0095
+    summary = run(tmp_path, **{"numerics.fd3d.adaptive_step": adaptive, "run.end_time": end})
+    trajectory = output.read_trajectory(tmp_path)
+    assert summary["status"] == "completed" and summary["steps"] > 3
+    assert trajectory["t"][-1] == pytest.approx(end, rel=1e-9)
+
+
 @pytest.mark.slow
 @pytest.mark.mpi
 def test_two_ranks_give_the_serial_trajectory(shared_tmp):

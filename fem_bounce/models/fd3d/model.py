@@ -70,7 +70,8 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.geometry import Cartesian
 from ...fem.solver import SolverError
 from ...fem.transfer import DivergenceFreeProjection
-from ...flow_model import FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, nearest_gap, safe_fixed_step
+from ...flow_model import (FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, nearest_gap, safe_fixed_step,
+                           steps_to)
 from ...kinematics import FluidForce, Prediction
 from ...motion import is_free, is_stream
 from ...output import CheckpointError, body_array, segment_path
@@ -306,8 +307,9 @@ class FictitiousDomain3DModel(FlowModel):
     def previous_time_step(self) -> float | None:
         return self.last_step if self.adaptive and self.last_step else None
 
-    # adaptive steps: bounded where they start by the gaps they may close (StepLimits.first), the last one shortened
-    # to end at run.end_time (flow_model.end_clipped); fixed steps are whole
+    # adaptive steps: bounded where they start by the gaps they may close (StepLimits.first); fixed ones of dt, no
+    # longer than safe_fixed_step (__init__); the last step of either shortened to end at run.end_time
+    # (flow_model.end_clipped) through the variable-step BDF2
     def start_step(self, gaps: np.ndarray, velocities: np.ndarray) -> None:
         if self.adaptive:
             self.dt = self.step_limits.first(self.dt, gaps, velocities)
@@ -315,11 +317,14 @@ class FictitiousDomain3DModel(FlowModel):
     def next_time(self) -> float:
         if self.adaptive:
             return end_clipped(self.time + self.dt, self.scene.run.end_time, self.cfl_step)
-        return super().next_time()
+        return end_clipped((self.step + 1) * self.dt, self.scene.run.end_time, self.dt)
 
     def step_length(self) -> float:
         """The coming step's length [s]: dt, or what is left of it before the end time."""
-        return self.next_time() - self.time if self.adaptive else self.dt
+        if self.adaptive:
+            return self.next_time() - self.time
+        t_next = self.next_time()
+        return self.dt if t_next == (self.step + 1) * self.dt else t_next - self.step * self.dt
 
     def time_step(self) -> float:
         return self.step_length()
@@ -327,7 +332,7 @@ class FictitiousDomain3DModel(FlowModel):
     def finished(self, end_time: float) -> bool:
         if self.adaptive:
             return self.time >= end_time - 1e-9 * self.cfl_step
-        return super().finished(end_time)
+        return self.step >= steps_to(end_time, self.dt)
 
     def resolved_top(self) -> float:
         """A diameter below the box's top [m]: a rising sphere is stopped there."""
@@ -342,7 +347,7 @@ class FictitiousDomain3DModel(FlowModel):
         center = self.predicted_center(prediction)
         self.follow(center)
         flow, history = self.flow, self.history
-        previous = self.previous_time_step()
+        previous = self.previous_time_step() or (None if self.adaptive else self.dt)  # fixed: dt before the last
         length = self._length = self.step_length()
         flow.set_time_step(length, 2, length / previous if previous else 1.0)
         history.bdf = flow.bdf
@@ -376,9 +381,9 @@ class FictitiousDomain3DModel(FlowModel):
         self.flow.commit(amplitudes)
         if not math.isfinite(self.flow.states[0].x.petsc_vec.norm()):
             raise FloatingPointError(f"the flow field became non-finite at t = {self.next_time():.6g} s")
+        self.ended_short = self._length < self.dt * (1.0 - 1e-12)
         if self.adaptive:
             dt, levels = self._length, [velocities, *self.history.velocities[:2]]
-            self.ended_short = dt < self.dt * (1.0 - 1e-12)
             self.step_range = [min(self.step_range[0], dt), max(self.step_range[1], dt)]
             self.dt = self.step_limits.after(levels, dt, self.last_step, self._gap)
             self.time, self.last_step = self.time + dt, dt
