@@ -1,5 +1,5 @@
-"""Every `fem-bounce ...` command quoted in README.md and docs/*.md is accepted (issue 58, "the docs' commands all
-run").
+"""Every `fem-bounce ...` command quoted in README.md and docs/*.md is accepted: what the docs tell a user to run,
+runs.
 
 What is quoted is found, not listed: the code spans of the prose (a span may run over a line break) and the shell
 code blocks, fenced (sh, bash, console, none) or indented, with their continuation lines (`\\`) joined and their

@@ -1,6 +1,6 @@
 """`fem-bounce run SCENE` without --model (and fem_bounce.simulate without a model) takes the speed-accuracy front's
 model for the scene (registry.FRONT_PICKS, models.choose; docs/usage.md, "Which model a run takes") and says which
-and why in one line (issue 56 item 3, issue 55 item 5)."""
+and why in one line; the 3-D model only for a scene that leaves the axis."""
 import dataclasses
 
 import pytest

@@ -146,10 +146,9 @@ def _unread_cases():
 
 @pytest.mark.parametrize("model, rule, name", list(_unread_cases()))
 def test_a_setting_its_mode_reads_nowhere_is_refused(model, rule, name):
-    """Issue 53 ("about 12 fd settings that do nothing") and 58 item 7: each setting of a numerics table that a mode
-    of its model reads nowhere (models/unread.py: the fixed fd mesh's surface_refinement, forcing_number under the
-    implicit constraint, the adaptive steps' bounds with fixed steps, ale's reuse settings with every-step
-    factorisations, far_field with a container, ...) ran silently.  Set away from its default it is refused by the
+    """Each setting of a numerics table that a mode of its model reads nowhere (models/unread.py: the fixed fd mesh's
+    surface_refinement, forcing_number under the implicit constraint, the adaptive steps' bounds with fixed steps,
+    ale's reuse settings with every-step factorisations, far_field with a container, ...) would run silently.  Set away from its default it is refused by the
     model's scene check, before anything is written, in one line saying why and what to set instead; the same
     scene without it is admitted (a default is never refused)."""
     from mpi4py import MPI

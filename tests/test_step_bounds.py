@@ -1,4 +1,5 @@
-"""Issue 58, items 1, 2, 6, 7 and 8: how long the resolved models' steps are, and what their summaries count.
+"""How long the resolved models' steps are (never past the end time, never across a collision), the settings that
+do not hold the sphere or are read nowhere, and what a restarted run's summary counts.
 
 - A run ends at run.end_time: the last step is shortened (with the variable-step BDF coefficients), on every mesh
   and with fixed or adaptive steps, the one-shot penalty's (its matrix factorised once more) and the ib model's (K

@@ -22,7 +22,7 @@ Two meshes (numerics.fd3d.mesh; mesh.create_box_mesh), fine only in a patch arou
   patch_margin / 2 D of the patch's centre along z (BoxSpec.travel), and the gap below the lowest of those places;
   a new mesh when the centre strays from the patch (patch centres on a grid of patch_margin / 2 D).  Every step
   factorises (the penalty's place in the matrix moves, so kept factors would not precondition the next step's for
-  long: issue 55's measurement).
+  long: docs/validation.md section 14's solver check).
 
 Either way a restart makes its run's meshes again (gmsh's cache gives them bit for bit), and a new mesh takes the
 flow's two BDF levels interpolated onto it (transfer.py: on the moving mesh at the sphere's place at t_n) and made
