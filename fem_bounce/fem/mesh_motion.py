@@ -52,6 +52,16 @@ def triangle_quality(points: np.ndarray, cells: np.ndarray, orientation: np.ndar
     return 4.0 * np.sqrt(3.0) * signed_area / np.sum(edges**2, axis=(1, 2))
 
 
+def at_geometry_nodes(function: fem.Function, cells: np.ndarray) -> np.ndarray:
+    """Values of a P1 function at its mesh's geometry nodes (the two numberings differ); `cells`: the geometry's
+    dofmap (compat.geometry_cells), for a mesh of affine cells."""
+    node_of_dof = np.empty(function.x.array.size, dtype=np.int64)
+    node_of_dof[function.function_space.dofmap.list.ravel()] = cells.ravel()
+    values = np.empty(function.function_space.mesh.geometry.x.shape[0])
+    values[node_of_dof] = function.x.array
+    return values
+
+
 class MeshMotion:
     """Moves `mesh` (in place) with the spheres; `center` holds the centres z it was made with [m] of the
     spheres whose surfaces carry `sphere_tags`, lowest first."""
@@ -67,7 +77,7 @@ class MeshMotion:
         self._solve_extensions(facet_tags, sphere_tags, prefix)
         self.cells = geometry_cells(mesh)
         self.reference = mesh.geometry.x[:, :2].copy()
-        self.extension_nodes = [self._at_geometry_nodes(psi) for psi in self.extensions]
+        self.extension_nodes = [at_geometry_nodes(psi, self.cells) for psi in self.extensions]
         self.psi_nodes = self.extension_nodes[0]
         self.orientation = np.sign(triangle_quality(self.reference, self.cells))
         self.shift = np.zeros(len(sphere_tags))
@@ -110,15 +120,6 @@ class MeshMotion:
             solver.destroy()
             A.destroy()
             b.destroy()
-
-    def _at_geometry_nodes(self, function: fem.Function) -> np.ndarray:
-        """Values of a P1 function at the mesh's geometry nodes (the two numberings differ)."""
-        node_of_dof = np.empty(function.x.array.size, dtype=np.int64)
-        dofs = self.space.dofmap.list
-        node_of_dof[dofs.ravel()] = self.cells.ravel()
-        values = np.empty(self.reference.shape[0])
-        values[node_of_dof] = function.x.array
-        return values
 
     def positions(self, shift) -> np.ndarray:
         """Vertex positions (r, z) with the sphere moved by `shift` from the reference [m]."""

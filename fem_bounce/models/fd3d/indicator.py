@@ -45,7 +45,7 @@ class SphereIndicator:
                                                            "quadrature_weights": weights})
         cells = mesh.topology.index_map(3)
         self._cells = np.arange(cells.size_local + cells.num_ghosts, dtype=np.int32)
-        self._coordinates = fem.Expression(ufl.SpatialCoordinate(mesh), points)
+        self._rule, self._coordinates = points, None  # the coordinates' expression, compiled when first tabulated
         self._dofs = self.phi.function_space.dofmap.list[self._cells]
         self.center = fem.Constant(mesh, np.zeros(3))
         self.tabulate()
@@ -53,14 +53,20 @@ class SphereIndicator:
 
     def tabulate(self) -> None:
         """The quadrature points' coordinates (cells, points, 3) [m], again after the mesh has moved."""
+        if self._coordinates is None:
+            self._coordinates = fem.Expression(ufl.SpatialCoordinate(self.mesh), self._rule)
         self._points = self._coordinates.eval(self.mesh, self._cells)
 
-    def place(self, center) -> None:
-        """Put the sphere's centre at `center` [m]: phi at every quadrature point, and the centre constant."""
+    def _set_center(self, center) -> np.ndarray:
         center = np.asarray(center, dtype=float)
         if center.shape != (3,):
             raise ValueError(f"a sphere's centre has 3 coordinates, not {center.shape}")
         self.center.value[:] = center
+        return center
+
+    def place(self, center) -> None:
+        """Put the sphere's centre at `center` [m]: phi at every quadrature point, and the centre constant."""
+        center = self._set_center(center)
         distance = np.linalg.norm(self._points - center, axis=2)
         self.phi.x.array[self._dofs] = smooth_step((self.radius - distance) / self.width)
 
@@ -86,7 +92,4 @@ class ConformingBall(SphereIndicator):
         """Nothing to do: phi belongs to the cells."""
 
     def place(self, center) -> None:
-        center = np.asarray(center, dtype=float)
-        if center.shape != (3,):
-            raise ValueError(f"a sphere's centre has 3 coordinates, not {center.shape}")
-        self.center.value[:] = center
+        self._set_center(center)

@@ -101,6 +101,7 @@ class FieldWriter3D:
         scalars = fem.functionspace(mesh, ("Lagrange", 1))
         vectors = fem.functionspace(mesh, ("Lagrange", 1, (3,)))
         self.motion = motion
+        where = mesh.geometry.x.copy()  # the mesh where the sphere is now
         if motion is not None:
             self.displacement = fem.Function(vectors, name="mesh_displacement")
             mesh.geometry.x[:] = motion.reference  # the file's mesh as made
@@ -112,8 +113,7 @@ class FieldWriter3D:
         self._forms = (fem.form(z * ufl.dx), fem.form((u[0].dx(2) - u[2].dx(0)) * z * ufl.dx))
         self.file = XDMFFile(comm, str(path), "w")
         self.file.write_mesh(mesh)
-        if motion is not None:
-            motion.move_to(motion.reference_center + motion.shift)
+        mesh.geometry.x[:] = where
 
     def write(self, state: fem.Function, t: float) -> None:
         self.state.x.array[:] = state.x.array
@@ -260,10 +260,9 @@ class FictitiousDomain3DModel(FlowModel):
 
     def strays(self, center: float) -> bool:
         """Whether the sphere centred at z = center [m] needs a new patch (module docstring)."""
-        if self.moving:
-            ratio = (center - self.radius) / (self.patch - self.radius)
-            return abs(center - self.patch) > self.travel * (1.0 + 1e-9) or not GAP_RATIO <= ratio <= 1.0 / GAP_RATIO
-        return abs(center - self.patch) > self.travel * (1.0 + 1e-9)
+        travelled = abs(center - self.patch) > self.travel * (1.0 + 1e-9)
+        ratio = (center - self.radius) / (self.patch - self.radius)
+        return travelled or (self.moving and not GAP_RATIO <= ratio <= 1.0 / GAP_RATIO)
 
     def follow(self, center: float) -> None:
         """A new patch's mesh when the sphere's centre z = center [m] has left the patch, the flow's BDF levels
@@ -356,7 +355,6 @@ class FictitiousDomain3DModel(FlowModel):
             self.motion.move_to((0.0, 0.0, center))
             b = flow.bdf
             self.motion.set_rate((0.0, 0.0, (b[0] * center + b[1] * self.placed[0] + b[2] * self.placed[1]) / length))
-            flow.sphere.tabulate()
         flow.sphere.place((0.0, 0.0, center))
         self._center = center
         response = flow.step()
@@ -397,11 +395,10 @@ class FictitiousDomain3DModel(FlowModel):
         the sphere's velocities and held momenta, and the adaptive step's state."""
         steps = {"time": self.time, "step_length": self.dt, "last_step": self.last_step,
                  "step_range": self.step_range} if self.adaptive else {}
-        placed = float(self.flow.sphere.center.value[2])
         if self.moving and self.flow.step_operator is not None:
             self.flow.step_operator.stale = True  # fresh factors at the next step, as a restart from here has
         return ({"dt": self.cfl_step, **steps, **self.history.state(), "patch_center": self.patch,
-                 "placed_center": placed, "placed_centers": self.placed}, gather_history(self.flow.states))
+                 "placed_centers": self.placed}, gather_history(self.flow.states))
 
     def restore(self, state: dict, arrays) -> None:
         if not math.isclose(state["dt"], self.cfl_step, rel_tol=1e-12):
@@ -412,18 +409,18 @@ class FictitiousDomain3DModel(FlowModel):
                 self.time, self.dt, self.last_step = (float(state[key]) for key in ("time", "step_length",
                                                                                     "last_step"))
                 self.step_range = [float(value) for value in state["step_range"]]
-            patch, placed = float(state["patch_center"]), float(state["placed_center"])
+            patch = float(state["patch_center"])
             self.placed = [float(value) for value in state["placed_centers"]]
         except (KeyError, TypeError, ValueError):
             raise CheckpointError("the checkpoint lacks the fd3d model's patch or adaptive step (patch_center, "
-                                  "placed_center(s), time, step_length): the scene was changed") from None
+                                  "placed_centers, time, step_length): the scene was changed") from None
+        placed = self.placed[0]  # the flow's sphere at t_n
         if patch != self.patch:  # the sphere had moved on: that patch's mesh again
             self._retire(self.flow)
             self.patch = patch
             self._make_flow(placed)
         elif self.moving:
             self.motion.move_to((0.0, 0.0, placed))
-            self.flow.sphere.tabulate()
         self.flow.sphere.place((0.0, 0.0, placed))
         try:
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.fine_size)

@@ -30,6 +30,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ...fem.compat import geometry_cells
+from ...fem.mesh_motion import at_geometry_nodes
 from ...fem.solver import FactorizedOperator
 from .mesh import SIDE_X, SIDE_Y, TOP, WALL
 
@@ -56,7 +57,7 @@ class MeshMotion3D:
         self._solve_extension(facet_tags, rigid_radius, prefix)
         self.cells = geometry_cells(mesh)
         self.reference = mesh.geometry.x.copy()
-        self.psi_nodes = self._at_geometry_nodes(self.psi)
+        self.psi_nodes = at_geometry_nodes(self.psi, self.cells)
         self.orientation = np.sign(tetrahedron_quality(self.reference, self.cells))
         self.shift = np.zeros(3)
         self.rates = fem.Constant(mesh, np.zeros(3, dtype=PETSc.ScalarType))  # the BDF rate of the centre [m/s]
@@ -103,14 +104,6 @@ class MeshMotion3D:
         marker.x.scatter_reverse(la.InsertMode.add)
         marker.x.scatter_forward()
         return np.flatnonzero(marker.x.array > 0).astype(np.int32)
-
-    def _at_geometry_nodes(self, function: fem.Function) -> np.ndarray:
-        """Values of a P1 function at the mesh's geometry nodes (the two numberings differ)."""
-        node_of_dof = np.empty(function.x.array.size, dtype=np.int64)
-        node_of_dof[self.space.dofmap.list.ravel()] = self.cells.ravel()
-        values = np.empty(self.reference.shape[0])
-        values[node_of_dof] = function.x.array
-        return values
 
     def positions(self, shift) -> np.ndarray:
         """Vertex positions with the sphere displaced by `shift` [m] from the reference."""
