@@ -148,9 +148,9 @@ def _unread_cases():
 def test_a_setting_its_mode_reads_nowhere_is_refused(model, rule, name):
     """Each setting of a numerics table that a mode of its model reads nowhere (models/unread.py: the fixed fd mesh's
     surface_refinement, forcing_number under the implicit constraint, the adaptive steps' bounds with fixed steps,
-    ale's reuse settings with every-step factorisations, far_field with a container, ...) would run silently.  Set away from its default it is refused by the
-    model's scene check, before anything is written, in one line saying why and what to set instead; the same
-    scene without it is admitted (a default is never refused)."""
+    ale's reuse settings with every-step factorisations, far_field with a container, ...) would run silently.  Set
+    away from its default it is refused by the model's scene check, before anything is written, in one line saying
+    why and what to set instead; the same scene without it is admitted (a default is never refused)."""
     from mpi4py import MPI
 
     from fem_bounce import models
