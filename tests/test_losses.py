@@ -118,10 +118,12 @@ def tangential(summary: dict) -> dict:
 def test_a_head_on_audit_keeps_its_numbers(tmp_path):
     audit = audited_run(tmp_path, "ode", {"run.bounces": 2})["impacts"][0]["losses"]
     assert "tangential" not in audit and "tangential_skipped" not in audit
-    assert audit["imbalance"] == pytest.approx(HEAD_ON_IMBALANCE, rel=1e-9)
+    # to 1e-6: the adaptive steps carry the round-off of the CPU's BLAS kernels (1e-8 of the imbalance between two
+    # machines of the same kind), while a term that moved would change it by far more
+    assert audit["imbalance"] == pytest.approx(HEAD_ON_IMBALANCE, rel=1e-6)
     assert set(audit["share"]) == set(HEAD_ON_SHARES)
     for name, shares in HEAD_ON_SHARES.items():
-        assert audit["share"][name] == pytest.approx(shares, rel=1e-9, abs=1e-15)
+        assert audit["share"][name] == pytest.approx(shares, rel=1e-6, abs=1e-12)
 
 
 # The tangential audit's residual is the trapezoidal rule's on the rows the integrator chose (second order in the
