@@ -1,4 +1,6 @@
-"""Study machinery: the run cache, error arithmetic, classification, and each study on the ODE model."""
+"""Study machinery: the run cache, error arithmetic, classification, and each study on the ODE model (the
+speed-accuracy study's 3-D points also from a toy fd3d run)."""
+import csv
 import json
 import math
 from pathlib import Path
@@ -190,3 +192,77 @@ def test_speed_accuracy_step_levels_and_reference_step_are_checked(capsys):
     assert "optionally V@F for F times the time step" in capsys.readouterr().err
     assert cli.main(["study", "speed-accuracy", "li2011-case1", "--models", "ale", "--reference-step", "2"]) == 2
     assert "--reference-step 2 is out of range: allowed in (0, 1]" in capsys.readouterr().err
+
+
+def test_speed_accuracy_judges_the_3d_model_against_the_axisymmetric_reference(tmp_path, monkeypatch):
+    """fd3d's points go on the chart and CSV beside the axisymmetric models', judged against the same reference: ale's
+    finest level, not fd3d's (listed first here), on a head-on scene; and however cheap and accurate its runs, they
+    are never recommended for `run --accuracy` (registry.FRONT_PICKS: a head-on run never takes fd3d).  Toy rows:
+    each model's error a known function of its resolution."""
+    from fem_bounce.models.registry import MODELS
+
+    sc = scene.load("li2011-case3")
+    excess = {"ale": lambda c: 1 / c**2, "fd": lambda c: 0.1, "ode": lambda c: 0.3,
+              "fd3d": lambda c: 1 / 256 + 0.2 / c**2}  # fd3d: within 2 % at 4 cells/D, the cheapest run that is
+    cost = {"ale": lambda c: c**2, "fd": lambda c: 5.0, "ode": lambda c: 0.01, "fd3d": lambda c: c / 20}
+
+    def toy_measure_all(tasks, study, runner=None):
+        rows = []
+        for task_scene, model, label in tasks:
+            c = MODELS[model].resolution(task_scene)
+            factor = 1.0 + excess[model](c)
+            rows.append({"model": model, "label": label, "run_dir": f"runs/{model} {label}", "status": "completed",
+                         "wall_time_s": cost[model](c), "impact_speed": 0.4 * factor, "apex_gap": 0.004 * factor,
+                         "restitution": 0.75, "re_second": 48.0})
+        return rows
+
+    monkeypatch.setattr(speed_accuracy, "measure_all", toy_measure_all)
+    levels = {"fd3d": [4.0, 6.0], "ode": [1e-3], "fd": [8.0], "ale": [8.0, 16.0]}
+    out = tmp_path / "study"
+    result = speed_accuracy.run(sc, ["fd3d", "ode", "fd", "ale"], MPI.COMM_SELF, out, levels)
+    assert result["reference"]["model"] == "ale"
+    assert result["reference"]["setting"]["numerics.ale.cells_per_diameter"] == 16.0
+    fd3d = {r["setting"]["numerics.fd3d.cells_per_diameter"]: r for r in result["rows"] if r["model"] == "fd3d"}
+    assert fd3d[4.0]["error_impact_speed"] == pytest.approx((1 + 1 / 256 + 0.2 / 16) / (1 + 1 / 256) - 1)
+    assert fd3d[6.0]["error"] < fd3d[4.0]["error"] < 0.02
+    with open(out / "speed_accuracy.csv", newline="") as stream:
+        table = [row for row in csv.DictReader(stream) if row["model"] == "fd3d"]
+    assert [float(row["numerics.fd3d.cells_per_diameter"]) for row in table] == [4.0, 6.0]
+    assert (out / "speed_accuracy.png").exists()
+    # fd3d's 4 cells/D would be the 2, 5 and 10 % picks; the recommendations come from the head-on picks only
+    assert speed_accuracy.recommend(result["rows"], result["quantities"], None)["5%"]["model"] == "fd3d"
+    picks = {level: rec["model"] for level, rec in result["recommendations"].items()}
+    assert picks == {"1%": "ale", "2%": "ale", "5%": "ale", "10%": "fd"}
+    assert result["recommended_from"] == ["fd", "ale", "ode"]
+    assert "not recommended (one sphere on the axis" in (out / "progress.log").read_text()
+    recorded = json.loads(speed_accuracy.record(result, tmp_path).read_text())["li2011-case3"]
+    assert {pick["model"] for pick in recorded.values()} == {"ale", "fd"}
+    assert speed_accuracy.series_style("fd3d") == ("D", "fd3d (3-D)")
+    assert speed_accuracy.series_style("ale") == ("o", "ale")
+
+
+def test_speed_accuracy_without_a_reference_model_is_a_clear_error(tmp_path, capsys):
+    """fd3d alone has no reference to be judged by (it is none itself: registry.FIDELITY): one line, nothing run."""
+    out = tmp_path / "study"
+    assert cli.main(["study", "speed-accuracy", "li2011-case3", "--models", "fd3d", "--out", str(out)]) == 2
+    assert "highest-fidelity model listed, one of ale, fd, ib, ode: add one, e.g. --models ale,fd3d" in (
+        capsys.readouterr().err)
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_speed_accuracy_runs_the_3d_model_through_the_study_cache(tmp_path, monkeypatch, capsys):
+    """A toy fd3d run (4 cells/D, its surface unrefined, to 12 ms: a few seconds; test_fd3d_model.py's TINY) goes
+    through the study's runner and cache like the axisymmetric models' runs, and the study again reuses it."""
+    monkeypatch.setenv("FEM_BOUNCE_CACHE", str(tmp_path / "cache"))
+    args = ["study", "speed-accuracy", "li2011-case3", "--models", "ode,fd3d", "--levels", "ode=1e-3,1e-4",
+            "--levels", "fd3d=4", "--set", "run.end_time=0.012", "--set", "numerics.fd3d.surface_refinement=1"]
+    assert cli.main([*args, "--out", str(tmp_path / "first")]) == 0
+    first = json.loads((tmp_path / "first" / "speed_accuracy.json").read_text())
+    (row,) = [r for r in first["rows"] if r["model"] == "fd3d"]
+    assert row["status"] == "completed" and 0.07 < row["peak_speed"] < 0.1  # the fall's, against ode's 0.086
+    assert Path(row["run_dir"]).parent == tmp_path / "cache" / "runs"
+    assert cli.main([*args, "--out", str(tmp_path / "again")]) == 0
+    again = json.loads((tmp_path / "again" / "speed_accuracy.json").read_text())
+    assert [r["run_dir"] for r in again["rows"]] == [r["run_dir"] for r in first["rows"]]
+    assert [r["wall_time_s"] for r in again["rows"]] == [r["wall_time_s"] for r in first["rows"]]  # not run again
