@@ -1,10 +1,15 @@
-"""The 3-D fictitious-domain flow (fem_bounce.models.fd3d) against exact Stokes resistances and a sphere's drag at
-Re 100, and its step's solver.
+"""The 3-D fictitious-domain flow (fem_bounce.models.fd3d) against exact Stokes resistances, a sphere's drag at
+Re 100 and 200 and its wake's loss of axisymmetry, and its step's solver.
 
     python benchmarks/fd3d_stokes.py wall --cells 24 --gaps 0.1,0.5,2 --tag _c24   # 62 s, 2.5 GB peak
     python benchmarks/fd3d_stokes.py wall --cells 12 --tag _c12                     # 24 s, 1.5 GB
     python benchmarks/fd3d_stokes.py solver --cells 16 --steps 10 --tag _c16        # 124 s, 1.6 GB
     python benchmarks/fd3d_stokes.py drag --cells 12 --steps 14 --picard-dt 10 --tag _c12   # 85 s, 1.4 GB
+    python benchmarks/fd3d_stokes.py drag --cells 12 --steps 14 --picard-dt 10 --re 100,200 --tag _c12_re200  # 87 s
+    python benchmarks/fd3d_stokes.py drag --cells 12 --steps 14 --picard-dt 10 --re 200,230 --symmetric-base \
+        --wake-time 40 --wake-dt 0.5 --tag _c12_wake_sym                                  # 526 s, 1.5 GB
+    python benchmarks/fd3d_stokes.py growth --record benchmarks/history/fd3d_stokes_drag_c12_wake_sym.json \
+        --window 5,20                                                                     # reads the record, 2 s
 
 (one process on a 2-core machine shared with other jobs, so the times are rough: /usr/bin/time -f "%e s %M kB".)
 
@@ -33,8 +38,19 @@ per step the assembly, factorisation and back-solve times, the FGMRES iterations
 `drag`: a sphere held in a uniform stream along -z (in through the top 5 D upstream, out through z = 0 6 D
 downstream, slip sides 5 D from the axis; the wake under the sphere at two surface cells), the steady state by
 damped Picard steps (BDF1 at dt = --picard-dt D / U, convection about the last iterate) until Cd changes by less
-than 1e-4 of itself; Cd = F / (rho U^2 pi a^2 / 2) from the penalty's reaction, against Johnson & Patel's (1999)
-1.087 (fem_bounce/data/sphere_drag_reference.csv).
+than 1e-4 of itself; Cd = F / (rho U^2 pi a^2 / 2) from the penalty's reaction, against the standard values of
+fem_bounce/data/sphere_drag_reference.csv (Re 100: Johnson & Patel's (1999) 1.087; Re 200: 0.77, Fornberg 1988),
+at each Reynolds number of --re; beside it the lift C_L = F_x / (rho U^2 pi a^2 / 2) (the plane y = 0 is a
+symmetry plane, so a wake off its axis can only put its lift along x; the mesh is not quite symmetric in x, which
+seeds it).  With --wake-time T the wake's stability (the steady axisymmetric wake of a sphere turns non-axisymmetric
+at Re ~ 210-212: Natarajan & Acrivos 1993, Johnson & Patel 1999): the Picard state kicked off axisymmetry (u_x +=
+--kick U exp(-r^2 / a^2) about a point one diameter behind the centre) and time-stepped (BDF2, dt = --wake-dt D / U,
+for T D / U; the factors kept as FGMRES's preconditioner), the C_L history and the growth rate sigma of dC_L / dt
+(the mesh's own asymmetry holds a constant C_L, which the derivative removes) over --window.  With
+--symmetric-base every Picard iterate is projected on the axisymmetric class, (u + R u(R x)) / 2 with R the mirror
+x -> -x (a mirrored copy of the mesh, non-matching interpolation): above the threshold the plain Picard iteration
+itself leaves the axisymmetric state, and the kick must start from it.  `growth` re-reads such a record (--record)
+and fits over another --window, printing only.
 
 Results are printed and written to benchmarks/history/fd3d_stokes_{case}{tag}.json.  One process; the meshes are
 cached (a second run skips gmsh).  The measurements themselves, with their commands, are in those files.
@@ -56,7 +72,7 @@ from mpi4py import MPI
 from fem_bounce import reference
 from fem_bounce.fem.compat import collapse
 from fem_bounce.fem.geometry import Cartesian
-from fem_bounce.models.fd3d.flow import PenalisedFlow3D
+from fem_bounce.models.fd3d.flow import PenalisedFlow3D, taylor_hood_space
 from fem_bounce.models.fd3d.indicator import SphereIndicator
 from fem_bounce.models.fd3d.mesh import SIDE_X, SIDE_Y, TOP, WALL, BoxSpec, create_box_mesh
 from fem_bounce.wall_tangential import tangential_coefficients
@@ -85,9 +101,10 @@ def brenner_normal_drag(gap: float) -> float:
 
 
 def make_flow(comm, spec: BoxSpec, viscosity: float, strength: float, sides: dict, inflow=(0.0, 0.0, 0.0),
-              prefix: str = "fd3d_", step_solver: str = "direct"):
+              prefix: str = "fd3d_", step_solver: str = "direct", mesh=None):
+    """The flow on a new mesh of `spec`, or (`mesh`: (domain, facet tags)) on that one."""
     start = time.perf_counter()
-    domain, _, facets = create_box_mesh(comm, spec)
+    domain, facets = mesh if mesh is not None else create_box_mesh(comm, spec)[::2]
     meshed = time.perf_counter()
     h = spec.surface_size
     sphere = SphereIndicator(domain, RADIUS, 2.0 * h, spec.center)
@@ -203,9 +220,112 @@ def solver(args) -> list[dict]:
     return [summary]
 
 
+def coefficients(response, speed: float) -> tuple[float, float]:
+    """(Cd, C_L) = (-F_z, F_x) / (rho U^2 pi a^2 / 2) of the held sphere in the stream along -z (the stream pushes
+    it down; the half box's lift can only lie along x): the penalty's reaction, the whole sphere's."""
+    force = response.penalty_force(np.zeros(3))
+    names = response.names
+    scale = 0.5 * speed**2 * math.pi * RADIUS**2
+    return -force[names.index("U_z")] / scale, force[names.index("U_x")] / scale
+
+
+def kick(flow, state: fem.Function, amplitude: float, center) -> None:
+    """Add the non-axisymmetric seed u_x += amplitude exp(-|x - X_w|^2 / a^2), X_w one diameter behind the sphere's
+    centre (in its recirculation), to the velocity of `state` (even in x and y: the x-odd class of a wake whose
+    lift lies along x)."""
+    space, dofs = collapse(flow.W.sub(0).sub(0))
+    x = space.tabulate_dof_coordinates()
+    seed = np.asarray(center, dtype=float) - np.array([0.0, 0.0, 2.0 * RADIUS])
+    state.x.array[dofs] += amplitude * np.exp(-np.sum((x - seed) ** 2, axis=1) / RADIUS**2)
+    state.x.scatter_forward()
+
+
+class Reflection:
+    """The mirror image u -> R u(R x) of a (u, p) state of the drag's mesh, R: x -> -x (the box is symmetric about
+    x = 0, its mesh is not quite): a second copy of the mesh from the cache, its vertices reflected, carrying the
+    state's values (u_x negated), interpolated back at the mesh's dofs (dolfinx's non-matching interpolation).
+    `symmetrise` projects a state on the wake's axisymmetric class, (u + R u(R x)) / 2."""
+
+    def __init__(self, W: fem.FunctionSpace, spec: BoxSpec):
+        domain, _, _ = create_box_mesh(W.mesh.comm, spec)
+        if not np.array_equal(domain.geometry.x, W.mesh.geometry.x):
+            raise RuntimeError("the mesh's second copy is ordered differently")
+        domain.geometry.x[:, 0] *= -1.0
+        mirrored = taylor_hood_space(domain)
+        cells = np.arange(W.mesh.topology.index_map(3).size_local, dtype=np.int32)
+        self.parts = []
+        for k in range(2):
+            space_to, dofs = collapse(W.sub(k))
+            space_from, dofs_from = collapse(mirrored.sub(k))
+            if not np.array_equal(dofs, dofs_from):
+                raise RuntimeError("the mirrored mesh's dofs are laid out differently")
+            data = fem.create_interpolation_data(space_to, space_from, cells, padding=1e-8)
+            self.parts.append((fem.Function(space_from), fem.Function(space_to), dofs, data, cells))
+
+    def symmetrise(self, state: fem.Function) -> tuple[float, float]:
+        """state <- (state + its mirror image) / 2; returns the velocity's part removed, |u - R u(R x)| / 2, at its
+        largest and as the root mean square over the velocity dofs (both over U when U = 1)."""
+        values = state.x.array.copy()
+        removed = (0.0, 0.0)
+        for k, (source, target, dofs, data, cells) in enumerate(self.parts):
+            source.x.array[:] = values[dofs]
+            if k == 0:
+                source.x.array.reshape(-1, 3)[:, 0] *= -1.0
+            target.interpolate_nonmatching(source, cells, data)
+            half = 0.5 * (target.x.array - values[dofs])
+            state.x.array[dofs] += half
+            if k == 0:
+                removed = (float(np.abs(half).max()), float(np.sqrt(np.mean(half**2))))
+        state.x.scatter_forward()
+        return removed
+
+
+def growth_rate(times, lift, window=None) -> dict:
+    """The asymmetric part's growth rate sigma [U / D] from C_L(t) = C_inf + B exp(sigma t) (C_inf, the lift the
+    mesh's own asymmetry holds, not known): the least-squares slope of log |dC_L / dt| over the `window` (t_0, t_1)
+    [D / U] (None: the last half of the steps), the same over its first and second halves (equal: one mode
+    dominates), and C_inf for that sigma (linear least squares over the window)."""
+    t, c = np.asarray(times), np.asarray(lift)
+    rate, mid = np.diff(c) / np.diff(t), 0.5 * (t[1:] + t[:-1])
+    if window is None:
+        inside = np.arange(rate.size) >= rate.size // 2
+    else:
+        inside = (mid >= window[0]) & (mid <= window[1])
+    picked = np.flatnonzero(inside)
+    result = {"window_start": float(mid[picked[0]]), "window_end": float(mid[picked[-1]]),
+              "sign_changes_in_window": int(np.sum(np.diff(np.sign(rate[picked])) != 0))}
+
+    def slope(part):
+        return float(np.polyfit(mid[part], np.log(np.abs(rate[part])), 1)[0])
+
+    half = picked.size // 2
+    sigma = slope(picked)
+    levels = (t >= mid[picked[0]] - 1e-12) & (t <= mid[picked[-1]] + 1e-12)
+    basis = np.c_[np.ones(levels.sum()), np.exp(sigma * (t[levels] - t[levels][0]))]
+    c_inf = float(np.linalg.lstsq(basis, c[levels], rcond=None)[0][0])
+    result |= {"sigma": sigma, "sigma_first_half": slope(picked[:half]), "sigma_second_half": slope(picked[half:]),
+               "c_inf": c_inf}
+    return result
+
+
+def growth(args) -> None:
+    """The growth rates of recorded wakes (--record, a drag JSON record with --wake-time) over --window."""
+    record = json.loads(Path(args.record).read_text())
+    for row in record["rows"]:
+        if "wake" not in row:
+            continue
+        w = row["wake"]
+        g = growth_rate(w["times"], w["lift_history"], args.window)
+        print(f"Re {row['reynolds']:g}: t {g['window_start']:.2f}-{g['window_end']:.2f} D/U: sigma {g['sigma']:+.4f} "
+              f"U/D (halves {g['sigma_first_half']:+.4f}, {g['sigma_second_half']:+.4f}; sign changes of dC_L/dt "
+              f"{g['sign_changes_in_window']}), C_inf {g['c_inf']:+.4f}; C_L at t {w['times'][0]:g}, "
+              f"{w['times'][-1]:g}: {w['lift_history'][0]:+.4f}, {w['lift_history'][-1]:+.4f}")
+
+
 def drag(args) -> list[dict]:
     """A fixed sphere in a uniform stream at Re = U D / nu: the steady state by damped Picard steps (BDF1 at a large
-    dt, convection about the last iterate: the step's fixed point is the steady penalised Navier-Stokes flow)."""
+    dt, convection about the last iterate: the step's fixed point is the steady penalised Navier-Stokes flow);
+    with --wake-time, then the wake's stability: that state kicked off axisymmetry (`kick`) and time-stepped."""
     comm = MPI.COMM_WORLD
     rows = []
     h = 2.0 * RADIUS / args.cells
@@ -214,43 +334,108 @@ def drag(args) -> list[dict]:
     spec = BoxSpec(half_width=half_width, height=downstream + upstream, center=(0.0, 0.0, downstream), radius=RADIUS,
                    surface_size=h, coarse_size=0.2 * half_width, grading=args.grading, gap_size=args.wake_size * h,
                    gap_radius=RADIUS, mirrored=True)
+    standard = {row["Re"]: (row["Cd_reference"], row["source"]) for row in reference.table("sphere_drag_reference")}
+    start = time.perf_counter()
+    mesh = create_box_mesh(comm, spec)[::2]  # (domain, facet tags): every Reynolds number's, and the wake's
+    mesh_s = time.perf_counter() - start
     for reynolds in args.reynolds_list:
         speed = 1.0
         viscosity = speed * 2.0 * RADIUS / reynolds
         sides = {TOP: "inflow", WALL: "outflow", SIDE_X: "slip", SIDE_Y: "slip"}
         flow, counts = make_flow(comm, spec, viscosity, args.strength, sides, inflow=(0.0, 0.0, -speed),
-                                 prefix="fd3d_drag_")
+                                 prefix="fd3d_drag_", mesh=mesh)
+        counts["mesh_s"] = mesh_s
         stream = uniform_state(flow, (0.0, 0.0, -speed))  # kept alive: its PETSc vector wraps its array
         flow.set_state(stream.x.petsc_vec)
         flow.set_time_step(args.picard_dt * 2.0 * RADIUS / speed, order=1)
-        uz = flow.geometry.mode_names.index("U_z")
-        history = []
+        history, lift, removed = [], [], []
         start = time.perf_counter()
+        reflection = Reflection(flow.W, spec) if args.symmetric_base else None
         for _ in range(args.steps):
             response = flow.step(responses=False)
             flow.commit(np.zeros(3))
-            # Cd = F / (rho U^2 pi a^2 / 2), the penalty's reaction of the held sphere (the stream pushes it down)
-            history.append(-response.penalty_force(np.zeros(3))[uz] / (0.5 * speed**2 * math.pi * RADIUS**2))
+            if reflection is not None:  # BDF1: the next step sees only u^n
+                removed.append(reflection.symmetrise(flow.states[0]))
+            drag_coefficient, lift_coefficient = coefficients(response, speed)
+            history.append(drag_coefficient)
+            lift.append(lift_coefficient)
             if len(history) > 2 and abs(history[-1] - history[-2]) < 1e-4 * abs(history[-1]):
                 break
         elapsed = time.perf_counter() - start
-        standard = {row["Re"]: row["Cd_reference"] for row in reference.table("sphere_drag_reference")}
-        row = {"reynolds": reynolds, "cells_per_diameter": args.cells, **counts, "picard_steps": len(history),
+        value, source = standard.get(reynolds, (None, None))
+        row = {"reynolds": reynolds, "cells_per_diameter": args.cells, "downstream_D": args.downstream,
+               "upstream_D": args.upstream, "half_width_D": args.half_width, **counts, "picard_steps": len(history),
                "elapsed_s": elapsed, "factorise_s": flow.factorise_s, "assembly_s": flow.assembly_s,
-               "drag_history": history, "drag": history[-1], "reference": standard.get(reynolds)}
+               "drag_history": history, "drag": history[-1], "lift_history": lift, "lift": lift[-1],
+               "reference": value, "reference_source": source, "symmetric_base": args.symmetric_base,
+               "asymmetry_removed": removed}
         rows.append(row)
         if comm.rank == 0:
-            error = f"{100 * (row['drag'] / row['reference'] - 1):+.2f} %" if row["reference"] else "no reference"
+            error = f"{100 * (row['drag'] / value - 1):+.2f} %" if value else "no reference"
             print(f"Re {reynolds:g}: {counts['unknowns']} unknowns ({counts['vertices']} vertices), "
                   f"{len(history)} Picard steps in {elapsed:.0f} s (factorisations {flow.factorise_s:.0f} s): "
-                  f"Cd {row['drag']:.4f} against {row['reference']} ({error}); last changes {np.diff(history[-3:])}")
-        flow.destroy()
+                  f"Cd {row['drag']:.4f} against {value} ({source}; {error}), C_L {row['lift']:.2e}; "
+                  f"last changes {np.diff(history[-3:])}", flush=True)
+        if args.wake_time > 0:
+            base = fem.Function(flow.W)
+            base.x.array[:] = flow.states[0].x.array
+            del reflection
+            flow.destroy()
+            row["wake"] = wake(args, spec, mesh, viscosity, sides, speed, base)
+        else:
+            flow.destroy()
     return rows
+
+
+def wake(args, spec: BoxSpec, mesh, viscosity: float, sides: dict, speed: float, base: fem.Function) -> dict:
+    """The steady state `base` kicked off axisymmetry (`kick`, amplitude --kick U) and time-stepped (BDF2 from two
+    equal levels, dt = --wake-dt D / U, for --wake-time D / U; the first step's factors kept as FGMRES's
+    preconditioner, refactorised by fem.solver.ReusedFactorOperator's rule): the C_L history and its growth rate."""
+    comm = MPI.COMM_WORLD
+    flow, _ = make_flow(comm, spec, viscosity, args.strength, sides, inflow=(0.0, 0.0, -speed),
+                        prefix="fd3d_wake_", step_solver="reuse", mesh=mesh)
+    state = fem.Function(flow.W)
+    state.x.array[:] = base.x.array
+    kick(flow, state, args.kick * speed, spec.center)
+    flow.set_state(state.x.petsc_vec)
+    dt = args.wake_dt * 2.0 * RADIUS / speed
+    flow.set_time_step(dt)
+    steps = int(round(args.wake_time / args.wake_dt))
+    times, drag_history, lift, iterations = [], [], [], []
+    start = time.perf_counter()
+    for step in range(steps):
+        before = flow.step_operator.iterations if flow.step_operator else 0
+        response = flow.step(responses=False)
+        flow.commit(np.zeros(3))
+        drag_coefficient, lift_coefficient = coefficients(response, speed)
+        times.append((step + 1) * args.wake_dt)
+        drag_history.append(drag_coefficient)
+        lift.append(lift_coefficient)
+        iterations.append(flow.step_operator.iterations - before)
+        if comm.rank == 0 and ((step + 1) % 10 == 0 or step == 0):
+            print(f"    t {times[-1]:6.1f} D/U: Cd {drag_coefficient:.5f} C_L {lift_coefficient:+.4e} "
+                  f"({time.perf_counter() - start:.0f} s, {flow.factorisations} factorisations)", flush=True)
+    elapsed = time.perf_counter() - start
+    result = {"kick": args.kick, "dt_D_over_U": args.wake_dt, "time_D_over_U": args.wake_time, "steps": steps,
+              "elapsed_s": elapsed, "assembly_s": flow.assembly_s, "factorise_s": flow.factorise_s,
+              "solve_s": flow.solve_s, "factorisations": flow.factorisations,
+              "factor_memory_bytes": flow.step_operator.factor_memory(), "fgmres_iterations": iterations,
+              "times": times, "drag_history": drag_history, "lift_history": lift,
+              "growth": growth_rate(times, lift, args.window)}
+    if comm.rank == 0:
+        g = result["growth"]
+        print(f"    {steps} steps in {elapsed:.0f} s ({flow.factorisations} factorisations, {sum(iterations)} FGMRES "
+              f"iterations): C_L {lift[0]:+.3e} -> {lift[-1]:+.3e}; growth rate of dC_L/dt over t "
+              f"{g['window_start']:.1f}-{g['window_end']:.1f}: {g['sigma']:+.4f} U/D (halves "
+              f"{g['sigma_first_half']:+.4f}, {g['sigma_second_half']:+.4f}; sign changes "
+              f"{g['sign_changes_in_window']})", flush=True)
+    flow.destroy()
+    return result
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("case", choices=("wall", "solver", "drag"))
+    parser.add_argument("case", choices=("wall", "solver", "drag", "growth"))
     parser.add_argument("--cells", type=float, default=12.0, help="cells per diameter at the sphere's surface")
     parser.add_argument("--gaps", type=lambda text: [float(g) for g in text.split(",")], default=[0.1, 0.5, 2.0],
                         help="gaps over the radius (wall)")
@@ -261,15 +446,28 @@ def main(argv=None) -> None:
     parser.add_argument("--reynolds", type=float, default=20.0, help="U D / nu (solver)")
     parser.add_argument("--tag", default="", help="appended to the JSON file's name")
     parser.add_argument("--steps", type=int, default=8, help="time steps (solver), at most Picard steps (drag)")
-    parser.add_argument("--reynolds-list", type=lambda text: [float(g) for g in text.split(",")], default=[100.0],
-                        help="U D / nu (drag)")
+    parser.add_argument("--re", "--reynolds-list", dest="reynolds_list", default=[100.0],
+                        type=lambda text: [float(g) for g in text.split(",")], help="U D / nu, a list (drag)")
     parser.add_argument("--downstream", type=float, default=6.0, help="diameters behind the sphere (drag)")
     parser.add_argument("--upstream", type=float, default=5.0, help="diameters before the sphere (drag)")
     parser.add_argument("--half-width", type=float, default=5.0, help="diameters to the slip sides (drag)")
     parser.add_argument("--wake-size", type=float, default=2.0, help="cells in the wake, in surface cells (drag)")
     parser.add_argument("--grading", type=float, default=0.3, help="size growth per distance (drag)")
     parser.add_argument("--picard-dt", type=float, default=2.0, help="the Picard steps' dt in D / U (drag)")
+    parser.add_argument("--wake-time", type=float, default=0.0,
+                        help="after the steady state, time-step the kicked wake this long in D / U (drag; 0: not)")
+    parser.add_argument("--wake-dt", type=float, default=0.5, help="the wake's time step in D / U (drag)")
+    parser.add_argument("--window", type=lambda text: tuple(float(g) for g in text.split(",")), default=None,
+                        help="t_0,t_1 in D / U: the growth rate's window (drag with --wake-time, growth; default: "
+                             "the last half)")
+    parser.add_argument("--record", help="a drag record with --wake-time (growth)")
+    parser.add_argument("--symmetric-base", action="store_true",
+                        help="project every Picard iterate on the axisymmetric class (x -> -x mirror; drag)")
+    parser.add_argument("--kick", type=float, default=0.02, help="the wake's non-axisymmetric seed over U (drag)")
     args = parser.parse_args(argv)
+    if args.case == "growth":  # a record's analysis: printed, nothing written
+        growth(args)
+        return
     start = time.perf_counter()
     rows = {"wall": wall, "solver": solver, "drag": drag}[args.case](args)
     if MPI.COMM_WORLD.rank == 0:
