@@ -124,7 +124,9 @@ def _parser() -> argparse.ArgumentParser:
     tilt = kinds.add_parser("oblique", help="oblique impacts: psi_out(psi_in), e_n, e_t and spin over incidence angles")
     tilt.add_argument("scene", help="a scene whose sphere is launched at the wall, e.g. foerster1994-glass")
     tilt.add_argument("--angles", default=None, help="comma-separated degrees from the normal (default: 40, 2-80)")
-    tilt.add_argument("--model", default="ode", choices=["ode"], help="the model that runs oblique scenes (ode)")
+    tilt.add_argument("--model", default="ode", choices=["ode", "fd3d"],
+                      help="the model that runs the sweep: ode (default; under a second a run) or fd3d (the resolved "
+                           "3-D flow; minutes a run)")
     bands = kinds.add_parser("band", help="predictions with bands: percentiles and Sobol' indices over the "
                                           "uncertain properties")
     bands.add_argument("scene", help="preset name or TOML file (its [uncertain] table, if any, gives the ranges)")
@@ -458,7 +460,7 @@ def _study(args, comm, runner) -> int:
         from .studies import oblique
 
         angles = numbers(args.angles, "--angles") if args.angles else oblique.ANGLES
-        oblique.run(scenes.load(args.scene, changes), comm, out, angles, runner=runner)
+        oblique.run(scenes.load(args.scene, changes), comm, out, angles, runner=runner, model=args.model)
     elif args.kind == "band":
         from . import uncertain
         from .studies import band

@@ -146,7 +146,8 @@ class BodyEquations:
         self.tangential = None
         if scene.oblique:
             body = self.bodies[0]
-            self.tangential = TangentialMotion(scene, self.contact.law, body.mass, body.displaced_mass)
+            self.tangential = TangentialMotion(scene, self.contact.law, body.mass, body.displaced_mass,
+                                               self.contact.hold_gap if resolved else None)
         start = layout.size + sum(self.n_history)
         self.tangential_slice = slice(start, start + (len(TangentialMotion.names) if self.tangential else 0))
         # what the force terms and the residual reuse at every call (ForceTerms, forces, residual)
@@ -364,7 +365,10 @@ class BodyEquations:
         if self.tangential is not None:
             along, wall = self.tangential_slice, self.wall
             out[along] = self.tangential.residual(y[along], ydot[along], y[wall.gap_index], rates[0],
-                                                  self._wall_films[0][0], wall.record.engaged_now)
+                                                  self._wall_films[0][0], wall.record.engaged_now, accelerations[0])
+            plane = self.fluid.plane
+            if plane is not None:  # a resolved flow's added mass of the normal force on the tangential accelerations
+                out[layout.velocity_index(0)] += plane.mass[0, 1:] @ ydot[along][1:3]
         return out
 
     def _remembering(self) -> np.ndarray:
@@ -430,6 +434,8 @@ class BodyEquations:
                                                    wall.record.engaged_now, shift)
             jac[along, along] = own
             jac[along, [wall.gap_index, layout.velocity_index(0)]] = normal
+            if self.fluid.plane is not None:
+                jac[layout.velocity_index(0), along.start + 1:along.start + 3] += shift * self.fluid.plane.mass[0, 1:]
         return jac
 
     def _inertia(self, y) -> np.ndarray:
@@ -445,11 +451,16 @@ class BodyEquations:
         f = self.forces(t, y)
         mass, rhs = self._balance(t, f)
         accel = np.linalg.solve(mass, rhs)
+        along_accelerations, across = self._along_accelerations(y, mass, rhs)
+        if along_accelerations is not None:
+            accel = np.array([(rhs[0] - across @ along_accelerations) / mass[0, 0]])
         drag, pair, history, blend = (np.array(values) for values in (f.drag, f.pair, f.history, f.blend))
         added_mass = -np.array(f.theory_mass) @ accel + f.am_velocity + f.pair_am_velocity
         theory = drag + pair + added_mass + history
         count = len(self.bodies)
         sim = self.fluid.explicit - self.fluid.added_mass @ accel if self.resolved else theory
+        if along_accelerations is not None:
+            sim = sim - across @ along_accelerations
         correction = np.array(f.correction) - np.array(f.correction_mass) * accel
         per_sphere = dict(gap=f.heights, velocity=f.velocities, acceleration=accel, f_drag=drag,
                           f_lubrication=[d - sphere.free_drag(u) for d, sphere, u in
@@ -469,5 +480,20 @@ class BodyEquations:
             along = y[self.tangential_slice]
             row.update(zip(TangentialMotion.names[:3], (float(v) for v in along[:3])))
             row.update(self.tangential.row(along, y[self.wall.gap_index], self._rates(y)[0], self._wall_films[0][0],
-                                           self.wall.record.engaged_now, float(accel[0])))
+                                           self.wall.record.engaged_now, float(accel[0]), along_accelerations))
         return row
+
+    def _along_accelerations(self, y, mass, rhs) -> tuple:
+        """(dU/dt, dOmega/dt) and the normal force's added mass on them (kinematics.PlaneForce.mass[0, 1:]) when a
+        resolved flow's added mass couples the normal and tangential equations (one sphere), else (None, None): the
+        three accelerations solved together from the residual's rows."""
+        plane = self.fluid.plane if self.tangential is not None else None
+        if plane is None:
+            return None, None
+        along, wall = y[self.tangential_slice], self.wall
+        pushed = -self.tangential.residual(along, np.zeros(len(along)), y[wall.gap_index], self._rates(y)[0],
+                                           self._wall_films[0][0], wall.record.engaged_now)[1:3]  # F and T at rest
+        system = np.array(plane.mass)
+        system[0, 0] = mass[0, 0]
+        system[1:, 1:] += np.diag([self.tangential.mass, self.tangential.inertia])
+        return np.linalg.solve(system, np.r_[rhs[0], pushed])[1:], plane.mass[0, 1:]

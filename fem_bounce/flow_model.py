@@ -91,6 +91,18 @@ class PastLevels:
         return {name: [np.asarray(v).tolist() for v in values] for name, values in self.levels.items()}
 
 
+def mean_velocity(levels: list, dt: float, previous_dt: float | None = None):
+    """The mean velocity over a coming step dt [s] from the last velocity levels, newest first (AB2; one level: it
+    held): 1.5 V_n - 0.5 V_{n-1}, or V_n + (dt / 2) (V_n - V_{n-1}) / dt_{n-1} after a step `previous_dt` [s] of
+    another length."""
+    v = levels
+    if len(v) == 1:
+        return v[0]
+    if previous_dt is None:
+        return 1.5 * v[0] - 0.5 * v[1]
+    return v[0] + 0.5 * dt / previous_dt * (v[0] - v[1])
+
+
 class Predictor:
     """The bodies' last velocities, newest first (order 2: AB2; order 1: the last velocities held), each
     an array over the bodies [m/s]; checkpoints store them as lists."""
@@ -106,14 +118,7 @@ class Predictor:
                 previous_dt: float | None = None) -> Prediction:
         """The bodies at the end of a step dt [s]; `previous_dt` [s]: the step before, when it differed
         (FlowModel.previous_time_step): the mean velocity is then V_n + (dt / 2) (V_n - V_{n-1}) / dt_{n-1}."""
-        v = self.velocities
-        if len(v) == 1:
-            mean_velocities = v[0]
-        elif previous_dt is None:
-            mean_velocities = 1.5 * v[0] - 0.5 * v[1]
-        else:
-            mean_velocities = v[0] + 0.5 * dt / previous_dt * (v[0] - v[1])
-        return Prediction(time, gaps, velocities, dt, mean_velocities)
+        return Prediction(time, gaps, velocities, dt, mean_velocity(self.velocities, dt, previous_dt))
 
     def push(self, velocities: np.ndarray) -> None:
         self.history.push(velocities=np.array(velocities, dtype=float))

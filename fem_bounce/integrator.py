@@ -93,6 +93,8 @@ class BodyIntegrator(BodyEquations):
         if self.tangential is not None:  # the tangential rows read their own unknowns and the wall's gap and speed
             pattern[along, along] = True
             pattern[along, self.wall.gap_index] = pattern[along, layout.velocity_index(0)] = True
+            if self.resolved:  # a resolved flow's added mass couples the normal row to U' and Omega'
+                pattern[layout.velocity_index(0), along] = True
         rows, columns = np.nonzero(pattern)
         indptr = np.r_[0, np.cumsum(pattern.sum(axis=1))].astype(PETSc.IntType)
         self._pattern = (rows, columns, indptr, columns.astype(PETSc.IntType))
@@ -392,6 +394,8 @@ class BodyIntegrator(BodyEquations):
         the time past t_end by the film's collision time."""
         if fluid is not None:
             self.fluid = fluid
+            if self.tangential is not None:
+                self.tangential.fluid = fluid.plane
         if self.done or t_end <= self.time:
             return
         if self.steps == 0:  # the initial state is the first row
@@ -436,6 +440,11 @@ class BodyIntegrator(BodyEquations):
     def velocities(self) -> np.ndarray:
         """Each sphere's velocity, positive upward [m/s]."""
         return self.kinematics.velocities(self._state()).copy()
+
+    @property
+    def along(self) -> np.ndarray | None:
+        """An oblique collision's (x [m], U [m/s], Omega [1/s]) of sphere 1 along the wall (oblique.py), else None."""
+        return None if self.tangential is None else self._state()[self.tangential_slice][:3].copy()
 
     def _report(self, t: float, y) -> None:
         """Hand the observers the row of the state y at t."""

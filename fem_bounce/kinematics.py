@@ -20,12 +20,25 @@ import numpy as np
 
 
 @dataclass(frozen=True)
+class PlaneForce:
+    """A resolved model's force along the wall and torque on sphere 1 in an oblique collision, over one fluid step:
+    (F_x [N], T_y [N m]) = explicit - mass[1:] (dV/dt, dU/dt, dOmega/dt), V the normal velocity, U the velocity along
+    the wall (x) and Omega the spin about y (oblique.TangentialMotion's signs); `mass` (3, 3) [kg, kg m, kg m^2] is
+    the added mass over all three, its first row the normal force's (FluidForce.added_mass[0, 0] its first entry)."""
+
+    explicit: np.ndarray
+    mass: np.ndarray
+
+
+@dataclass(frozen=True)
 class FluidForce:
     """A resolved model's forces on the N bodies over one fluid step [N, kg]:
-    f_sim,i = explicit_i - sum_j added_mass_ij dV_j/dt, `explicit` of shape (N,), `added_mass` (N, N)."""
+    f_sim,i = explicit_i - sum_j added_mass_ij dV_j/dt, `explicit` of shape (N,), `added_mass` (N, N);
+    `plane`: the force along the wall and the torque of an oblique collision (None: head-on, or none resolved)."""
 
     explicit: np.ndarray
     added_mass: np.ndarray
+    plane: PlaneForce | None = None
 
     @classmethod
     def none(cls, count: int) -> FluidForce:

@@ -89,8 +89,9 @@ TANGENTIAL_TERMS = ("film_force", "film_torque", "far_field", "weight", "sliding
 
 @dataclass(frozen=True)
 class AlongWall:
-    """What the tangential audit needs of the sphere: its mass along the wall (with the added mass) [kg], its
-    moment of inertia [kg m^2], radius [m] and the net weight's part along the wall [N]."""
+    """What the tangential audit needs of the sphere: its mass along the wall (with the added mass, for the ode
+    model's theory forces) [kg], its moment of inertia [kg m^2], radius [m] and the net weight's part along the
+    wall [N]."""
     mass: float
     inertia: float
     radius: float
@@ -282,7 +283,8 @@ def annotate(summary: dict, trajectory: dict) -> str:
     blend_gap = scene["contact"]["delta_sl"] * diameter
     along = None  # an oblique collision's, when its trajectory has the columns the tangential audit reads
     if "spring_energy" in trajectory:
-        along = AlongWall(mass + ADDED_MASS * scene["liquid"]["density"] * volume,
+        added = ADDED_MASS if summary.get("model") == "ode" else 0.0  # a resolved flow's force holds its added mass
+        along = AlongWall(mass + added * scene["liquid"]["density"] * volume,
                           INERTIA_FACTOR * mass * (diameter / 2.0)**2, diameter / 2.0,
                           (mass - scene["liquid"]["density"] * volume) * scene["gravity"] * math.sin(angle))
     unaudited, first = [], ""  # the impacts left out but for a release inside delta_sl D, and the first reason

@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 from .contact import ContactLaw
+from .kinematics import PlaneForce
 from .scene import Scene
 from .tangential_contact import TangentialContact, matched_damping
 from .wall_tangential import wall_tangential_resistance
@@ -54,11 +55,17 @@ class TangentialMotion:
 
     names = ("x", "tangential_velocity", "spin", "stretch")
 
-    def __init__(self, scene: Scene, law: ContactLaw, mass: float, displaced_mass: float):
+    def __init__(self, scene: Scene, law: ContactLaw, mass: float, displaced_mass: float,
+                 hold_gap: float | None = None):
         sphere, wall, liquid = scene.sphere, scene.wall, scene.liquid
         self.radius, self.diameter = sphere.radius, sphere.diameter
         self.viscosity, self.density = liquid.viscosity, liquid.density
-        self.mass = mass + ADDED_MASS * displaced_mass  # along the wall
+        # a resolved flow's force (its added mass within it) replaces the theory's liquid (module docstring)
+        self.resolved, self.hold_gap = hold_gap is not None, hold_gap or 0.0
+        self.fluid: PlaneForce | None = None  # the resolved flow's, set for each fluid step
+        self._held = (wall_tangential_resistance(self.radius, self.viscosity, self.hold_gap)[0] if self.hold_gap
+                      else None)  # R at the hold
+        self.mass = mass + (0.0 if self.resolved else ADDED_MASS * displaced_mass)  # along the wall
         self.inertia = INERTIA_FACTOR * mass * sphere.radius**2
         self.weight = (mass - displaced_mass) * scene.gravity * math.sin(math.radians(scene.gravity_angle))
         self.law = law
@@ -112,7 +119,16 @@ class TangentialMotion:
                 -8.0 * math.pi * self.viscosity * self.radius**3 * spin)
 
     def _liquid(self, film_gap: float, velocity: float, spin: float):
-        """(F, T, R, dR/d gap, d excess/dU) of the liquid at the film's gap."""
+        """(F, T, R, dR/d gap, d excess/dU) of the liquid at the film's gap; with a resolved flow F and T are the
+        flow's explicit part and what the held flow misses, R the film's resistance below the hold less the hold's."""
+        if self.resolved:
+            explicit = self.fluid.explicit if self.fluid is not None else np.zeros(2)
+            if film_gap >= self.hold_gap:
+                return float(explicit[0]), float(explicit[1]), np.zeros((2, 2)), np.zeros((2, 2)), 0.0
+            resistance, slope = wall_tangential_resistance(self.radius, self.viscosity, film_gap)
+            missed = resistance - self._held
+            force, torque = explicit - missed @ np.array([velocity, spin])
+            return float(force), float(torque), missed, slope, 0.0
         resistance, slope = wall_tangential_resistance(self.radius, self.viscosity, film_gap)
         excess, d_excess = self._drag_excess(velocity)
         force, torque = -resistance @ np.array([velocity, spin])
@@ -129,14 +145,21 @@ class TangentialMotion:
                 "stretch_rate": stretch_rate}
 
     def row(self, state, gap: float, rate: float, film_gap: float, engaged: float | None,
-            acceleration: float) -> dict:
+            acceleration: float, along_accelerations=None) -> dict:
         """The trajectory's tangential columns but x, U and Omega (output.TANGENTIAL_COLUMNS): `terms`'s forces and
-        torque, the free sphere's part of them (`free_resistance`), the stretch, the spring's stored energy [J] and
-        the power the contact dissipates [W] while it slides and while it sticks (TangentialContact.energy, with
-        the normal force's actual rate from the gap's `acceleration` [m/s^2])."""
+        torque, the free sphere's part of them (`free_resistance`; with a resolved flow the flow's force with its
+        added mass's, and the liquid's that and what the held flow misses), the stretch, the spring's stored energy
+        [J] and the power the contact dissipates [W] while it slides and while it sticks (TangentialContact.energy, with
+        the normal force's actual rate from the gap's `acceleration` [m/s^2]; `along_accelerations`: dU/dt and
+        dOmega/dt, which a resolved flow's added mass needs)."""
         _, velocity, spin, stretch = state
         found = self.terms(state, gap, rate, film_gap, engaged)
         drag, torque = self.free_resistance(velocity, spin)
+        if self.resolved and self.fluid is not None:  # the flow's whole force: its explicit part less its added mass's
+            held = self.fluid.mass[1:] @ np.r_[acceleration, along_accelerations]
+            drag, torque = self.fluid.explicit - held  # the flow's part (the correction below the hold apart)
+            missed = np.array([found["f_tangential_liquid"], found["torque_liquid"]]) - self.fluid.explicit
+            found["f_tangential_liquid"], found["torque_liquid"] = drag + missed[0], torque + missed[1]
         arguments = self._contact_inputs(gap, rate, engaged, velocity - self.radius * spin, stretch)
         stored, lost, sliding = 0.0, 0.0, False
         if arguments is not None:
@@ -147,15 +170,19 @@ class TangentialMotion:
                 "stretch": float(stretch), "spring_energy": stored, "dissipation_sliding": lost if sliding else 0.0,
                 "dissipation_sticking": 0.0 if sliding else lost}
 
-    def residual(self, state, rates, gap: float, rate: float, film_gap: float, engaged: float | None) -> np.ndarray:
+    def residual(self, state, rates, gap: float, rate: float, film_gap: float, engaged: float | None,
+                 acceleration: float = 0.0) -> np.ndarray:
         """The four rows G = (x' - U, M U' - F, I Omega' - T, xi' - rate) at the tangential `state` and its `rates`
-        (`terms` for the rest)."""
+        (`terms` for the rest; a resolved flow's added mass reads the normal `acceleration` dV/dt too)."""
         found = self.terms(state, gap, rate, film_gap, engaged)
         friction = found["f_friction"]
-        return np.array([rates[0] - state[1],
-                         self.mass * rates[1] - (found["f_tangential_liquid"] + friction + self.weight),
-                         self.inertia * rates[2] - (found["torque_liquid"] - self.radius * friction),
-                         rates[3] - found["stretch_rate"]])
+        out = np.array([rates[0] - state[1],
+                        self.mass * rates[1] - (found["f_tangential_liquid"] + friction + self.weight),
+                        self.inertia * rates[2] - (found["torque_liquid"] - self.radius * friction),
+                        rates[3] - found["stretch_rate"]])
+        if self.resolved and self.fluid is not None:  # the flow's added mass
+            out[1:3] += self.fluid.mass[1:] @ np.r_[acceleration, rates[1:3]]
+        return out
 
     def jacobian(self, state, gap: float, rate: float, film_gap: float, film_slope: float, engaged: float | None,
                  shift: float) -> tuple[np.ndarray, np.ndarray]:
@@ -177,4 +204,7 @@ class TangentialMotion:
         own[3, 1], own[3, 2], own[3, 3] = -r_slip, a * r_slip, shift - r_stretch
         normal = np.zeros((4, 2))
         normal[1:3, 0] = film_slope * (slope @ np.array([velocity, spin]))
+        if self.resolved and self.fluid is not None:
+            own[1:3, 1:3] += shift * self.fluid.mass[1:, 1:]
+            normal[1:3, 1] += shift * self.fluid.mass[1:, 0]
         return own, normal

@@ -93,7 +93,9 @@ def whole_rows(path: Path) -> np.ndarray:
     text = Path(path).read_text()
     assert text.endswith("\n"), "the trajectory ends in a half-written row"
     rows = list(csv.reader(text.splitlines()))
-    assert tuple(rows[0]) in (output.trajectory_columns(1), output.trajectory_columns(2))  # one sphere or a pair
+    # one sphere (head-on or oblique) or a pair
+    assert tuple(rows[0]) in (output.trajectory_columns(1), output.trajectory_columns(1, oblique=True),
+                              output.trajectory_columns(2))
     assert all(len(row) == len(rows[0]) for row in rows)
     return np.array(rows[1:], dtype=float)
 

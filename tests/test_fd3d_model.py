@@ -163,6 +163,31 @@ def test_a_run_ends_at_its_end_time(tmp_path, adaptive):
 
 
 @pytest.mark.slow
+def test_an_oblique_impact_slides_spins_and_closes_its_energy_account(tmp_path):
+    """Case 3's sphere launched at the wall 30 degrees off the normal without gravity (tests/test_oblique.py's
+    scene) at 4 cells/D: the flow's force along the wall and its torque enter the sphere's equations with their
+    added mass, the mesh follows the sphere along the wall, the contact's friction slows the contact point and spins
+    the sphere up in the rolling sense, and the audits of the momentum and of the energy along the wall close."""
+    from test_oblique import case3_oblique
+
+    settings = {"numerics.fd3d.cells_per_diameter": 4, "numerics.fd3d.surface_refinement": 1}
+    summary = simulate(case3_oblique(30.0).replace(**settings), "fd3d", MPI.COMM_WORLD, tmp_path, force=True,
+                       progress=False, plots=False)
+    assert summary["status"] == "completed" and summary["fd3d"]["remeshes"] >= 1
+    contact = summary["oblique_impacts"][0]["contact"]
+    assert 0.0 < contact["psi_out"] < contact["psi_in"]
+    assert contact["spin_out"] > contact["spin_in"] and contact["spin_out"] > 0.0
+    # it slides throughout (psi_in above 7/2 mu (1 + e_n)): the Coulomb friction 0.02 and the liquid's share
+    assert 0.02 * (1.0 - 1e-3) < contact["effective_friction"] < 0.03
+    assert 0.8 < summary["fd3d"]["tangential_added_mass_over_displaced"] / summary["fd3d"][
+        "added_mass_over_displaced"] < 1.25  # parallel and normal at a gap of 0.4 D: both near 1/2 and the wall's
+    losses = summary["impacts"][0]["losses"]
+    assert "tangential" in losses, losses.get("tangential_skipped")
+    trajectory = output.read_trajectory(tmp_path)
+    assert trajectory["x"][-1] > 0.5 * 0.39 * np.sin(np.radians(30.0)) * trajectory["t"][-1]
+
+
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_two_ranks_give_the_serial_trajectory(shared_tmp):
     """Every rank also runs the same scene alone (COMM_SELF): the trajectories agree to solver precision, across a

@@ -11,6 +11,7 @@ from fem_bounce import scene as scenes
 from fem_bounce.models import registry
 
 OBLIQUE = {"tangential_velocity": 0.1, "contact.friction": 0.1}
+FD3D_TOY = {"numerics.fd3d.cells_per_diameter": 4, "numerics.fd3d.surface_refinement": 1}  # a few seconds a step
 
 
 def test_a_head_on_sphere_takes_the_resolved_model_of_the_front():
@@ -30,16 +31,18 @@ def test_a_head_on_sphere_takes_the_resolved_model_of_the_front():
         "ode", "model: ode (one sphere on the axis, and fd, ale, ib: releases up to 100 D; --model to choose)")
 
 
-def test_an_oblique_scene_takes_the_only_model_that_runs_it_and_fd3d_once_it_does(monkeypatch):
+def test_an_oblique_scene_takes_the_3d_model_and_a_head_on_one_never_does(monkeypatch):
     scene = scenes.load("li2011-case3", OBLIQUE)
     assert models.scene_kind(scene) == "oblique"
+    name, line = models.choose(scene, installed=set(models.MODELS))
+    assert name == "fd3d" and line.startswith("model: fd3d (the resolved model that runs scenes off the axis")
+    assert models.choose(scenes.load("li2011-case3"), installed=set(models.MODELS))[0] == "fd"
+    # without it (or were its registry entry head-on only) the reduced model, and the line says why
+    assert models.choose(scene, installed=set(models.MODELS) - {"fd3d"}) == (
+        "ode", "model: ode (a scene off the axis, and fd3d: not installed; --model to choose)")
+    monkeypatch.setitem(registry.MODELS, "fd3d", dataclasses.replace(registry.MODELS["fd3d"], oblique=False))
     assert models.choose(scene, installed=set(models.MODELS)) == (
         "ode", "model: ode (a scene off the axis, and fd3d: head-on only so far; --model to choose)")
-    # the day the fd3d model's registry entry says it runs scenes off the axis, they take it; head-on never does
-    monkeypatch.setitem(registry.MODELS, "fd3d", dataclasses.replace(registry.MODELS["fd3d"], oblique=True))
-    assert models.choose(scene, installed=set(models.MODELS)) == (
-        "fd3d", "model: fd3d (the resolved model that runs scenes off the axis; --model to choose)")
-    assert models.choose(scenes.load("li2011-case3"), installed=set(models.MODELS))[0] == "fd"
 
 
 def test_a_pair_and_a_column_take_the_resolved_model_that_runs_them_best():
@@ -67,11 +70,11 @@ def test_the_picks_table_names_known_models_ending_with_one_that_runs_any_scene(
 def test_run_without_a_model_prints_the_pick_in_one_line(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     argv = ["run", "li2011-case3", "--quiet", "--no-plots", "--set", "run.end_time=0.002", "--out", "oblique",
-            *(f"--set={key}={value}" for key, value in OBLIQUE.items())]
+            *(f"--set={key}={value}" for key, value in {**OBLIQUE, **FD3D_TOY}.items())]
     assert cli.main(argv) == 0
     err = capsys.readouterr().err.splitlines()
-    assert err[0] == "fem-bounce: model: ode (a scene off the axis, and fd3d: head-on only so far; --model to choose)"
-    assert err[1].startswith("fem-bounce: li2011-case3 with the ode model")
+    assert err[0].startswith("fem-bounce: model: fd3d (the resolved model that runs scenes off the axis")
+    assert err[1].startswith("fem-bounce: li2011-case3 with the fd3d model")
     # --model named: no such line
     assert cli.main(["run", "li2011-case3", "--model", "ode", "--quiet", "--no-plots", "--set", "run.end_time=0.002",
                      "--out", "named"]) == 0
@@ -89,8 +92,8 @@ def test_run_without_a_model_runs_the_head_on_pick(tmp_path, monkeypatch, capsys
 
 
 def test_simulate_without_a_model_takes_the_same_pick():
-    result = fb.simulate(fb.load("li2011-case3", {**OBLIQUE, "run.end_time": 0.002}), plots=False)
-    assert result.model == "ode"
+    result = fb.simulate(fb.load("li2011-case3", {**OBLIQUE, **FD3D_TOY, "run.end_time": 0.002}), plots=False)
+    assert result.model == "fd3d"
 
 
 def test_the_chooser_passes_over_exactly_the_models_check_scene_refuses():

@@ -168,3 +168,68 @@ def test_the_tangential_block_of_the_jacobian(engaged, slip, stretch):
             assert np.all(np.abs(exact[:, column] - derivative) <= allowed), (column, exact[:, column], derivative)
     finally:
         integrator.destroy()
+
+
+# -- a resolved flow's force along the wall (the fd3d model's, kinematics.PlaneForce) ------------------------------
+
+PLANE_MASS = np.array([[2.0e-3, 1.0e-4, -2.0e-7], [3.0e-4, 1.5e-3, 4.0e-7], [-1.0e-7, 2.0e-7, 3.0e-9]])  # over V, U, Om
+
+
+def resolved_integrator(explicit=(2.0e-3, -1.0e-3, 4.0e-7)) -> BodyIntegrator:
+    """Case 3's sphere far from the wall (no film, no correction) with a resolved flow's linearised force over
+    (V, U, Omega) handed over as a fluid step would: explicit - PLANE_MASS (V', U', Omega')'."""
+    from fem_bounce.kinematics import FluidForce, PlaneForce
+
+    integrator = BodyIntegrator(scenes.load("li2011-case3", {"run.bounces": 1, "gravity": 0.0, "initial_gap": 0.02,
+                                                              "initial_velocity": -0.3, "tangential_velocity": 0.2,
+                                                              "contact.friction": 0.02}), resolved=True)
+    integrator.fluid = FluidForce(np.array(explicit[:1]), PLANE_MASS[:1, :1],
+                                  PlaneForce(np.array(explicit[1:]), PLANE_MASS))
+    integrator.tangential.fluid = integrator.fluid.plane
+    return integrator
+
+
+def test_a_resolved_flows_added_mass_couples_the_normal_and_tangential_accelerations():
+    """Far from the wall the resolved force is all there is: the three accelerations solve
+    (diag(m, m, I) + M) a = explicit together, and the trajectory's row says so (f_sim and the tangential liquid
+    force and torque are explicit - M a)."""
+    explicit = np.array([2.0e-3, -1.0e-3, 4.0e-7])
+    integrator = resolved_integrator(explicit)
+    try:
+        tangential = integrator.tangential
+        mass = np.diag([integrator.bodies[0].mass, tangential.mass, tangential.inertia]) + PLANE_MASS
+        expected = np.linalg.solve(mass, explicit)
+        row = integrator.row(0.0, np.array(integrator.y.array_r))
+        assert tangential.mass == pytest.approx(integrator.bodies[0].mass, rel=1e-12)  # no theory added mass
+        assert row["acceleration"] == pytest.approx(expected[0], rel=1e-9)
+        liquid = explicit - PLANE_MASS @ expected
+        assert [row["f_sim"], row["f_tangential_liquid"], row["torque_liquid"]] == pytest.approx(liquid, rel=1e-9)
+        integrator.advance(1e-4)
+        y = np.array(integrator.y.array_r)
+        along = y[integrator.tangential_slice]
+        assert [y[1], along[1], along[2]] == pytest.approx([-0.3, 0.2, 0.0] + 1e-4 * expected, rel=1e-7, abs=1e-12)
+    finally:
+        integrator.destroy()
+
+
+def test_the_resolved_tangential_rows_jacobian():
+    """The Jacobian of the rows a resolved flow's force enters (the normal row through the added mass on U' and
+    Omega', the tangential rows through all three accelerations) against central differences (steps as in the
+    theory's check above)."""
+    integrator = resolved_integrator()
+    try:
+        rng = np.random.default_rng(5)
+        y = np.array(integrator.y.array_r)
+        ydot = rng.normal(size=len(y))
+        along = integrator.tangential_slice
+        rows = [1, *range(along.start, along.stop)]
+        shift, t = 1e3, 0.0
+        exact = integrator.jacobian(t, y, ydot, shift)[rows]
+        terms = np.abs(exact) @ np.abs(y) + np.abs(integrator.residual(t, y, ydot)[rows])
+        for column, step in ((1, 1e-9), (along.start + 1, 1e-9), (along.start + 2, 1e-7)):
+            derivative = (central(integrator, t, y, ydot, column, step)
+                          + shift * central(integrator, t, y, ydot, column, 1e-3, rates=True))[rows]
+            allowed = 1e-6 * np.abs(derivative) + 1e-13 * terms / step
+            assert np.all(np.abs(exact[:, column] - derivative) <= allowed), (column, exact[:, column], derivative)
+    finally:
+        integrator.destroy()

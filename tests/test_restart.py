@@ -45,6 +45,13 @@ CASES = {  # a toy run of each model that writes checkpoints, alone and in a pai
              "numerics.fd3d.surface_refinement=1", "--set",
              "numerics.fd3d.patch_margin=0.2", "--set", "run.end_time=0.03", "--set",
              "numerics.fd3d.checkpoint_every=10"],
+    # and oblique (case 3's sphere launched at 30 degrees without gravity, tests/test_oblique.py's scene), to 12 ms:
+    # the checkpoint on a new mesh off the axis, the tangential amplitudes' history with it
+    "fd3d-oblique": ["li2011-case3", "--model", "fd3d", "--set", "numerics.fd3d.cells_per_diameter=4", "--set",
+                     "numerics.fd3d.surface_refinement=1", "--set", "numerics.fd3d.patch_margin=0.2", "--set",
+                     "gravity=0", "--set", "initial_gap=0.00475", "--set", "initial_velocity=-0.3377", "--set",
+                     "tangential_velocity=0.195", "--set", "contact.friction=0.02", "--set", "run.end_time=0.012",
+                     "--set", "numerics.fd3d.checkpoint_every=10"],
 }
 
 
@@ -101,9 +108,10 @@ def test_sigkill_after_a_checkpoint_then_restart_gives_the_uninterrupted_run(str
     process.send_signal(signal.SIGKILL)
     process.communicate()
     assert not (killed / "summary.json").exists(), "the run finished before it was killed"
-    if case == "fd3d":  # the checkpoint is on a new mesh, which the restart must make again
+    if case.startswith("fd3d"):  # the checkpoint is on a new mesh, which the restart must make again
         state = json.loads((killed / "checkpoint" / "state.json").read_text())
-        assert state["flow"]["patch_center"] != pytest.approx(0.0152 + 0.00475)
+        release = [0.0, 0.0, 0.00635 + (0.00475 if case == "fd3d-oblique" else 0.0152)]  # the first mesh's centre
+        assert state["flow"]["patch_center"] != pytest.approx(release)
     assert cli.main(["run", "--restart", str(killed), "--quiet"]) == 0
     assert messages(capsys.readouterr().err) == []
     assert_same_run(reference, killed)

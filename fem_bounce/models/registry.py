@@ -172,7 +172,7 @@ MODELS: dict[str, ModelInfo] = {
         ladder=(4.0, 6.0, 8.0), time_step_key="numerics.fd3d.cfl",
         checkpoint_every_key="numerics.fd3d.checkpoint_every", checkpoint_files=("flow.npz",),
         fields_key="numerics.fd3d.output_every", colour="C4",
-        sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP),
+        sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP, oblique=True),
 }
 
 BEST_FIRST = ("ale", "fd", "ib", "ode")  # models.default(): the highest fidelity that imports (not a run's default)

@@ -1,11 +1,16 @@
-"""The three-dimensional fictitious-domain model (`--model fd3d`) of a head-on bounce: one sphere falling along z
-onto the wall, as a FlowModel (fem_bounce.flow_model).
+"""The three-dimensional fictitious-domain model (`--model fd3d`): one sphere and a wall, head-on or oblique, as a
+FlowModel (fem_bounce.flow_model).
 
-The flow is flow.PenalisedFlow3D on the half box y >= 0 (a head-on bounce is symmetric about the plane y = 0
-through the path; the box also keeps x -> -x, so the U_x and Omega_y responses stay unexcited and the body
-integrator's one degree of freedom per sphere, the velocity along z, is the whole motion).  The box is
-numerics.fd3d.far_field D wide on each side of the path and as high above the release's top; the wall is
-no-slip (slip when wall.present is false), the other sides slip, as the axisymmetric models' unbounded domain.
+The flow is flow.PenalisedFlow3D on the half box y >= 0: the motion stays in the plane of incidence x-z, so the flow
+is symmetric about the plane y = 0 through the path (for the steady wake of a sphere below Re ~210, which the
+scenes here are: docs/validation.md section 14).  A head-on bounce moves the sphere along z only (the rigid mode
+U_z; the box also keeps x -> -x, so U_x and Omega_y stay unexcited); an oblique one (Scene.oblique: a tangential
+velocity, a spin or gravity's tilt) also along the wall and about y (U_x, Omega_y), its force along the wall and
+torque handed to the body integrator's tangential equations (oblique.TangentialMotion) with the whole added mass
+over the three (kinematics.PlaneForce).  The box is numerics.fd3d.far_field D wide on each side of the release and
+as high above the release's top; it does not follow the sphere along the wall (a run is stopped when the sphere
+has slid within far_field / 2 D of its side).  The wall is no-slip (slip when wall.present is false), the other
+sides slip, as the axisymmetric models' unbounded domain.
 
 Two meshes (numerics.fd3d.mesh; mesh.create_box_mesh), fine only in a patch around the sphere and in the gap below:
 
@@ -33,18 +38,23 @@ One fluid step of length dt (the run's CoupledStep):
 1. place the sphere where the AB2 prediction puts its centre at t_{n+1}, no lower than the contact model's
    hold gap above the wall (flow_model.flow_gaps: below delta_sl the near-wall correction adds what the flow
    misses, as in every resolved model);
-2. (moving mesh) move the mesh there, its velocity the BDF rate of the centre;
+2. (moving mesh) move the mesh there, its velocity the BDF rate of the centre; while the hold stops the flow's
+   sphere, its normal velocity the sphere's own, so that the liquid meets a solid sphere approaching through a gap
+   frozen at the hold (the hold's approximation) rather than a ball it crosses at the sphere's speed (with the mesh
+   at rest along z the penalised ball would let liquid through its surface, and an oblique sphere's jet into the
+   gap twisted it backwards: docs/validation.md section 14);
 3. assemble the step's matrix, factorise it (fixed mesh; moving: when the kept factors are stale) and solve for the
    flow affine in the rigid amplitudes, u(s) = x_0 + sum_j s_j x_j, in one pass over the factors;
-4. hand the body integrator the force along z linearised in the acceleration, exactly as the axisymmetric
-   implicit constraint does (models/fd/penalised.py): the penalty's reaction plus the rate of the held ball's
-   momentum,
+4. hand the body integrator the force linearised in the accelerations, exactly as the axisymmetric implicit
+   constraint does (models/fd/penalised.py): the penalty's reaction plus the rate of the held ball's momentum,
+   over the rigid amplitudes s (V along z; oblique: and U, Omega),
 
-       F(U) = rho c_B (I(x_0) + (I(x_z) - G) U) + rho c (B U - J),
+       F(s) = rho c_B (I(x_0) + (I(x_j) - G) s) + rho c (B s - J),
 
-   I(w) = int phi w . e_z, G = int phi, B = 4/3 pi a^3 the ball the friction holds, J the BDF history of B U;
-   F = F* - M c (U - U_ref) with F* = F(U_ref) and the numerical added mass M = -dF/dU / c;
-5. set the step's field for the velocity U the bodies reached: u = x_0 + U x_z.
+   I_i(w) = int phi w . m_i, G_ij = int phi m_i . m_j, B the ball the friction holds (4/3 pi a^3, 8/15 pi a^5 for
+   the rotation), J the BDF history of B s; F = F* - M c (s - s_ref) with F* = F(s_ref) and the numerical added
+   mass M = -dF/ds / c (`_linearised`);
+5. set the step's field for the amplitudes the bodies reached: u = x_0 + sum_j s_j x_j.
 
 Steps of their own length (numerics.fd3d.adaptive_step, flow_model.StepLimits, the fd model's controller): the
 variable-step BDF2; short through the collision.  A checkpoint holds the two BDF levels by dof coordinates
@@ -70,9 +80,10 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.geometry import Cartesian
 from ...fem.solver import SolverError
 from ...fem.transfer import DivergenceFreeProjection
-from ...flow_model import (FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, nearest_gap, safe_fixed_step,
-                           steps_to)
-from ...kinematics import FluidForce, Prediction
+from ...flow_model import (FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, mean_velocity, nearest_gap,
+                           safe_fixed_step, steps_to)
+from ...errors import RunFailed
+from ...kinematics import FluidForce, PlaneForce, Prediction
 from ...motion import is_free, is_stream
 from ...output import CheckpointError, body_array, segment_path
 from ...scene import SceneError
@@ -84,7 +95,8 @@ from .mesh import BALL, SIDE_X, SIDE_Y, TOP, WALL, BoxSpec, create_box_mesh, res
 from .motion import MeshMotion3D
 from .transfer import interpolate_state
 
-MODE = "U_z"  # the one rigid mode a head-on bounce moves
+HEAD_ON = ("U_z",)  # the rigid mode a head-on bounce moves
+OBLIQUE = ("U_z", "U_x", "Omega_y")  # an oblique one's, in the plane of incidence: the normal first
 RIGID_LAYER = 2.0  # the moving mesh carries the sphere and this many fine cells around it rigidly
 GAP_RATIO = 0.5  # the moving mesh is made again when the gap under the sphere has fallen or grown by this factor
 
@@ -183,14 +195,16 @@ class FictitiousDomain3DModel(FlowModel):
                         "krylov_iterations": 0}
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
         self.last_force: FluidForce | None = None
+        self.mode_names = OBLIQUE if scene.oblique else HEAD_ON
+        self.cross_coupling = 0.0  # an oblique step's largest normal-tangential added mass over the diagonal's
 
     def _check_scene(self, scene) -> None:
         """What the head-on 3-D model does not run, refused before the run writes anything."""
         if len(scene.spheres) > 1:
             raise SceneError("the fd3d model runs one sphere: remove [second_sphere] and [[further_spheres]]")
-        if getattr(scene, "oblique", False):
-            raise SceneError("the fd3d model runs head-on bounces only so far: give tangential_velocity = 0 and "
-                             "spin = 0")
+        if scene.oblique and scene.numerics.fd3d.mesh == "fixed":
+            raise SceneError('the fd3d model\'s fixed mesh follows a sphere along z only: an oblique collision '
+                             '(tangential_velocity, spin or gravity_angle) needs numerics.fd3d.mesh = "moving"')
         if not is_free(scene) or is_stream(scene):
             raise SceneError('the fd3d model runs a free sphere (motion.mode = "free") without a stream')
         s, defaults = scene.numerics.fd3d, numerics.Fd3dNumerics()
@@ -208,36 +222,42 @@ class FictitiousDomain3DModel(FlowModel):
         """The patch's mesh around the release, the liquid at rest, the indicator where the sphere starts."""
         start = time.perf_counter()
         self.hold = float(integrator.hold_gaps[0])
-        center = self.bodies[0].initial_gap + self.radius
-        self.placed = [center, center]  # the flow's sphere centre z at t_n and t_{n-1} [m]
+        self.bodies_now = integrator  # an oblique collision's motion along the wall: BodyIntegrator.along
+        center = np.array([0.0, 0.0, self.bodies[0].initial_gap + self.radius])
+        self.placed = [center, center]  # the flow's sphere centre at t_n and t_{n-1} [m]
         self.patch = self.patch_center(center)
         self._make_flow(center)
-        velocities = np.array([body.start_velocity for body in self.bodies])
-        self.history = History(self.flow.bdf, [velocities] * 2, [np.zeros(1)] * 2)  # the ball's liquid at rest
+        along = integrator.along
+        amplitudes = np.array([self.bodies[0].start_velocity, *([] if along is None else along[1:])])
+        # the rigid amplitudes over mode_names (V; with U and Omega), the ball's liquid at rest
+        self.history = History(self.flow.bdf, [amplitudes] * 2, [np.zeros(len(amplitudes))] * 2)
         self.timings["setup"] = time.perf_counter() - start
 
-    def patch_center(self, center: float) -> float:
-        """The patch's centre [m] for a sphere centred at z = center [m].  Fixed mesh: on a grid of the patch's
-        travel, and no lower than puts the lowest place it covers at the flow's hold above the wall (or a fine
-        cell).  Moving mesh: the centre rounded to 1e-4 D (so that gmsh never meshes on a tie in the last bits of
-        its input), no lower than the hold."""
+    def patch_center(self, center) -> np.ndarray:
+        """The patch's centre [m] for a sphere centred at `center` [m] (a 3-vector, y = 0).  Fixed mesh (the
+        sphere on the axis x = 0): z on a grid of the patch's travel, and no lower than puts the lowest place it
+        covers at the flow's hold above the wall (or a fine cell).  Moving mesh: the centre rounded to 1e-4 D (so
+        that gmsh never meshes on a tie in the last bits of its input), z no lower than the hold."""
+        x, _, z = center
         if self.moving:
             quantum = 1e-4 * self.diameter
-            return max(round(center / quantum) * quantum, self.radius + max(self.hold, 0.05 * self.fine_size))
-        grid = round(center / self.travel) * self.travel
-        return max(grid, self.radius + max(self.hold, self.fine_size) + self.travel)
+            return np.array([round(x / quantum) * quantum, 0.0,
+                             max(round(z / quantum) * quantum, self.radius + max(self.hold, 0.05 * self.fine_size))])
+        grid = round(z / self.travel) * self.travel
+        return np.array([0.0, 0.0, max(grid, self.radius + max(self.hold, self.fine_size) + self.travel)])
 
     def spec(self) -> BoxSpec:
         s = self.settings
-        return BoxSpec(half_width=self.half_width, height=self.height, center=(0.0, 0.0, self.patch),
+        return BoxSpec(half_width=self.half_width, height=self.height,
+                       center=(float(self.patch[0]), 0.0, float(self.patch[2])),
                        radius=self.radius, surface_size=self.surface_size, coarse_size=self.coarse_size,
                        gap_size=None if self.surface_size == self.fine_size else self.fine_size,
                        grading=s.grading, gap_cells=s.gap_cells, mirrored=True,
                        travel=0.0 if self.moving else self.travel, conforming=self.moving)
 
-    def _make_flow(self, center: float) -> None:
-        """The patch's mesh, its penalised flow at rest and the indicator at z = center [m] (the moving mesh
-        moved there from the patch's centre)."""
+    def _make_flow(self, center) -> None:
+        """The patch's mesh, its penalised flow at rest and the indicator at `center` [m] (a 3-vector; the moving
+        mesh moved there from the patch's centre)."""
         liquid, s = self.scene.liquid, self.settings
         spec = self.spec()
         self.mesh, cell_tags, facet_tags = create_box_mesh(self.comm, spec)
@@ -245,28 +265,34 @@ class FictitiousDomain3DModel(FlowModel):
             self.ball_scale = restore_ball_volume(self.mesh, cell_tags, spec)
             rigid = self.radius + RIGID_LAYER * self.surface_size
             self.motion = MeshMotion3D(self.mesh, facet_tags, spec.center, rigid)
-            self.motion.move_to((0.0, 0.0, center))
+            self.motion.move_to(center)
             velocity, solver = self.motion.velocity, "reuse"
-            sphere = ConformingBall(self.mesh, cell_tags.find(BALL), self.radius, self.surface_size,
-                                    (0.0, 0.0, center))
+            sphere = ConformingBall(self.mesh, cell_tags.find(BALL), self.radius, self.surface_size, center)
         else:
             velocity, solver = None, "direct"
-            sphere = SphereIndicator(self.mesh, self.radius, s.interface_width * self.fine_size, (0.0, 0.0, center))
+            sphere = SphereIndicator(self.mesh, self.radius, s.interface_width * self.fine_size, center)
         self.flow = PenalisedFlow3D(Cartesian(self.mesh, mirrored=True), facet_tags, self.sides, liquid.density,
-                                    liquid.viscosity, sphere, self.penalty_rate, prefix="fd3d_", moving=(MODE,),
+                                    liquid.viscosity, sphere, self.penalty_rate, prefix="fd3d_", moving=self.mode_names,
                                     step_solver=solver, mesh_velocity=velocity)
         self.flow.set_time_step(self.dt)
-        self.mode = self.flow.geometry.mode_names.index(MODE)
+        self.modes = [self.flow.geometry.mode_names.index(name) for name in self.mode_names]
 
-    def strays(self, center: float) -> bool:
-        """Whether the sphere centred at z = center [m] needs a new patch (module docstring)."""
-        travelled = abs(center - self.patch) > self.travel * (1.0 + 1e-9)
-        ratio = (center - self.radius) / (self.patch - self.radius)
+    def strays(self, center) -> bool:
+        """Whether the sphere centred at `center` [m] (a 3-vector) needs a new patch (module docstring)."""
+        travelled = math.hypot(center[0] - self.patch[0], center[2] - self.patch[2]) > self.travel * (1.0 + 1e-9)
+        ratio = (center[2] - self.radius) / (self.patch[2] - self.radius)
         return travelled or (self.moving and not GAP_RATIO <= ratio <= 1.0 / GAP_RATIO)
 
-    def follow(self, center: float) -> None:
-        """A new patch's mesh when the sphere's centre z = center [m] has left the patch, the flow's BDF levels
-        carried over (interpolated, then made discretely divergence-free)."""
+    def follow(self, center) -> None:
+        """A new patch's mesh when the sphere's centre `center` [m] has left the patch, the flow's BDF levels
+        carried over (interpolated, then made discretely divergence-free).  A sphere that has slid along the wall
+        to within far_field / 2 D of the box's side is stopped (the box does not follow along x)."""
+        room = self.half_width - 0.5 * self.settings.far_field * self.diameter
+        if abs(center[0]) + self.radius > room:
+            raise RunFailed(f"the sphere has slid x = {center[0] / self.diameter:.3g} D along the wall, within "
+                            f"far_field / 2 = {0.5 * self.settings.far_field:g} D of the fd3d box's side at "
+                            f"{self.half_width / self.diameter:g} D: give a larger numerics.fd3d.far_field or an "
+                            "earlier run.end_time")
         if not self.strays(center):
             return
         start = time.perf_counter()
@@ -301,7 +327,7 @@ class FictitiousDomain3DModel(FlowModel):
         return getattr(flow.step_operator, "iterations", 0)
 
     def initial_velocities(self) -> list[np.ndarray]:
-        return list(self.history.velocities)
+        return [v[:1] for v in self.history.velocities]  # the normal velocity's levels
 
     def previous_time_step(self) -> float | None:
         return self.last_step if self.adaptive and self.last_step else None
@@ -338,9 +364,15 @@ class FictitiousDomain3DModel(FlowModel):
         return self.height - self.diameter
 
     # -- one step -------------------------------------------------------------------------
-    def predicted_center(self, prediction: Prediction) -> float:
-        """The flow's sphere centre at t_{n+1} [m]: as predicted, no lower than the hold gap above the wall."""
-        return float(flow_gaps(prediction.gaps, [self.diameter], (self.hold,))[0]) + self.radius
+    def predicted_center(self, prediction: Prediction) -> np.ndarray:
+        """The flow's sphere centre at t_{n+1} [m]: as predicted (along the wall too, by the same AB2 rule), no
+        lower than the hold gap above the wall."""
+        z = float(flow_gaps(prediction.gaps, [self.diameter], (self.hold,))[0]) + self.radius
+        along = self.bodies_now.along
+        if along is None:
+            return np.array([0.0, 0.0, z])
+        slide = mean_velocity([v[1] for v in self.history.velocities], prediction.dt, self.previous_time_step())
+        return np.array([along[0] + prediction.dt * slide, 0.0, z])
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
         center = self.predicted_center(prediction)
@@ -351,41 +383,62 @@ class FictitiousDomain3DModel(FlowModel):
         flow.set_time_step(length, 2, length / previous if previous else 1.0)
         history.bdf = flow.bdf
         self._gap = nearest_gap(prediction.gaps, [self.diameter], self.scene.wall.present)
-        if self.moving:  # the mesh to the sphere's place at t_{n+1}, its velocity the BDF rate of the centre
-            self.motion.move_to((0.0, 0.0, center))
+        if self.moving:  # the mesh to the sphere's place at t_{n+1}, its velocity the BDF rate of the centre ...
+            self.motion.move_to(center)
             b = flow.bdf
-            self.motion.set_rate((0.0, 0.0, (b[0] * center + b[1] * self.placed[0] + b[2] * self.placed[1]) / length))
-        flow.sphere.place((0.0, 0.0, center))
+            rate = (b[0] * center + b[1] * self.placed[0] + b[2] * self.placed[1]) / length
+            if center[2] > float(prediction.gaps[0]) + self.radius:  # ... or, held, the sphere's (module docstring)
+                rate[2] = float(prediction.mean_velocities[0])
+            self.motion.set_rate(rate)
+        flow.sphere.place(center)
         self._center = center
         response = flow.step()
-        k, rho, c = self.mode, self.scene.liquid.density, flow.c
-        ball = response.ball_mass[k, k]
-        derivative = response.resistance[k, k] + rho * c * ball  # dF/dU [kg/s]
-        reference = history.reference_velocity
-        explicit = response.penalty * response.constant[k] + derivative * reference - rho * c * history.momentum_history
-        added_mass = np.array([[-derivative / c]])
-        if not (np.all(np.isfinite(explicit)) and np.all(np.isfinite(added_mass))):
-            raise FloatingPointError(f"the fluid force became {explicit} N at t = {self.next_time():.6g} s")
-        self.last_force = FluidForce(explicit=np.asarray(explicit, dtype=float).reshape(1), added_mass=added_mass)
-        self._ball = ball
+        self.last_force = self._linearised(response, flow.c)
         self._integrator_start = time.perf_counter()
         return self.last_force
+
+    def _linearised(self, response, c: float) -> FluidForce:
+        """The force over the rigid amplitudes s (V; with U and Omega), F(s) = rho c_B (I(x_0) + (I(x_j) - G) s)
+        + rho c (B s - J), as F* - M c (s - s_ref) with M = -dF/ds / c: the normal force to the normal row, and (an
+        oblique collision) the force along the wall and the torque with the whole M (kinematics.PlaneForce)."""
+        k, rho, history = self.modes, self.scene.liquid.density, self.history
+        ball = response.ball_mass[np.ix_(k, k)]
+        derivative = response.resistance[np.ix_(k, k)] + rho * c * ball  # dF/ds [kg/s, kg m/s, kg m^2/s]
+        reference = history.reference_velocity
+        if len(k) == 1:
+            explicit = (response.penalty * response.constant[k] + derivative[0, 0] * reference
+                        - rho * c * history.momentum_history)
+        else:
+            explicit = (response.penalty * response.constant[k] + derivative @ reference
+                        - rho * c * history.momentum_history)
+            scale = np.sqrt(np.abs(np.diag(derivative)))
+            across = np.abs(derivative[0, 1:]) + np.abs(derivative[1:, 0])
+            self.cross_coupling = max(self.cross_coupling, float(np.max(across / (scale[0] * scale[1:]))))
+        mass = -derivative / c
+        if not (np.all(np.isfinite(explicit)) and np.all(np.isfinite(mass))):
+            raise FloatingPointError(f"the fluid force became {explicit} N at t = {self.next_time():.6g} s")
+        self._ball = np.diag(ball)
+        plane = PlaneForce(explicit=explicit[1:], mass=mass) if len(k) > 1 else None
+        return FluidForce(explicit=np.asarray(explicit[:1], dtype=float), added_mass=mass[:1, :1], plane=plane)
 
     def complete(self, velocities: np.ndarray, time_now: float) -> None:
         self.timings["integrator"] += time.perf_counter() - self._integrator_start
         velocities = np.array(velocities, dtype=float)
+        along = self.bodies_now.along
+        moved = np.array([velocities[0], *([] if along is None else along[1:])])  # over mode_names
         amplitudes = np.zeros(len(self.flow.modes))
-        amplitudes[self.mode] = velocities[0]
+        amplitudes[self.modes] = moved
         self.flow.commit(amplitudes)
         if not math.isfinite(self.flow.states[0].x.petsc_vec.norm()):
             raise FloatingPointError(f"the flow field became non-finite at t = {self.next_time():.6g} s")
         self.ended_short = self._length < self.dt * (1.0 - 1e-12)
         if self.adaptive:
-            dt, levels = self._length, [velocities, *self.history.velocities[:2]]
+            # the steps follow the normal motion (the approach to the wall, its jerk)
+            dt, levels = self._length, [velocities, *(v[:1] for v in self.history.velocities[:2])]
             self.step_range = [min(self.step_range[0], dt), max(self.step_range[1], dt)]
             self.dt = self.step_limits.after(levels, dt, self.last_step, self._gap)
             self.time, self.last_step = self.time + dt, dt
-        self.history.push(velocities, velocities * self._ball)  # the held ball's momentum / rho
+        self.history.push(moved, moved * self._ball)  # the held ball's momentum and angular momentum / rho
         self.placed = [self._center, self.placed[0]]
         self.step += 1
 
@@ -397,8 +450,8 @@ class FictitiousDomain3DModel(FlowModel):
                  "step_range": self.step_range} if self.adaptive else {}
         if self.moving and self.flow.step_operator is not None:
             self.flow.step_operator.stale = True  # fresh factors at the next step, as a restart from here has
-        return ({"dt": self.cfl_step, **steps, **self.history.state(), "patch_center": self.patch,
-                 "placed_centers": self.placed}, gather_history(self.flow.states))
+        return ({"dt": self.cfl_step, **steps, **self.history.state(), "patch_center": self.patch.tolist(),
+                 "placed_centers": [center.tolist() for center in self.placed]}, gather_history(self.flow.states))
 
     def restore(self, state: dict, arrays) -> None:
         if not math.isclose(state["dt"], self.cfl_step, rel_tol=1e-12):
@@ -409,26 +462,27 @@ class FictitiousDomain3DModel(FlowModel):
                 self.time, self.dt, self.last_step = (float(state[key]) for key in ("time", "step_length",
                                                                                     "last_step"))
                 self.step_range = [float(value) for value in state["step_range"]]
-            patch = float(state["patch_center"])
-            self.placed = [float(value) for value in state["placed_centers"]]
+            patch = np.array(state["patch_center"], dtype=float).reshape(3)
+            self.placed = [np.array(center, dtype=float).reshape(3) for center in state["placed_centers"]]
         except (KeyError, TypeError, ValueError):
             raise CheckpointError("the checkpoint lacks the fd3d model's patch or adaptive step (patch_center, "
                                   "placed_centers, time, step_length): the scene was changed") from None
         placed = self.placed[0]  # the flow's sphere at t_n
-        if patch != self.patch:  # the sphere had moved on: that patch's mesh again
+        if not np.array_equal(patch, self.patch):  # the sphere had moved on: that patch's mesh again
             self._retire(self.flow)
             self.patch = patch
             self._make_flow(placed)
         elif self.moving:
-            self.motion.move_to((0.0, 0.0, placed))
-        self.flow.sphere.place((0.0, 0.0, placed))
+            self.motion.move_to(placed)
+        self.flow.sphere.place(placed)
         try:
             scatter_history(self.flow.states, arrays, tolerance=1e-6 * self.fine_size)
         except (ValueError, KeyError, CheckpointMismatch) as err:
             raise CheckpointError(f"the checkpoint does not fit this run's mesh: {err}") from None
         velocities, interiors = ([body_array(v) for v in state[key]] for key in ("velocities", "interiors"))
-        if any(len(v) != 1 for v in velocities):
-            raise CheckpointError("the checkpoint holds more than one sphere: the scene was changed")
+        if any(len(v) != len(self.mode_names) for v in velocities):
+            raise CheckpointError(f"the checkpoint's sphere moves in {len(velocities[0])} rigid modes, this scene's "
+                                  f"in {len(self.mode_names)} ({', '.join(self.mode_names)}): the scene was changed")
         self.history = History(self.flow.bdf, velocities, interiors)
 
     def open_outputs(self, out_dir: Path, restart: bool, fields: bool, sides: dict | None = None) -> None:
@@ -463,7 +517,7 @@ class FictitiousDomain3DModel(FlowModel):
         slip = None
         if operator is not None:
             amplitudes = np.zeros(len(flow.modes))
-            amplitudes[self.mode] = self.history.velocity[0]
+            amplitudes[self.modes] = self.history.velocity
             slip = flow.interior_slip(flow.states[0], amplitudes, self.radius - flow.sphere.width)
         return {
             "timings_s": self.timings,
@@ -483,6 +537,8 @@ class FictitiousDomain3DModel(FlowModel):
             "interior_slip_m_s": slip,
             "added_mass_over_displaced": (float(last.added_mass[0, 0] / self.bodies[0].displaced_mass)
                                           if last is not None else None),
+            **({"tangential_added_mass_over_displaced": float(last.plane.mass[1, 1] / self.bodies[0].displaced_mass),
+                "cross_coupling": self.cross_coupling} if last is not None and last.plane is not None else {}),
             **({"shortest_step_s": self.step_range[0], "longest_step_s": self.step_range[1]} if self.adaptive
                and self.step_range[1] else {}),
         }
