@@ -149,7 +149,7 @@ class BodyEquations:
             self.tangential = TangentialMotion(scene, self.contact.law, body.mass, body.displaced_mass,
                                                self.contact.hold_gap if resolved else None)
         start = layout.size + sum(self.n_history)
-        self.tangential_slice = slice(start, start + (len(TangentialMotion.names) if self.tangential else 0))
+        self.tangential_slice = slice(start, start + (self.tangential.size if self.tangential else 0))
         # what the force terms and the residual reuse at every call (ForceTerms, forces, residual)
         self._terms = ForceTerms(count)
         self._rate_slope_array = np.where(self.held, 0.0, 1.0)  # d(dh_k/dt)/dV_k

@@ -107,8 +107,8 @@ class BodyIntegrator(BodyEquations):
         for contact in self.contacts:
             atol.setValue(contact.gap_index, 1e-6 * opts.atol)
         if self.tangential is not None:  # the spring's stretch, a fraction of the Hertz overlap: 1e-2 of the others'
-            atol.setValue(along.stop - 1, 1e-2 * opts.atol)  # (as tight as a gap's, the steps collapsed where the
-            # friction switches between sticking and sliding)
+            stretch = along.start + self.tangential.STRETCH  # (as tight as a gap's, the steps collapsed where the
+            atol.setValue(stretch, 1e-2 * opts.atol)  # friction switches between sticking and sliding)
         # A history mode matters only through its share of the history force: an error dz in mode i moves
         # its sphere's velocity by at most s_i dz (TheoryForces.history_sensitivity, 2e-5 to 0.04 for case
         # 3).  Each mode is held to the error that moves the velocity by the velocity's own tolerance at the
@@ -120,6 +120,19 @@ class BodyIntegrator(BodyEquations):
             sensitivity = theory.history_sensitivity(body.mass + 0.5 * body.displaced_mass, self.scene.time_unit)
             tolerance = (opts.atol + opts.rtol * self.scene.velocity_unit) / (len(sensitivity) * sensitivity)
             atol.setValues(range(modes.start, modes.stop), tolerance)
+        tangential = self.tangential
+        if tangential is not None:  # the modes along the wall alike, on its mass; the spin's on its inertia
+            speed = opts.atol + opts.rtol * self.scene.velocity_unit
+            if tangential.n_history:
+                sensitivity = tangential.theory.history_sensitivity(tangential.mass, self.scene.time_unit)
+                atol.setValues(range(along.start + tangential.translation.start, along.start
+                                     + tangential.translation.stop), speed / (len(sensitivity) * sensitivity))
+            spinning = tangential.rotation
+            if spinning.stop > spinning.start:  # each mode's error dzeta moves Omega by w_i min(T_i, t) dzeta / I
+                times = np.minimum(tangential.mode_times[spinning.start - len(tangential.names):], self.scene.time_unit)
+                sensitivity = np.maximum(tangential.spin_weights * times / tangential.inertia, 1e-30)
+                atol.setValues(range(along.start + spinning.start, along.start + spinning.stop),
+                               speed / tangential.radius / (len(sensitivity) * sensitivity))
         atol.assemble()
         self._events = self._event_list()
         self._event_handler = None
@@ -243,10 +256,10 @@ class BodyIntegrator(BodyEquations):
         ("contact": its spring starts unstretched there) or delta_sl D ("outer"), on the way in or out."""
         solution = ts.getSolution()
         along = self.tangential_slice
-        _, velocity, spin, _ = solution.array_r[along]
+        velocity, spin = solution.array_r[along][1:3]
         if rate < 0.0:
             if station == "contact":
-                solution.setValue(along.stop - 1, 0.0)
+                solution.setValue(along.start + self.tangential.STRETCH, 0.0)
                 solution.assemble()
             self._oblique_entries[station] = (t, -rate, float(velocity), float(spin))
             return

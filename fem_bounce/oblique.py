@@ -13,7 +13,14 @@ tangential motion reads the normal one's gap, velocity and contact force.
   symmetric matrix (wall_tangential), at the gap where the normal film is evaluated (its contact gap inside a
   Hertz contact); the free sphere's inertial excess -3 pi mu D (phi(Re_t) - 1) U with Schiller & Naumann's (1933)
   phi at Re_t = rho_l |U| D / mu, as the normal drag takes it; the added mass m_l / 2 of a sphere far from walls
-  (the wall raises it by O((a/h)^3)); no history force along the wall.
+  (the wall raises it by O((a/h)^3)); the history force along the wall, -sum_i c_i(Re_t) z_i, with the normal
+  motion's kernel (theory.TheoryForces: Mei & Adrian's, as an exponential sum) and its own modes
+  z_i' = dU/dt - z_i / T_i, the free sphere's (no wall factor), as the normal history's default (contact.history
+  "mei-adrian" carries it, "off" leaves it out).  Without it a sphere sliding from rest onto an inclined wall
+  arrived 11 % too fast along the wall against the 3-D resolved flow (docs/validation.md section 14).  The spin's
+  history torque likewise, -(8/3) pi mu a^3 sum_i w_i zeta_i with zeta_i' = dOmega/dt - zeta_i / T_i, the unsteady
+  Stokes kernel of a spinning sphere (theory.rotation_kernel, no finite-Re correction): the friction spins the
+  sphere up within the contact, and the boundary layer it leaves slows the spin after it.
 - The contact: Coulomb friction mu F_n with a tangential spring of Mindlin's stiffness k_t = kappa (3/2) k x^(1/2)
   (x the Hertz overlap, k its constant, kappa = 4 G*/E*) and a damper with the normal one's damping ratio
   (tangential_contact.TangentialContact, matched_damping); the spring starts unstretched at each contact.  The
@@ -35,6 +42,7 @@ from .contact import ContactLaw
 from .kinematics import PlaneForce
 from .scene import Scene
 from .tangential_contact import TangentialContact, matched_damping
+from .theory import TheoryForces, rotation_history_modes
 from .wall_tangential import wall_tangential_resistance
 
 INERTIA_FACTOR = 0.4  # I / (m a^2) of a solid sphere
@@ -53,7 +61,8 @@ def stiffness_ratio(e1: float, nu1: float, e2: float, nu2: float) -> float:
 class TangentialMotion:
     """The tangential unknowns (x, U, Omega, xi) of sphere 1 at the wall: their residual and Jacobian rows."""
 
-    names = ("x", "tangential_velocity", "spin", "stretch")
+    names = ("x", "tangential_velocity", "spin", "stretch")  # then the history modes: along the wall, of the spin
+    STRETCH = 3  # where the stretch is in the tangential unknowns
 
     def __init__(self, scene: Scene, law: ContactLaw, mass: float, displaced_mass: float,
                  hold_gap: float | None = None):
@@ -72,7 +81,18 @@ class TangentialMotion:
         self.ratio = stiffness_ratio(sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus,
                                      wall.poisson_ratio)
         self.contact = TangentialContact(scene.contact.friction, self.ratio)
-        self.start = (0.0, scene.tangential_velocity, scene.spin, 0.0)
+        # the history modes along the wall (none with a resolved flow: its flow carries the history)
+        self.theory = TheoryForces(scene)
+        self.n_history = 0 if self.resolved else self.theory.n_history
+        theta, weights = rotation_history_modes(scene.numerics.ode.history_modes_per_decade)
+        spinning = 0 if self.resolved or scene.contact.history == "off" else len(theta)
+        self.spin_weights = 8.0 / 3.0 * math.pi * self.viscosity * self.radius**3 * weights[:spinning]  # [N m s]
+        self.mode_times = np.concatenate([self.theory.history_times[:self.n_history],
+                                          theta[:spinning] * self.radius**2 / liquid.kinematic_viscosity])
+        self.translation = slice(len(self.names), len(self.names) + self.n_history)  # the modes of each
+        self.rotation = slice(self.translation.stop, self.translation.stop + spinning)
+        self.size = self.rotation.stop  # the tangential unknowns
+        self.start = (0.0, scene.tangential_velocity, scene.spin, 0.0, *np.zeros(self.size - len(self.names)))
 
     def _drag_excess(self, velocity: float) -> tuple[float, float]:
         """(-3 pi mu D (phi - 1) U [N], its derivative in U [N s/m]): the free sphere's inertial excess."""
@@ -111,16 +131,32 @@ class TangentialMotion:
         return (float(state.force), float(state.stretch_rate), float(force["slip"][0, 0]),
                 float(force["stretch"][0, 0]), float(spring["slip"][0, 0]), float(spring["stretch"][0, 0]))
 
-    def free_resistance(self, velocity: float, spin: float) -> tuple[float, float]:
-        """(F [N], T [N m]) of the free sphere (far from walls): the drag -3 pi mu D phi(Re_t) U and the torque
-        -8 pi mu a^3 Omega, the far field the loss audit tells apart from the wall's film (R(h) less them)."""
+    def free_resistance(self, state) -> tuple[float, float]:
+        """(F [N], T [N m]) of the free sphere (far from walls) at the tangential `state`: the drag
+        -3 pi mu D phi(Re_t) U and the torque -8 pi mu a^3 Omega with their history terms, the far field the loss
+        audit tells apart from the wall's film (R(h) less the steady part)."""
+        velocity, spin = state[1], state[2]
         excess, _ = self._drag_excess(velocity)
-        return (-3.0 * math.pi * self.viscosity * self.diameter * velocity + excess,
-                -8.0 * math.pi * self.viscosity * self.radius**3 * spin)
+        history, _ = self._history(state)
+        return (-3.0 * math.pi * self.viscosity * self.diameter * velocity + excess + history,
+                -8.0 * math.pi * self.viscosity * self.radius**3 * spin + self._spin_history(state))
 
-    def _liquid(self, film_gap: float, velocity: float, spin: float):
-        """(F, T, R, dR/d gap, d excess/dU) of the liquid at the film's gap; with a resolved flow F and T are the
-        flow's explicit part and what the held flow misses, R the film's resistance below the hold less the hold's."""
+    def _history(self, state) -> tuple[float, float]:
+        """(f_H = -sum_i c_i(Re_t) z_i [N], d f_H / dU [N s/m] through c_i's Re_t) of the modes along the wall."""
+        if not self.n_history:
+            return 0.0, 0.0
+        memory, slope = self.theory.history_memory(state[1], np.asarray(state[self.translation], dtype=float))
+        return -memory, -slope
+
+    def _spin_history(self, state) -> float:
+        """T_H = -(8/3) pi mu a^3 sum_i w_i zeta_i [N m] of the spin's modes."""
+        return -float(self.spin_weights @ np.asarray(state[self.rotation], dtype=float))
+
+    def _liquid(self, film_gap: float, state):
+        """(F, T, R, dR/d gap, d (excess + history)/dU) of the liquid at the film's gap and the tangential `state`;
+        with a resolved flow F and T are the flow's explicit part and what the held flow misses, R the film's
+        resistance below the hold less the hold's."""
+        velocity, spin = state[1], state[2]
         if self.resolved:
             explicit = self.fluid.explicit if self.fluid is not None else np.zeros(2)
             if film_gap >= self.hold_gap:
@@ -131,16 +167,17 @@ class TangentialMotion:
             return float(force), float(torque), missed, slope, 0.0
         resistance, slope = wall_tangential_resistance(self.radius, self.viscosity, film_gap)
         excess, d_excess = self._drag_excess(velocity)
+        history, d_history = self._history(state)
         force, torque = -resistance @ np.array([velocity, spin])
-        return force + excess, torque, resistance, slope, d_excess
+        return force + excess + history, torque + self._spin_history(state), resistance, slope, d_excess + d_history
 
     def terms(self, state, gap: float, rate: float, film_gap: float, engaged: float | None) -> dict:
         """The forces along the wall [N], the liquid's torque [N m] and the spring's rate [m/s] at the tangential
         `state`, the wall's `gap` [m] and its rate [m/s], the gap the film is evaluated at and the contact's engaged
         gap (the trajectory's columns f_tangential_liquid, f_friction, torque_liquid, and stretch_rate)."""
-        _, velocity, spin, stretch = state
+        velocity, spin, stretch = state[1], state[2], state[self.STRETCH]
         friction, stretch_rate, *_ = self._friction(gap, rate, engaged, velocity - self.radius * spin, stretch)
-        force, torque, _, _, _ = self._liquid(film_gap, velocity, spin)
+        force, torque, _, _, _ = self._liquid(film_gap, state)
         return {"f_tangential_liquid": force, "f_friction": friction, "torque_liquid": torque,
                 "stretch_rate": stretch_rate}
 
@@ -152,9 +189,9 @@ class TangentialMotion:
         [J] and the power the contact dissipates [W] while it slides and while it sticks (TangentialContact.energy, with
         the normal force's actual rate from the gap's `acceleration` [m/s^2]; `along_accelerations`: dU/dt and
         dOmega/dt, which a resolved flow's added mass needs)."""
-        _, velocity, spin, stretch = state
+        velocity, spin, stretch = state[1], state[2], state[self.STRETCH]
         found = self.terms(state, gap, rate, film_gap, engaged)
-        drag, torque = self.free_resistance(velocity, spin)
+        drag, torque = self.free_resistance(state)
         if self.resolved and self.fluid is not None:  # the flow's whole force: its explicit part less its added mass's
             held = self.fluid.mass[1:] @ np.r_[acceleration, along_accelerations]
             drag, torque = self.fluid.explicit - held  # the flow's part (the correction below the hold apart)
@@ -172,28 +209,32 @@ class TangentialMotion:
 
     def residual(self, state, rates, gap: float, rate: float, film_gap: float, engaged: float | None,
                  acceleration: float = 0.0) -> np.ndarray:
-        """The four rows G = (x' - U, M U' - F, I Omega' - T, xi' - rate) at the tangential `state` and its `rates`
-        (`terms` for the rest; a resolved flow's added mass reads the normal `acceleration` dV/dt too)."""
+        """The rows G = (x' - U, M U' - F, I Omega' - T, xi' - rate, z_i' - U' + z_i / T_i) at the tangential `state`
+        and its `rates` (`terms` for the rest; a resolved flow's added mass reads the normal `acceleration` dV/dt
+        too)."""
         found = self.terms(state, gap, rate, film_gap, engaged)
         friction = found["f_friction"]
-        out = np.array([rates[0] - state[1],
-                        self.mass * rates[1] - (found["f_tangential_liquid"] + friction + self.weight),
-                        self.inertia * rates[2] - (found["torque_liquid"] - self.radius * friction),
-                        rates[3] - found["stretch_rate"]])
+        modes = slice(len(self.names), self.size)
+        driven = np.repeat([rates[1], rates[2]], [self.n_history, self.rotation.stop - self.rotation.start])
+        out = np.concatenate([[rates[0] - state[1],
+                               self.mass * rates[1] - (found["f_tangential_liquid"] + friction + self.weight),
+                               self.inertia * rates[2] - (found["torque_liquid"] - self.radius * friction),
+                               rates[3] - found["stretch_rate"]],
+                              np.asarray(rates[modes]) - driven + np.asarray(state[modes]) / self.mode_times])
         if self.resolved and self.fluid is not None:  # the flow's added mass
             out[1:3] += self.fluid.mass[1:] @ np.r_[acceleration, rates[1:3]]
         return out
 
     def jacobian(self, state, gap: float, rate: float, film_gap: float, film_slope: float, engaged: float | None,
                  shift: float) -> tuple[np.ndarray, np.ndarray]:
-        """(d G / d(x, U, Omega, xi) + shift d G / d(rates), d G / d(gap, V) of the wall): the block of the
+        """(d G / d(x, U, Omega, xi, z) + shift d G / d(rates), d G / d(gap, V) of the wall): the block of the
         tangential rows (module docstring for what it leaves out)."""
-        _, velocity, spin, stretch = state
-        a = self.radius
+        velocity, spin, stretch = state[1], state[2], state[self.STRETCH]
+        a, n = self.radius, len(self.names)
         slip = velocity - a * spin
         _, _, f_slip, f_stretch, r_slip, r_stretch = self._friction(gap, rate, engaged, slip, stretch)
-        _, _, resistance, slope, d_excess = self._liquid(film_gap, velocity, spin)
-        own = np.zeros((4, 4))
+        _, _, resistance, slope, d_excess = self._liquid(film_gap, state)
+        own = np.zeros((self.size, self.size))
         own[0, 0], own[0, 1] = shift, -1.0
         own[1, 1] = shift * self.mass + resistance[0, 0] - d_excess - f_slip
         own[1, 2] = resistance[0, 1] + a * f_slip
@@ -202,7 +243,12 @@ class TangentialMotion:
         own[2, 2] = shift * self.inertia + resistance[1, 1] - a * a * f_slip
         own[2, 3] = a * f_stretch
         own[3, 1], own[3, 2], own[3, 3] = -r_slip, a * r_slip, shift - r_stretch
-        normal = np.zeros((4, 2))
+        along, spinning = self.translation, self.rotation
+        own[1, along] = self.theory.history_coefficients(velocity)[:self.n_history]  # -d f_H / dz_i = c_i
+        own[2, spinning] = self.spin_weights  # -d T_H / dzeta_i
+        own[along, 1] = own[spinning, 2] = -shift  # the modes' own rows
+        own[n:, n:] = np.diag(shift + 1.0 / self.mode_times)
+        normal = np.zeros((self.size, 2))
         normal[1:3, 0] = film_slope * (slope @ np.array([velocity, spin]))
         if self.resolved and self.fluid is not None:
             own[1:3, 1:3] += shift * self.fluid.mass[1:, 1:]

@@ -238,6 +238,39 @@ def history_modes(modes_per_decade: int = 3, c1: float = 2.0, c2: float = 0.105)
 _RE_LIST = _RE_GRID.tolist()
 
 
+def rotation_kernel(x: np.ndarray) -> np.ndarray:
+    """K_R(x) = 1 / sqrt(pi x) - e^x erfc(sqrt x), x = s / tau_r, tau_r = a^2 / nu: the kernel of the history torque
+    on a sphere spinning up or down about a diameter in unsteady Stokes flow,
+
+        T_H(t) = -(8/3) pi mu a^3 int_0^t K_R((t - t') / tau_r) dOmega/dt' dt'.
+
+    From the unsteady Stokes solution of a rotating sphere, u_phi = Omega a sin(theta) (a / r)^2 (1 + lambda r)
+    e^(-lambda (r - a)) / (1 + lambda a), lambda = sqrt(s / nu) in Laplace space, whose torque is
+    -8 pi mu a^3 Omega (1 + lambda a + lambda^2 a^2 / 3) / (1 + lambda a) (Landau & Lifshitz, Fluid Mechanics,
+    section 24's problem of rotary oscillations): the part beyond the steady -8 pi mu a^3 Omega, inverted
+    (L^-1 {1 / (sqrt(s) + b)} = 1 / sqrt(pi t) - b e^(b^2 t) erfc(b sqrt t)).  Short times give the boundary layer's
+    (a / 3) / sqrt(pi nu s) per unit of 8 pi mu a^3, long ones decay as s^(-3/2).  The kernel of Feuillebois & Lasek
+    (1978, Q. J. Mech. Appl. Math. 31, 435) by its description (its text not read here)."""
+    from scipy.special import erfcx
+
+    x = np.asarray(x, dtype=float)
+    return 1.0 / np.sqrt(np.pi * x) - erfcx(np.sqrt(x))
+
+
+@functools.cache
+def rotation_history_modes(modes_per_decade: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Exponential sum fitted to rotation_kernel: K_R(x) ~ sum_i w_i exp(-x / theta_i) on x in HISTORY_SPAN (units of
+    tau_r = a^2 / nu), in relative error, as history_modes fits the translation's; (theta, w), non-negative (K_R is
+    completely monotone: int_0^inf e^(-x t) sqrt(t) / (pi (1 + t)) dt)."""
+    lo, hi = (math.log10(x) for x in HISTORY_SPAN)
+    decades = hi - lo
+    theta = np.logspace(lo - 0.5, hi + 0.5, int(round((decades + 1) * modes_per_decade)) + 1)
+    x = np.logspace(lo, hi, 30 * int(decades))
+    target = rotation_kernel(x)
+    weights, _ = nnls(np.exp(-x[:, None] / theta[None, :]) / target[:, None], np.ones_like(x), maxiter=50 * len(theta))
+    return theta, weights
+
+
 def history_weights(weights: np.ndarray, reynolds: float) -> np.ndarray:
     """Weights at this Re, interpolated linearly between the fitted rows."""
     row, share, _ = history_row(reynolds)

@@ -150,13 +150,17 @@ def test_the_tangential_block_of_the_jacobian(engaged, slip, stretch):
         y[0], y[1] = gap, -0.3
         y[2:along.start] = 1e-3 * rng.normal(size=along.start - 2)
         radius = integrator.bodies[0].sphere.radius
-        y[along] = (1e-4, 0.2, (0.2 - slip) / radius, stretch)
+        tangential = integrator.tangential
+        y[along.start:along.start + 4] = (1e-4, 0.2, (0.2 - slip) / radius, stretch)
+        y[along.start + 4:along.stop] = 1e-3 * rng.normal(size=along.stop - along.start - 4)  # the history modes
         ydot = rng.normal(size=len(y))
         if engaged:
             integrator.wall.record.contact_crossing(y[0], -0.35)
         shift, t = 1e3, 0.01
         exact = integrator.jacobian(t, y, ydot, shift)[along]
-        steps = dict(zip(range(along.start, along.stop), (1e-10, 1e-9, 1e-7, 0.1 * max(stretch, 1e-9))))
+        steps = dict(zip(range(along.start, along.start + 4), (1e-10, 1e-9, 1e-7, 0.1 * max(stretch, 1e-9))))
+        for modes in (tangential.translation, tangential.rotation):  # the residual is linear in them: any step
+            steps.update({along.start + k: 1e-6 for k in (modes.start, modes.stop - 1)})
         if not engaged:
             steps[0] = 1e-4 * gap
         # round-off: a few hundred ulps of the size of each row's terms, over the step
@@ -233,3 +237,19 @@ def test_the_resolved_tangential_rows_jacobian():
             assert np.all(np.abs(exact[:, column] - derivative) <= allowed), (column, exact[:, column], derivative)
     finally:
         integrator.destroy()
+
+
+def test_the_spins_history_kernel_and_its_modes():
+    """theory.rotation_kernel has the boundary layer's short-time limit 1 / sqrt(pi x) - 1 and the s^(-3/2) tail
+    1 / (2 sqrt(pi) x^(3/2)) of the unsteady Stokes solution, and its exponential sum (the modes the reduced model
+    integrates) matches it within 1e-3 from 1e-8 to 1e2 diffusion times a^2 / nu."""
+    from fem_bounce.theory import HISTORY_SPAN, rotation_history_modes, rotation_kernel
+
+    short, long = np.array([1e-10, 1e-8]), np.array([1e3, 1e4])
+    assert rotation_kernel(short) == pytest.approx(1.0 / np.sqrt(np.pi * short) - 1.0, rel=1e-3)
+    assert rotation_kernel(long) == pytest.approx(0.5 / np.sqrt(np.pi) * long**-1.5, rel=2e-3)
+    theta, weights = rotation_history_modes(3)
+    assert np.all(weights >= 0.0)
+    x = np.logspace(*np.log10(HISTORY_SPAN), 400)
+    fit = np.exp(-x[:, None] / theta[None, :]) @ weights
+    assert np.max(np.abs(fit / rotation_kernel(x) - 1.0)) < 1e-3
