@@ -5,7 +5,7 @@
     python benchmarks/fd_sensitivity.py --cells 8 --only default   # the default row alone (a ladder: 6, 8, 12, 16)
     python benchmarks/fd_sensitivity.py --variant model=ib    # side by side, one after the other
     python benchmarks/fd_sensitivity.py --fit 6,8,12,16       # order and limit of the ladder's errors (no runs)
-    python benchmarks/fd_sensitivity.py --fit 12,16,24 --fit-set numerics.fd.cfl=0.2   # the same with half the step
+    python benchmarks/fd_sensitivity.py --fit 12,16,24 --fit-set numerics.fd.peak_cfl=0.2  # the same, half the step
     python benchmarks/fd_sensitivity.py --fit 8,12,16,24,32 --fit-order 1 --fit-set ...  # the order held at 1
     python benchmarks/fd_sensitivity.py --cells 32 --step 1 --only default  # the step held at the reference's
     python benchmarks/fd_sensitivity.py --fit 8,16,32 --fit-step 1          # the mesh's own order (step held)
@@ -35,16 +35,17 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "history" / "fd_sensitivity.json"
 # near_wall.py reference: ALE, 16 cells/D, the surface at D / 96, cfl 0.125, each collision resolved in time
 REFERENCE_ROW = "case3-ale16s6-cfl0.125-c0.05"
-# its step, 0.125 (D / 16) / U, as the fd model's cfl at N cells/D (fd: dt = cfl (D / N) / (1.5 U), domain.time_step)
+# its step, 0.125 (D / 16) / U, as the fd model's peak_cfl at N cells/D (dt = peak_cfl (D / N) / (1.5 U),
+# domain.time_step)
 REFERENCE_STEP_CFL_PER_CELL = 0.125 * 1.5 / 16
 STILL = 0.02  # [%] errors that move less than this across a ladder have no order to fit
 
 # one parameter at a time: name -> the --set values tried (the fd default is the first row, "default")
 SWEEPS = {
-    "cfl": ["numerics.fd.cfl=1.6", "numerics.fd.cfl=0.4"],  # the step doubled and halved (the default: 0.8)
+    "cfl": ["numerics.fd.peak_cfl=1.6", "numerics.fd.peak_cfl=0.4"],  # the step doubled and halved (the default: 0.8)
     "mesh": ["numerics.fd.mesh=fixed"],  # the fixed mesh at the same fine size (the default before the moving one)
     "collision_steps": ["numerics.fd.min_step_factor=0.0125", "numerics.fd.gap_fraction=0.2"],
-    "constant_step": ["numerics.fd.adaptive_step=false", "numerics.fd.adaptive_step=false,numerics.fd.cfl=0.4"],
+    "constant_step": ["numerics.fd.adaptive_step=false", "numerics.fd.adaptive_step=false,numerics.fd.peak_cfl=0.4"],
     "penalty_strength": ["numerics.fd.penalty_strength=1e4", "numerics.fd.penalty_strength=1e6"],
     "interface_width": ["numerics.fd.interface_width=1", "numerics.fd.interface_width=4"],
     "delta_sl": ["contact.delta_sl=0.1", "contact.delta_sl=0.3"],
@@ -54,7 +55,7 @@ SWEEPS = {
     # the path's triangles 1.5 times finer, the surface's as the default's (at the default 8 cells/D: D / 40)
     "path": ["numerics.fd.cells_per_diameter=12,numerics.fd.surface_refinement=3.33333"],
     "grading": ["numerics.fd.grading=0.1"],  # the moving mesh's growth away from the fine region, as the fixed one's
-    # the one-shot penalty on the fixed mesh (its own sweeps: forcing_number, cfl, radius_offset)
+    # the one-shot penalty on the fixed mesh (its own sweeps: forcing_number, peak_cfl, radius_offset)
     "penalty": ["numerics.fd.mesh=fixed,numerics.fd.constraint=penalty,numerics.fd.patch=false"],
 }
 
@@ -69,12 +70,12 @@ def reference() -> dict:
 
 def measure(cells: float, settings: list[str], step: float | None = None) -> dict:
     """One run; a setting "model=NAME" runs that model at its own default resolution instead of fd at `cells`;
-    `step`: the fd step held at that many times the reference's, whatever `cells` (numerics.fd.cfl set to it)."""
+    `step`: the fd step held at that many times the reference's, whatever `cells` (numerics.fd.peak_cfl set to it)."""
     model = next((item.split("=", 1)[1] for item in settings if item.startswith("model=")), "fd")
     settings = [item for item in settings if not item.startswith("model=")]
     resolution = [f"numerics.fd.cells_per_diameter={cells:g}"] if model == "fd" else []
     if step is not None and model == "fd":
-        resolution.append(f"numerics.fd.cfl={step_cfl(cells, step):.6g}")
+        resolution.append(f"numerics.fd.peak_cfl={step_cfl(cells, step):.6g}")
     overrides = ["run.bounces=2", *resolution, *settings]  # as --set takes them
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -89,8 +90,13 @@ def measure(cells: float, settings: list[str], step: float | None = None) -> dic
 
 
 def step_cfl(cells: float, step: float) -> float:
-    """The fd model's cfl at `cells` cells/D whose step is `step` times the reference's."""
+    """The fd model's peak_cfl at `cells` cells/D whose step is `step` times the reference's."""
     return step * REFERENCE_STEP_CFL_PER_CELL * cells
+
+
+def _renamed(setting: str) -> str:
+    """A history row's key=value as it is spelled now: numerics.fd.cfl is numerics.fd.peak_cfl, the same number."""
+    return "numerics.fd.peak_cfl=" + setting.split("=", 1)[1] if setting.startswith("numerics.fd.cfl=") else setting
 
 
 def default_mesh() -> str:
@@ -105,14 +111,15 @@ def fit(cells: list[float], setting: str | None = None, order: float | None = No
     mesh, or the latest row run with `setting` (comma-separated key=value, as --variant takes it), against the
     reference as it is now (a row keeps its values, not its errors).  With `order` p is held there (linear least
     squares; the largest distance of a level from the line is printed).  With `step` only the rows run with the
-    step held at that many times the reference's (--step), without it only the rows run at their cfl."""
+    step held at that many times the reference's (--step), without it only the rows run at their peak_cfl.  A row
+    of the history run before numerics.fd.cfl was named peak_cfl (the same number) counts as set with peak_cfl."""
     from scipy.optimize import curve_fit
 
     latest, mesh = {}, default_mesh()
     wanted = setting.split(",") if setting else []
     for record in json.loads(RESULTS.read_text()):
         for row in record["rows"]:
-            chosen = row["set"] == wanted if wanted else row["sweep"] == "default"
+            chosen = [_renamed(s) for s in row["set"]] == wanted if wanted else row["sweep"] == "default"
             if (chosen and "V_i" in row and record.get("mesh", "fixed") == mesh
                     and record.get("step_of_reference") == step):
                 latest[record["cells_per_diameter"]] = (record["date"], row)
@@ -153,9 +160,9 @@ def main() -> None:
                         "there (no runs)")
     parser.add_argument("--fit-order", type=float, help="with --fit: hold the order there (e.g. 1)")
     parser.add_argument("--fit-set", help="with --fit: the rows run with these settings instead (e.g. "
-                        "numerics.fd.cfl=0.2)")
+                        "numerics.fd.peak_cfl=0.2)")
     parser.add_argument("--step", type=float, help="hold the fd step at this many times the reference's (0.125 D / "
-                        "16 / U) at any --cells: numerics.fd.cfl = step * 0.1875 * cells / 16")
+                        "16 / U) at any --cells: numerics.fd.peak_cfl = step * 0.1875 * cells / 16")
     parser.add_argument("--fit-step", type=float, help="with --fit: the rows run with --step at this value")
     args = parser.parse_args()
     for name, value in (("--step", args.step), ("--fit-step", args.fit_step)):
@@ -171,9 +178,10 @@ def main() -> None:
     rows += [(name, setting.split(",")) for name in names for setting in SWEEPS[name]]
     rows += [("variant", variant.split(",")) for variant in args.variant]
     if args.step is not None:
-        clash = [",".join(settings) for _, settings in rows if any(s.startswith("numerics.fd.cfl=") for s in settings)]
+        clash = [",".join(settings) for _, settings in rows
+                 if any(s.startswith("numerics.fd.peak_cfl=") for s in settings)]
         if clash:
-            parser.error(f"--step holds numerics.fd.cfl (at {step_cfl(args.cells, args.step):.4g} here): drop the "
+            parser.error(f"--step holds numerics.fd.peak_cfl (at {step_cfl(args.cells, args.step):.4g} here): drop the "
                          f"rows that set it ({'; '.join(clash)}), e.g. --only with other sweeps")
     ref = reference()
     record = {**stamp(), "load_1min": os.getloadavg()[0], "cells_per_diameter": args.cells, "mesh": default_mesh(),

@@ -46,9 +46,9 @@ class FdNumerics:
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
     # moving mesh, as numerics.ale's: the surface's triangles this many times finer than the path's (the error
     # lives in the surface's triangles, the rebound more than the impact); remeshing below min_quality; a remeshed
-    # gap keeps min_gap_cells triangles across; the mesh stops following a sphere at the gap hold_delta D (only where
-    # the near-wall correction does not hold it at delta_sl D: set with the correction holding every contact, or on
-    # the fixed mesh, it is refused)
+    # gap keeps min_gap_cells triangles across; the mesh stops following a moving sphere at the gap hold_delta D (only
+    # where the near-wall correction does not hold it at delta_sl D: set with the correction holding every contact,
+    # with every sphere held, or on the fixed mesh, it is refused)
     surface_refinement: float = _setting(5.0, 1.0, 16.0)
     min_quality: float = _setting(0.3, 0.01, 0.9)
     min_gap_cells: float = _setting(2.0, 0.5, 100.0)
@@ -60,19 +60,21 @@ class FdNumerics:
     wall_cells_per_diameter: float = _setting(0.0, 0.0, 800.0)
     wall_layer: float = _setting(0.25, 0.01, 5.0)
     wall_radius: float = _setting(0.6, 0.05, 10.0)
-    # dt <= cfl * fine size / (1.5 speed scale); unset: the constraint's own, 0.2 for "penalty" (its convection is
-    # explicit, and this is its stability bound), for "implicit" an accuracy choice (no step bound): 0.8 on the
-    # moving mesh, 0.4 on the fixed one, whose band needs the finer step.  "penalty" refuses a step that could close
-    # more than a contact's gap (its steps are never shortened: flow_model.safe_fixed_step names the largest cfl)
-    cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
-    # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
+    # the Courant number at the peak fluid speed, 1.5 U at a sphere's equator: dt <= peak_cfl * fine size / (1.5
+    # speed scale) (numerics.ale.cfl and numerics.ib.cfl are at the speed scale U); unset: the constraint's own, 0.2
+    # for "penalty" (its convection is explicit, and this is its stability bound), for "implicit" an accuracy choice
+    # (no step bound): 0.8 on the moving mesh, 0.4 on the fixed one, whose band needs the finer step.  "penalty"
+    # refuses a step that could close more than a contact's gap (its steps are never shortened:
+    # flow_model.safe_fixed_step names the largest peak_cfl)
+    peak_cfl: float | None = field(default=None, metadata={"range": (0.01, 50.0, False, False), "unit": ""})
+    # adaptive_step: each step between min_step_factor and max_step_factor times the peak_cfl step, as short as the
     # approach to a contact (a step closes at most gap_fraction of the gap at the sphere's speed) and the changes of
     # the sphere's velocity ask (flow_model.StepLimits); unset: the constraint's own, true for "implicit" (it
     # assembles every step anyway) at time_order 1 or 2, false for "penalty" (it keeps its factors: one step length).
     # Whatever the floor and from rest, a step closes at most twice gap_fraction of the gap with the sphere's
     # speed and net weight (flow_model.Approach): at most 0.5, so that no step reaches the contact; fixed steps
     # (false, "implicit") are shortened only where they could close more than the gap (for one sphere never at the
-    # default cfl)
+    # default peak_cfl)
     adaptive_step: bool | None = None
     min_step_factor: float = _setting(0.05, 0.001, 1.0)
     max_step_factor: float = _setting(2.0, 1.0, 50.0)
@@ -99,13 +101,13 @@ class FdNumerics:
     radius_offset: float | None = field(default=None, metadata={"range": (-3.0, 3.0, False, False), "unit": ""})
 
     def resolved(self, name: str) -> float:
-        """A setting's value, the constraint's (the mesh's) own when it is unset (cfl, radius_offset, adaptive_step;
-        grading)."""
+        """A setting's value, the constraint's (the mesh's) own when it is unset (peak_cfl, radius_offset,
+        adaptive_step; grading)."""
         value = getattr(self, name)
         if value is not None:
             return value
         penalty = self.constraint == "penalty"
-        return {"cfl": 0.2 if penalty else (0.8 if self.moving else 0.4), "radius_offset": 0.5 if penalty else 0.0,
+        return {"peak_cfl": 0.2 if penalty else (0.8 if self.moving else 0.4), "radius_offset": 0.5 if penalty else 0.0,
                 "adaptive_step": not penalty and self.time_order < 3,
                 "grading": 0.2 if self.moving else 0.1}[name]
 
@@ -210,8 +212,10 @@ class Fd3dNumerics:
     interface_width: float = _setting(2.0, 0.5, 10.0)
     # c_B over the viscous, convective and step rates (numerics.fd.penalty_strength's meaning and floor)
     penalty_strength: float = _setting(1e5, 100.0, 1e8)
-    cfl: float = _setting(0.4, 0.01, 50.0)  # dt = cfl * fine size / (1.5 speed scale)
-    # each step between min_step_factor and max_step_factor times the cfl step, as short as the approach to the
+    # the Courant number at the peak fluid speed (numerics.fd.peak_cfl's meaning): dt = peak_cfl * fine size / (1.5
+    # speed scale)
+    peak_cfl: float = _setting(0.4, 0.01, 50.0)
+    # each step between min_step_factor and max_step_factor times the peak_cfl step, as short as the approach to the
     # wall and the changes of the sphere's velocity ask (flow_model.StepLimits; numerics.fd's meaning)
     adaptive_step: bool = True
     min_step_factor: float = _setting(0.05, 0.001, 1.0)

@@ -84,8 +84,13 @@ ONE_ATMOSPHERE = 101325.0  # Pa, the standard atmosphere
 WATER_VAPOUR_PRESSURE_20C = 2339.0
 PRESSURE_NOTE = "absolute; from a vacuum to 1e9 Pa (10,000 atm)"
 # keys that were renamed: what a scene file written before says now
+# (numerics.fd.cfl and numerics.fd3d.cfl: the same number under a name that says it is not ale's and ib's cfl)
+_PEAK_CFL = ("the same number: the Courant number at the peak fluid speed 1.5 U (numerics.ale.cfl and "
+             "numerics.ib.cfl are at the speed scale U)")
 RENAMED = {"contact.ehd_cavitation": "contact.cavitation_pressure (\"off\", \"liquid\", \"auto\" or a pressure; the "
-                                     "default \"auto\" now limits every film's tension, the ehd film's included)"}
+                                     "default \"auto\" now limits every film's tension, the ehd film's included)",
+           "numerics.fd.cfl": f"numerics.fd.peak_cfl, {_PEAK_CFL}",
+           "numerics.fd3d.cfl": f"numerics.fd3d.peak_cfl, {_PEAK_CFL}"}
 _PLAIN_NAME = re.compile(r"[^/\\\x00-\x1f\x7f.][^/\\\x00-\x1f\x7f]{0,99}")
 
 

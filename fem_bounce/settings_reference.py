@@ -32,7 +32,7 @@ checks enforce on load) by `fem_bounce.settings_reference.markdown()`; do not ed
 page is up to date). How to write a scene and set a key from the command line or Python:
 [usage.md](usage.md#scenes).
 
-Keys of a table are written `table.key` on the command line (`--set numerics.fd.cfl=0.4`) and as `key = value`
+Keys of a table are written `table.key` on the command line (`--set numerics.fd.peak_cfl=0.4`) and as `key = value`
 under `[table]` in a scene file; "required" has no default; "unset" leaves the value to the model (the note says
 which). Ranges: `[a, b]` includes both ends, `(a, b)` excludes them."""
 
@@ -58,7 +58,7 @@ TITLES = {
 class Setting:
     """One key of a scene table, as the reference shows it."""
 
-    key: str  # dotted from the scene's top: "numerics.fd.cfl"
+    key: str  # dotted from the scene's top: "numerics.fd.peak_cfl"
     default: str
     allowed: str
     unit: str

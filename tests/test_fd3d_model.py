@@ -119,9 +119,9 @@ def test_what_the_head_on_model_does_not_run_is_refused_before_anything_is_writt
     with pytest.raises(SceneError, match="interface_width shapes the fixed mesh's band only"):
         FictitiousDomain3DModel(scene.load("li2011-case3", {"numerics.fd3d.interface_width": 3}), MPI.COMM_SELF)
     # fixed steps are never shortened: one that could jump the contact's gap is refused, a shorter one runs
-    with pytest.raises(SceneError, match="numerics.fd3d.cfl up to"):
+    with pytest.raises(SceneError, match="numerics.fd3d.peak_cfl up to"):
         FictitiousDomain3DModel(scene.load("li2011-case3", {"numerics.fd3d.adaptive_step": False,
-                                                            "numerics.fd3d.cfl": 5}), MPI.COMM_SELF)
+                                                            "numerics.fd3d.peak_cfl": 5}), MPI.COMM_SELF)
     FictitiousDomain3DModel(scene.load("li2011-case3", {"numerics.fd3d.adaptive_step": False}), MPI.COMM_SELF)
 
 

@@ -106,7 +106,7 @@ def test_the_rebound_does_not_move_with_the_step(tmp_path):
     through the contact: e_1 then moves 0.5 % (0.767 -> 0.763), the apex 1.6 % (4.34 -> 4.27 mm, the rise)."""
     runs = {}
     for cfl in (0.8, 0.2):
-        changes = {**IMPLICIT, "numerics.fd.cells_per_diameter": 12, "numerics.fd.cfl": cfl, "run.bounces": 1}
+        changes = {**IMPLICIT, "numerics.fd.cells_per_diameter": 12, "numerics.fd.peak_cfl": cfl, "run.bounces": 1}
         sc = scene.load("li2011-case3", changes)
         summary = simulate(sc, "fd", MPI.COMM_WORLD, tmp_path / str(cfl), force=True, progress=False, plots=False)
         assert summary["fd"]["shortest_step_s"] == pytest.approx(sc.numerics.fd.min_step_factor * time_step(sc))

@@ -69,7 +69,7 @@ def test_a_diverging_run_stops_clearly_and_keeps_its_checkpoint(tmp_path):
     out = tmp_path / "blowup"
     with pytest.raises(RunDiverged, match=r"last checkpoint at step 5"):
         run(out, name="sphere-drag-re200", **{"numerics.fd.mesh": "fixed", "numerics.fd.constraint": "penalty",
-                                              "numerics.fd.cfl": 8.0, "numerics.fd.forcing_number": 10.0,
+                                              "numerics.fd.peak_cfl": 8.0, "numerics.fd.forcing_number": 10.0,
                                               "numerics.fd.checkpoint_every": 5, "run.end_time": 3.0})
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"].startswith("diverged")

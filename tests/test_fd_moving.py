@@ -64,6 +64,18 @@ def test_a_fixed_mesh_setting_on_the_moving_mesh_is_refused_naming_it(key, value
     assert model_class(fixed) is FictitiousDomainModel  # where it is read
 
 
+def test_a_sphere_held_nearer_the_wall_than_hold_delta_is_admitted():
+    """The moving mesh never holds a held sphere at hold_delta (flow_gaps keeps it at its gap): one held at 0.01 D,
+    below the default hold 0.02 D, was refused naming numerics.fd.hold_delta; it is admitted, and hold_delta set
+    with every sphere held, read nowhere, is refused as such."""
+    near = {"initial_gap": 0.01 * D, "numerics.fd.cells_per_diameter": 4}
+    MovingFictitiousDomainModel(scene.load("brenner-approach", near), MPI.COMM_WORLD)
+    with pytest.raises(scene.SceneError, match="numerics.fd.hold_delta = 0.01 has no effect here: every sphere is "
+                                               "held"):
+        MovingFictitiousDomainModel(scene.load("brenner-approach", {**near, "numerics.fd.hold_delta": 0.01}),
+                                    MPI.COMM_WORLD)
+
+
 @pytest.fixture(scope="module")
 def bounces(tmp_path_factory):
     """Case 3 at 6 cells/D to its first apex with the fd and the ale model at their defaults (the same mesh but

@@ -104,6 +104,7 @@ MODE_SCENES = {
                                                                   {"numerics.fd.steady_stokes": True}),
     ("fd", 'the fixed mesh (mesh = "fixed", or steady_stokes)'): ("li2011-case3", {"numerics.fd.mesh": "fixed"}),
     ("fd", "every sphere held, on the fixed mesh"): ("brenner-approach", {"numerics.fd.mesh": "fixed"}),
+    ("fd", "every sphere held, on the moving mesh"): ("brenner-approach", {}),
     ("fd", "the fixed mesh without patches (patch = false, or every sphere held)"):
         ("li2011-case3", {"numerics.fd.mesh": "fixed", "numerics.fd.patch": False}),
     ("fd", "the fixed mesh without a wall box (wall_cells_per_diameter no finer than cells_per_diameter, or a "
@@ -118,6 +119,7 @@ MODE_SCENES = {
     ("ale", 'factorisation = "every-step"'): ("li2011-case3", {"numerics.ale.factorisation": "every-step"}),
     ("ale", "a sphere not held"): ("li2011-case3", {}),
     ("ale", "the near-wall correction holding every contact"): ("yang-hunt2006-pair", {}),
+    ("ale", "every sphere held"): ("brenner-approach", {}),
     ("ale", "a container"): ("tencate2002-e4", {}),
     ("ib", "a container"): ("tencate2002-e4", {}),
     ("ib", "a stream"): ("sphere-drag-re100", {}),
@@ -181,13 +183,13 @@ def test_a_setting_read_nowhere_is_refused_before_anything_is_written(tmp_path, 
 
 
 def test_a_time_step_ladder_scales_only_the_limits_the_run_reads():
-    """The fd model's time-step ladder scales forcing_number with cfl (the one-shot penalty's dt is usually set by
+    """The fd model's time-step ladder scales forcing_number with peak_cfl (the one-shot penalty's dt is usually set by
     it), but the default implicit constraint reads it nowhere: the ladder leaves it out there, so that a study's runs
     are not refused."""
     from fem_bounce import scene as scenes
     from fem_bounce.studies import common
 
-    assert common.LADDERS["fd"].time_step(scenes.load("li2011-case3"), 0.4) == {"numerics.fd.cfl": 0.4}
+    assert common.LADDERS["fd"].time_step(scenes.load("li2011-case3"), 0.4) == {"numerics.fd.peak_cfl": 0.4}
 
 
 def test_a_convergence_study_takes_no_time_ladder_where_the_run_takes_no_steps(tmp_path, monkeypatch, capsys):

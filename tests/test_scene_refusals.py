@@ -210,6 +210,56 @@ def test_cavitation_is_checked_whatever_the_contact_model(value, message, tmp_pa
             "--set", f"contact.cavitation_pressure={value}", message=message)
 
 
+PEAK_CFL = ("numerics.{model}.cfl is now numerics.{model}.peak_cfl, the same number: the Courant number at the peak "
+            "fluid speed 1.5 U (numerics.ale.cfl and numerics.ib.cfl are at the speed scale U)")
+
+
+@pytest.mark.parametrize("model", ["fd", "fd3d"])
+def test_the_fd_models_old_cfl_is_refused_naming_peak_cfl(model, tmp_path, monkeypatch, capsys):
+    """numerics.fd.cfl and numerics.fd3d.cfl meant dt = cfl h / (1.5 U), numerics.ale.cfl and numerics.ib.cfl
+    dt = cfl h / U: one name, two meanings.  The fd models' key is peak_cfl now; the old one, on the command line or
+    in a scene file, is refused with one line naming the new key (the same number), whichever model runs."""
+    message = PEAK_CFL.format(model=model)
+    refused(capsys, tmp_path, monkeypatch, "run", "li2011-case3", *ODE, "--out", "r",
+            "--set", f"numerics.{model}.cfl=0.4", message=message)
+    old = tmp_path / "old.toml"
+    old.write_text(PRESET.read_text() + f"\n[numerics.{model}]\ncfl = 0.4\n")
+    refused(capsys, tmp_path, monkeypatch, "run", str(old), *ODE, "--out", "r", message=message)
+    with pytest.raises(fb.SceneError) as refusal:
+        scenes.load("li2011-case3").replace(**{f"numerics.{model}.cfl": 0.4})
+    assert str(refusal.value) == message
+
+
+@pytest.mark.parametrize("model, settings, peak_cfl", [
+    ("fd", {"numerics.fd.peak_cfl": 0.3}, 0.3),
+    ("fd", {}, 0.8),  # unset: the moving mesh's own
+    ("fd", {"numerics.fd.mesh": "fixed"}, 0.4),  # the fixed mesh's
+    ("fd", {"numerics.fd.mesh": "fixed", "numerics.fd.constraint": "penalty"}, 0.2),  # the one-shot penalty's
+    ("fd3d", {}, 0.4),
+    ("fd3d", {"numerics.fd3d.peak_cfl": 0.3}, 0.3),
+])
+def test_peak_cfl_gives_the_step_cfl_gave(model, settings, peak_cfl):
+    """numerics.fd.peak_cfl and numerics.fd3d.peak_cfl are the old cfl renamed, not rescaled: the step is
+    dt = peak_cfl h / (1.5 U), h the fine size D / cells_per_diameter and U the speed scale, to round-off (the
+    penalty's also at most forcing_number h^2 / nu)."""
+    from mpi4py import MPI
+
+    from fem_bounce.fem.domain import speed_scale
+    from fem_bounce.models.fd.domain import time_step
+    from fem_bounce.models.fd3d.model import FictitiousDomain3DModel
+
+    sc = scenes.load("li2011-case3", settings)
+    table = getattr(sc.numerics, model)
+    fine = sc.sphere.diameter / table.cells_per_diameter
+    expected = peak_cfl * fine / (1.5 * speed_scale(sc, model))
+    if model == "fd":
+        if table.constraint == "penalty":
+            expected = min(expected, table.forcing_number * fine**2 / sc.liquid.kinematic_viscosity)
+        assert time_step(sc) == pytest.approx(expected, rel=1e-14)
+    else:
+        assert FictitiousDomain3DModel(sc, MPI.COMM_SELF).cfl_step == pytest.approx(expected, rel=1e-14)
+
+
 # -- prescribed motion ------------------------------------------------------------------------------------------------
 
 

@@ -48,7 +48,7 @@ def test_a_row_shows_the_metadata_the_checks_read():
     assert rows["numerics.fd.cells_per_diameter"].default == "`8`"
     assert rows["numerics.fd.surface_refinement"].default == "`5`"
     assert rows["numerics.fd.mesh"].allowed == '`"moving"`, `"fixed"`'
-    assert rows["numerics.fd.cfl"].default == "unset" and rows["numerics.fd.cfl"].allowed.endswith("unset")
+    assert rows["numerics.fd.peak_cfl"].default == "unset" and rows["numerics.fd.peak_cfl"].allowed.endswith("unset")
     assert rows["initial_gap"].default == "required"
     assert "pitch" in rows["liquid.viscosity"].note  # the note of the range error
     assert rows["numerics.ib.cfl"].note.startswith("dt = cfl")  # a numerics field's comment

@@ -95,11 +95,11 @@ def test_a_pair_closes_at_both_speeds():
 
 
 @pytest.mark.parametrize("model, settings, least", [
-    ("fd", {**TOY, "numerics.fd.cfl": 50.0}, 8),  # before: 1 step, e 0.881, apex 11.3 mm (default 0.790, 4.9 mm)
+    ("fd", {**TOY, "numerics.fd.peak_cfl": 50.0}, 8),  # before: 1 step, e 0.881, apex 11.3 mm (default 0.790, 4.9 mm)
     ("ale", {**ALE_TOY, "numerics.ale.cfl": 20.0, "numerics.ale.adaptive_step": True}, 40),  # before: 4 steps
 ])
 def test_an_in_range_cfl_does_not_put_the_bounce_in_one_step(model, settings, least):
-    """`--set numerics.fd.cfl=50` (in range) took case 3's whole fall, collision and rebound in one step: the
+    """`--set numerics.fd.peak_cfl=50` (in range) took case 3's whole fall, collision and rebound in one step: the
     first step from rest, the cfl step, was unbounded.  Now the approach takes steps that close at most what the
     gap fraction allows, and the rebound is near the default's."""
     result = fb.simulate(fb.load("li2011-case3", {**settings, "run.bounces": 1}), model, plots=False)
@@ -122,8 +122,8 @@ def test_the_safe_fixed_step_is_half_the_contact_gap_at_the_impact_speed():
 
 @pytest.mark.parametrize("model, settings, least", [
     ("ale", {**ALE_TOY, "numerics.ale.cfl": 20.0}, 8),  # ale's default fixed steps; before: 2 steps, e 0.875
-    ("fd", {**TOY, "numerics.fd.cfl": 50.0, "numerics.fd.adaptive_step": False}, 8),  # before: 1 step, e 0.881
-    ("fd", {**TOY, "numerics.fd.cfl": 50.0, "numerics.fd.adaptive_step": False, "numerics.fd.mesh": "fixed"},
+    ("fd", {**TOY, "numerics.fd.peak_cfl": 50.0, "numerics.fd.adaptive_step": False}, 8),  # before: 1 step, e 0.881
+    ("fd", {**TOY, "numerics.fd.peak_cfl": 50.0, "numerics.fd.adaptive_step": False, "numerics.fd.mesh": "fixed"},
      8),  # before: 1 step, e 0.886
     ("ib", {**IB_TOY, "numerics.ib.cfl": 2.0, "numerics.ib.max_cfl": 5.0}, 35),  # before: 19 steps, e 0.872
 ])
@@ -146,14 +146,14 @@ def test_a_one_shot_penalty_step_that_could_jump_a_collision_is_refused(tmp_path
     scale carrying the sphere at most half across delta_sl D: 0.00196 s) and the alternative; the default cfl 0.2
     and cfl 0.5 pass."""
     penalty = {**TOY, "numerics.fd.mesh": "fixed", "numerics.fd.constraint": "penalty"}
-    with pytest.raises(fb.SceneError, match=r"numerics.fd.cfl = 5 with forcing_number = 0.025 .* fixed step "
+    with pytest.raises(fb.SceneError, match=r"numerics.fd.peak_cfl = 5 with forcing_number = 0.025 .* fixed step "
                                             r"0.00338 s, longer than the 0.00196 s this scene allows .* "
-                                            r"numerics.fd.cfl up to 0.6, or forcing_number up to 0.0145; or set "
+                                            r"numerics.fd.peak_cfl up to 0.6, or forcing_number up to 0.0145; or set "
                                             r"numerics.fd.constraint = \"implicit\""):
-        fb.simulate(fb.load("li2011-case3", {**penalty, "numerics.fd.cfl": 5.0}), "fd", out=tmp_path / "run",
+        fb.simulate(fb.load("li2011-case3", {**penalty, "numerics.fd.peak_cfl": 5.0}), "fd", out=tmp_path / "run",
                     plots=False)
     assert not (tmp_path / "run").exists()
-    FictitiousDomainModel(fb.load("li2011-case3", {**penalty, "numerics.fd.cfl": 0.5}), MPI.COMM_WORLD)
+    FictitiousDomainModel(fb.load("li2011-case3", {**penalty, "numerics.fd.peak_cfl": 0.5}), MPI.COMM_WORLD)
 
 
 @pytest.mark.parametrize("model, settings", [
@@ -190,8 +190,9 @@ def test_a_gap_fraction_above_a_half_is_refused():
 # -- 6, 7. settings that do not hold the sphere, or do nothing -------------------------------------------------------
 
 def test_a_penalty_too_weak_to_hold_the_sphere_is_refused():
-    """penalty_strength 1 or 10 (in range) diverged with "use a smaller numerics.fd.cfl", which did not help: the
-    friction no longer holds the sphere (at 10 it gains energy; at 20 V_i is 4 % and e 14 % off at 4 cells/D)."""
+    """penalty_strength 1 or 10 (in range) diverged with "use a smaller cfl" (numerics.fd.peak_cfl), which did not
+    help: the friction no longer holds the sphere (at 10 it gains energy; at 20 V_i is 4 % and e 14 % off at 4
+    cells/D)."""
     with pytest.raises(fb.SceneError, match=r"numerics.fd.penalty_strength = 10.0 is out of range: allowed in "
                                             r"\[100, 1e\+08\]"):
         fb.load("li2011-case3", {"numerics.fd.penalty_strength": 10})

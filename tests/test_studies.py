@@ -85,9 +85,9 @@ def test_speed_accuracy_levels_must_name_a_chosen_model(capsys):
 def test_time_step_ladder_scales_every_step_limit_of_a_model():
     """The fd model's dt is usually set by its forcing number, not its CFL: both must move."""
     sc = scene.load("li2011-case3", {"numerics.fd.constraint": "penalty"})
-    cfl = sc.numerics.fd.resolved("cfl")  # unset: the constraint's own
+    cfl = sc.numerics.fd.resolved("peak_cfl")  # unset: the constraint's own
     change = common.LADDERS["fd"].time_step(sc, 2 * cfl)
-    assert change == {"numerics.fd.cfl": 2 * cfl,
+    assert change == {"numerics.fd.peak_cfl": 2 * cfl,
                       "numerics.fd.forcing_number": pytest.approx(2 * sc.numerics.fd.forcing_number)}
     assert common.LADDERS["ode"].time_step(sc, 0.4) == {}
 

@@ -140,7 +140,7 @@ MODELS: dict[str, ModelInfo] = {
         name="fd", module="fem_bounce.models.fd", class_name="FictitiousDomainModel", chooser="model_class",
         liquid="axisymmetric Taylor-Hood Navier-Stokes (FEniCSx), diffuse-interface sphere", resolved=True,
         resolution_key="numerics.fd.cells_per_diameter", resolution_unit="cells/D",
-        ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.fd.cfl",
+        ladder=(8.0, 12.0, 16.0, 24.0, 32.0), time_step_key="numerics.fd.peak_cfl",
         scaled_with_time_step=("numerics.fd.forcing_number",), checkpoint_every_key="numerics.fd.checkpoint_every",
         checkpoint_files=("flow.npz",), min_cells_across_blend_gap=1.0, fields_key="numerics.fd.output_every",
         colour="C1", sources=("models/fd", "models/moving_mesh.py", "fem"), max_spheres=MANY,
@@ -169,7 +169,7 @@ MODELS: dict[str, ModelInfo] = {
                "mesh that moves with it, head-on",
         # with the default surface three times finer: 64k unknowns at 6 cells/D, about 100k at 8
         resolved=True, resolution_key="numerics.fd3d.cells_per_diameter", resolution_unit="cells/D",
-        ladder=(4.0, 6.0, 8.0), time_step_key="numerics.fd3d.cfl",
+        ladder=(4.0, 6.0, 8.0), time_step_key="numerics.fd3d.peak_cfl",
         checkpoint_every_key="numerics.fd3d.checkpoint_every", checkpoint_files=("flow.npz",),
         fields_key="numerics.fd3d.output_every", colour="C4",
         sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP, oblique=True),

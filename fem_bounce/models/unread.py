@@ -77,6 +77,9 @@ def _ale_steady(scene, ale) -> bool:
 
 _CONTAINER = ("is read nowhere with a container: it sizes the unbounded domain, and this scene's container "
               "(container.radius, container.height) bounds it: unset it")
+_HELD_HOLD = ("has no effect here: every sphere is held (motion.mode and each sphere's mode \"fixed\"), and the mesh "
+              "holds a sphere at hold_delta only as it moves toward a contact (a held sphere stays at its gap, nearer "
+              "than the hold too): unset it")
 _HOLD = ("has no effect here: the near-wall correction (contact.near_wall, resolved \"correction\") holds each sphere "
          "at the contact model's gap contact.delta_sl D (delta_sl 2a* for a pair) instead: unset it, and set "
          "contact.delta_sl to move the hold (or contact.near_wall = \"blend\" for the mesh to hold at hold_delta)")
@@ -103,6 +106,8 @@ RULES: dict[str, tuple[Unread, ...]] = {
                lambda scene, fd: fd.moving and correction_holds_every_contact(scene),
                refused_by="models/fd/moving.py"),
         Unread(("hold_delta",), "the fixed mesh", _fd_fixed_mesh, refused_by="models/fd/model.py"),
+        Unread(("hold_delta",), "every sphere held, on the moving mesh",
+               lambda scene, fd: fd.moving and _every_sphere_held(scene), _HELD_HOLD),
         Unread(("penalty_strength",), 'constraint = "penalty"', lambda scene, fd: fd.constraint == "penalty",
                refused_by="models/fd/model.py"),
         Unread(("adaptive_step", "min_step_factor", "max_step_factor", "gap_fraction", "coupling"),
@@ -136,7 +141,7 @@ RULES: dict[str, tuple[Unread, ...]] = {
         Unread(("min_step_factor", "max_step_factor", "gap_fraction"), "fixed steps (adaptive_step false, set or "
                'resolved: constraint = "penalty", time_order 3)', _fd_fixed_steps,
                lambda scene: "has no effect here: it bounds the adaptive steps, and this run's steps are fixed (the "
-               "cfl step; shortened only where a step could close a whole gap): "
+               "peak_cfl step; shortened only where a step could close a whole gap): "
                f"{_fd_fixed_steps_instead(scene)}"),
         Unread(("forcing_number",), 'constraint = "implicit"', lambda scene, fd: fd.constraint == "implicit",
                "has no effect with numerics.fd.constraint = \"implicit\": it bounds the one-shot penalty's step "
@@ -170,6 +175,7 @@ RULES: dict[str, tuple[Unread, ...]] = {
                "second_sphere.mode \"fixed\"), and this scene's free or prescribed sphere marches: unset it"),
         Unread(("hold_delta",), "the near-wall correction holding every contact",
                lambda scene, ale: correction_holds_every_contact(scene), _HOLD),
+        Unread(("hold_delta",), "every sphere held", lambda scene, ale: _every_sphere_held(scene), _HELD_HOLD),
         Unread(("far_field",), "a container", lambda scene, ale: not scene.container.unbounded, _CONTAINER),
     ),
     "ib": (

@@ -66,11 +66,12 @@ PEAK_SPEED_FACTOR = 1.5  # the fastest fluid: 1.5 U at the equator of a sphere i
 
 
 def time_step(scene: Scene) -> float:
-    """dt = cfl h / (1.5 U) [s], h the fine size, U the speed scale; with the penalty constraint
+    """dt = peak_cfl h / (1.5 U) [s], h the fine size, U the speed scale (peak_cfl the Courant number at the peak
+    fluid speed 1.5 U); with the penalty constraint
     (numerics.fd.constraint = "penalty") also dt <= forcing_number h^2 / nu.
 
     The first bound keeps the extrapolated convection stable where the fluid is
-    fastest, beside the sphere (with cfl = 0.2 the flow past a sphere at Re = 200 is
+    fastest, beside the sphere (with peak_cfl = 0.2 the flow past a sphere at Re = 200 is
     stable, at 0.3 it blows up there within 40 steps).  The second keeps the immersed
     force rho c phi (U - u~), c ~ 1/dt, stronger than viscous diffusion across the
     indicator's band; it binds at low Re, where it sets how rigid the interior is
@@ -78,7 +79,7 @@ def time_step(scene: Scene) -> float:
     The implicit constraint holds the interior whatever dt, so it has only the first bound."""
     fd = scene.numerics.fd
     fine = scene.sphere.diameter / fd.cells_per_diameter
-    convective = fd.resolved("cfl") * fine / (PEAK_SPEED_FACTOR * speed_scale(scene, "fd"))
+    convective = fd.resolved("peak_cfl") * fine / (PEAK_SPEED_FACTOR * speed_scale(scene, "fd"))
     if fd.constraint != "penalty":
         return convective
     return min(convective, fd.forcing_number * fine**2 / scene.liquid.kinematic_viscosity)

@@ -169,13 +169,13 @@ class FictitiousDomainModel(FlowModel):
         if self.cfl_step <= safe * (1.0 + 1e-9):
             return
         fine, nu = scene.sphere.diameter / fd.cells_per_diameter, scene.liquid.kinematic_viscosity
-        cfl = fd.resolved("cfl")  # dt = min(cfl h / (1.5 U), forcing_number h^2 / nu): either one shortens it
-        raise SceneError(f"numerics.fd.cfl = {cfl:g} with forcing_number = {fd.forcing_number:g} makes the one-shot "
-                         f"penalty's fixed step {self.cfl_step:.3g} s, longer than the {safe:.3g} s this scene allows "
-                         f"(a step at the impact speed scale, {speed:.3g} m/s, carrying a sphere "
+        cfl = fd.resolved("peak_cfl")  # dt = min(peak_cfl h / (1.5 U), forcing_number h^2 / nu): either shortens it
+        raise SceneError(f"numerics.fd.peak_cfl = {cfl:g} with forcing_number = {fd.forcing_number:g} makes the "
+                         f"one-shot penalty's fixed step {self.cfl_step:.3g} s, longer than the {safe:.3g} s this "
+                         f"scene allows (a step at the impact speed scale, {speed:.3g} m/s, carrying a sphere "
                          "at most half across the contact model's gap delta_sl D): the step could jump a collision, "
-                         "and the penalty's factors keep one step length.  Allowed for this scene: numerics.fd.cfl up "
-                         f"to {safe * PEAK_SPEED_FACTOR * speed / fine:.3g}, "
+                         "and the penalty's factors keep one step length.  Allowed for this scene: "
+                         f"numerics.fd.peak_cfl up to {safe * PEAK_SPEED_FACTOR * speed / fine:.3g}, "
                          f"or forcing_number up to {safe * nu / fine**2:.3g}; or set numerics.fd.constraint = "
                          "\"implicit\" (its adaptive steps are bounded by the gaps)")
 
@@ -279,7 +279,7 @@ class FictitiousDomainModel(FlowModel):
         """Adaptive steps: the coming one no longer than StepLimits.first allows from the spheres' `gaps` [m] and
         `velocities` [m/s] where it starts (the first step too).  Fixed implicit steps: shortened only where the
         gaps ask for it, closing no contact by more than its gap (Approach.longest at MAX_GAP_FRACTION, as the
-        moving mesh's fixed steps: for one sphere never at the default cfl)."""
+        moving mesh's fixed steps: for one sphere never at the default peak_cfl)."""
         if self.adaptive:
             self.dt = self.step_limits.first(self.dt, gaps, velocities)
         elif self.implicit:

@@ -151,7 +151,7 @@ class MovingFictitiousDomainModel(MovingMeshModel):
         """The first step [s]: the cfl step, or with adaptive steps the shortest when a free sphere is launched into
         the liquid at rest: it gives the liquid its added mass's momentum at once and slows fastest at first, and the
         steps then grow as StepLimits allows (BDF1 while its inside lags: inside_lags).  Started at the cfl step, the
-        default (cfl 0.8) took the first 3 ms of case 3's sphere launched at 0.3 m/s in one step, 1.3 % too fast at
+        default (peak_cfl 0.8) took the first 3 ms of case 3's sphere launched at 0.3 m/s in one step, 1.3 % too fast at
         2.5 ms (tests/test_fd_moving.py).  The ale model keeps the cfl step: its start has no BDF1 (a short first
         step there, with BDF2 across the impulsive start, left its launch 3.8 % too fast at 1 ms)."""
         launched = any(body.start_velocity != 0.0 and not body.held for body in scene_bodies(self.scene))

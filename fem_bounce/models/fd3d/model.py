@@ -168,18 +168,19 @@ class FictitiousDomain3DModel(FlowModel):
         self.half_width = s.far_field * self.diameter
         self.height = scene.initial_gap + self.diameter + self.travel + s.far_field * self.diameter
         speed = speed_scale(scene, "fd3d")
-        self.dt = self.cfl_step = s.cfl * self.fine_size / (PEAK_SPEED_FACTOR * speed)
+        self.dt = self.cfl_step = s.peak_cfl * self.fine_size / (PEAK_SPEED_FACTOR * speed)
         nu = scene.liquid.kinematic_viscosity
         self.penalty_rate = s.penalty_strength * max(nu / self.surface_size**2, speed / self.surface_size,
                                                      1.5 / self.cfl_step)
         self.adaptive = s.adaptive_step
         safe = safe_fixed_step(scene, speed)
         if not self.adaptive and self.cfl_step > safe * (1.0 + 1e-9):  # fixed steps are never shortened
-            raise SceneError(f"numerics.fd3d.cfl = {s.cfl:g} with adaptive_step = false makes a fixed step of "
-                             f"{self.cfl_step:.3g} s, longer than the {safe:.3g} s this scene allows (a step at the "
+            raise SceneError(f"numerics.fd3d.peak_cfl = {s.peak_cfl:g} with adaptive_step = false makes a fixed step "
+                             f"of {self.cfl_step:.3g} s, longer than the {safe:.3g} s this scene allows (a step at the "
                              f"impact speed scale, {speed:.3g} m/s, carrying the sphere at most half across the "
                              "contact model's gap delta_sl D): it could jump a collision.  Allowed for this scene: "
-                             f"numerics.fd3d.cfl up to {safe * PEAK_SPEED_FACTOR * speed / self.fine_size:.3g}, or "
+                             "numerics.fd3d.peak_cfl up to "
+                             f"{safe * PEAK_SPEED_FACTOR * speed / self.fine_size:.3g}, or "
                              "adaptive_step = true (its steps are bounded by the gaps)")
         self.step_limits = StepLimits(self.cfl_step, s.min_step_factor, s.max_step_factor, speed, s.gap_fraction,
                                       approach_for(scene))
