@@ -40,6 +40,9 @@ def test_an_oblique_scene_takes_the_3d_model_and_a_head_on_one_never_does(monkey
     # without it (or were its registry entry head-on only) the reduced model, and the line says why
     assert models.choose(scene, installed=set(models.MODELS) - {"fd3d"}) == (
         "ode", "model: ode (a scene off the axis, and fd3d: not installed; --model to choose)")
+    # in a container (ten Cate's settling column), which fd3d does not mesh
+    assert models.choose(scenes.load("tencate2002-e4", OBLIQUE), installed=set(models.MODELS)) == (
+        "ode", "model: ode (a scene off the axis, and fd3d: no container; --model to choose)")
     monkeypatch.setitem(registry.MODELS, "fd3d", dataclasses.replace(registry.MODELS["fd3d"], oblique=False))
     assert models.choose(scene, installed=set(models.MODELS)) == (
         "ode", "model: ode (a scene off the axis, and fd3d: head-on only so far; --model to choose)")
@@ -99,7 +102,7 @@ def test_simulate_without_a_model_takes_the_same_pick():
 def test_the_chooser_passes_over_exactly_the_models_check_scene_refuses():
     high = scenes.load("li2011-case3", {"initial_gap": 200 * 0.0127})
     for scene in (scenes.load("li2011-case3"), scenes.load("li2011-case3", OBLIQUE), scenes.load("yang-hunt2006-pair"),
-                  scenes.load("three-spheres-wall"), high):
+                  scenes.load("three-spheres-wall"), high, scenes.load("tencate2002-e4", OBLIQUE)):
         for entry in registry.MODELS.values():
             try:
                 models.check_scene(entry, scene)

@@ -78,6 +78,9 @@ def check_scene(entry: ModelInfo, scene) -> None:
         raise ModelError(f"the {entry.name} model is axisymmetric: a scene with tangential_velocity, spin or "
                          f"gravity_angle != 0 leaves the axis; run it with --model "
                          f"{' or '.join(name for name, info in MODELS.items() if info.oblique)}")
+    if not entry.containers and not scene.container.unbounded:
+        raise SceneError(f'the {entry.name} model meshes a box, not a cylindrical container: give container = '
+                         '"unbounded", or use another model')
     d = scene.sphere.diameter
     if entry.max_initial_gap is not None and scene.initial_gap > entry.max_initial_gap * d:
         raise SceneError(
@@ -119,6 +122,8 @@ def cannot_run(entry: ModelInfo, scene, installed=None) -> str | None:
         return f"at most {entry.max_spheres} sphere{'s' if entry.max_spheres > 1 else ''}"
     if scene.oblique and not entry.oblique:
         return "head-on only so far"
+    if not entry.containers and not scene.container.unbounded:
+        return "no container"
     if entry.max_initial_gap is not None and scene.initial_gap > entry.max_initial_gap * scene.sphere.diameter:
         return f"releases up to {entry.max_initial_gap:g} D"
     if installed is not None:

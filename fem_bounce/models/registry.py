@@ -45,6 +45,7 @@ class ModelInfo:
     oblique: bool = False  # it runs a sphere moving along the wall or spinning (Scene.oblique): off the axis
     stepper: str = "coupled"  # how time advances (fem_bounce.steppers.STEPPERS); a held steady model: "steady"
     max_initial_gap: float | None = None  # [diameters] the highest release it meshes (None: no limit)
+    containers: bool = True  # it runs a sphere in a cylindrical container (scene.container), not only unbounded
     chooser: str | None = None  # a function of the module that picks the class for a scene (else class_name)
 
     @property
@@ -172,7 +173,8 @@ MODELS: dict[str, ModelInfo] = {
         ladder=(4.0, 6.0, 8.0), time_step_key="numerics.fd3d.peak_cfl",
         checkpoint_every_key="numerics.fd3d.checkpoint_every", checkpoint_files=("flow.npz",),
         fields_key="numerics.fd3d.output_every", colour="C4",
-        sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP, oblique=True),
+        sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP, oblique=True,
+        containers=False),
 }
 
 BEST_FIRST = ("ale", "fd", "ib", "ode")  # models.default(): the highest fidelity that imports (not a run's default)

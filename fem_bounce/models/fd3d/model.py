@@ -38,11 +38,13 @@ One fluid step of length dt (the run's CoupledStep):
 1. place the sphere where the AB2 prediction puts its centre at t_{n+1}, no lower than the contact model's
    hold gap above the wall (flow_model.flow_gaps: below delta_sl the near-wall correction adds what the flow
    misses, as in every resolved model);
-2. (moving mesh) move the mesh there, its velocity the BDF rate of the centre; while the hold stops the flow's
-   sphere, its normal velocity the sphere's own, so that the liquid meets a solid sphere approaching through a gap
-   frozen at the hold (the hold's approximation) rather than a ball it crosses at the sphere's speed (with the mesh
-   at rest along z the penalised ball would let liquid through its surface, and an oblique sphere's jet into the
-   gap twisted it backwards: docs/validation.md section 14);
+2. (moving mesh) move the mesh there, its velocity the BDF rate of the centre.  While the hold stops the flow's
+   sphere the mesh is at rest along z and the penalised ball, moving at V, lets liquid through its surface, as the
+   ALE reference's held hole does and as the near-wall correction's approach term assumes (docs/physics.md 3.3).
+   An oblique sphere's jet into the gap, swept along the wall, twisted it against the rolling sense, so in an
+   oblique collision the mesh velocity along z is the sphere's own while it is held: the liquid then meets a solid
+   sphere approaching through a gap frozen at the hold.  Head-on that variant moves case 3's e_1 by +0.4 % and its
+   Re_II by +1.6 % (docs/validation.md section 14), the hold's own uncertainty; head-on keeps the reference's;
 3. assemble the step's matrix, factorise it (fixed mesh; moving: when the kept factors are stale) and solve for the
    flow affine in the rigid amplitudes, u(s) = x_0 + sum_j s_j x_j, in one pass over the factors;
 4. hand the body integrator the force linearised in the accelerations, exactly as the axisymmetric implicit
@@ -388,7 +390,7 @@ class FictitiousDomain3DModel(FlowModel):
             self.motion.move_to(center)
             b = flow.bdf
             rate = (b[0] * center + b[1] * self.placed[0] + b[2] * self.placed[1]) / length
-            if center[2] > float(prediction.gaps[0]) + self.radius:  # ... or, held, the sphere's (module docstring)
+            if self.scene.oblique and center[2] > float(prediction.gaps[0]) + self.radius:  # (module docstring)
                 rate[2] = float(prediction.mean_velocities[0])
             self.motion.set_rate(rate)
         flow.sphere.place(center)
