@@ -187,6 +187,19 @@ def test_an_oblique_impact_slides_spins_and_closes_its_energy_account(tmp_path):
     assert trajectory["x"][-1] > 0.5 * 0.39 * np.sin(np.radians(30.0)) * trajectory["t"][-1]
 
 
+def test_a_sphere_sliding_to_the_box_side_is_stopped_there(tmp_path):
+    """The box does not follow the sphere along the wall: one launched fast along it in the smallest box (far_field
+    2 D) is stopped, its run completed, where it comes within far_field / 2 D of the side, and the summary says so."""
+    sliding = scene.load("li2011-case3", {**TINY, "numerics.fd3d.surface_refinement": 1, "numerics.fd3d.far_field": 2,
+                                          "tangential_velocity": 1.5, "contact.friction": 0.02, "gravity": 0.0,
+                                          "initial_velocity": -0.2, "initial_gap": 0.00475, "run.end_time": 0.05})
+    summary = simulate(sliding, "fd3d", MPI.COMM_WORLD, tmp_path, force=True, progress=False, plots=False)
+    assert summary["status"] == "completed" and summary["stop_reason"].startswith("the sphere has slid x = ")
+    assert "far_field / 2 = 1 D of the fd3d box's side" in summary["stop_reason"]
+    x = output.read_trajectory(tmp_path)["x"]
+    assert 0.5 * 0.0127 < x[-1] < 0.0127  # past the room (|x| + a > 1 D) by less than a step along the wall
+
+
 @pytest.mark.slow
 @pytest.mark.mpi
 def test_two_ranks_give_the_serial_trajectory(shared_tmp):

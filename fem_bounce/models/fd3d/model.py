@@ -84,7 +84,6 @@ from ...fem.solver import SolverError
 from ...fem.transfer import DivergenceFreeProjection
 from ...flow_model import (FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, mean_velocity, nearest_gap,
                            safe_fixed_step, steps_to)
-from ...errors import RunFailed
 from ...kinematics import FluidForce, PlaneForce, Prediction
 from ...motion import is_free, is_stream
 from ...output import CheckpointError, body_array, segment_path
@@ -202,7 +201,7 @@ class FictitiousDomain3DModel(FlowModel):
         self.cross_coupling = 0.0  # an oblique step's largest normal-tangential added mass over the diagonal's
 
     def _check_scene(self, scene) -> None:
-        """What the head-on 3-D model does not run, refused before the run writes anything."""
+        """What the 3-D model does not run, refused before the run writes anything."""
         if len(scene.spheres) > 1:
             raise SceneError("the fd3d model runs one sphere: remove [second_sphere] and [[further_spheres]]")
         if scene.oblique and scene.numerics.fd3d.mesh == "fixed":
@@ -288,14 +287,7 @@ class FictitiousDomain3DModel(FlowModel):
 
     def follow(self, center) -> None:
         """A new patch's mesh when the sphere's centre `center` [m] has left the patch, the flow's BDF levels
-        carried over (interpolated, then made discretely divergence-free).  A sphere that has slid along the wall
-        to within far_field / 2 D of the box's side is stopped (the box does not follow along x)."""
-        room = self.half_width - 0.5 * self.settings.far_field * self.diameter
-        if abs(center[0]) + self.radius > room:
-            raise RunFailed(f"the sphere has slid x = {center[0] / self.diameter:.3g} D along the wall, within "
-                            f"far_field / 2 = {0.5 * self.settings.far_field:g} D of the fd3d box's side at "
-                            f"{self.half_width / self.diameter:g} D: give a larger numerics.fd3d.far_field or an "
-                            "earlier run.end_time")
+        carried over (interpolated, then made discretely divergence-free)."""
         if not self.strays(center):
             return
         start = time.perf_counter()
@@ -444,6 +436,19 @@ class FictitiousDomain3DModel(FlowModel):
         self.history.push(moved, moved * self._ball)  # the held ball's momentum and angular momentum / rho
         self.placed = [self._center, self.placed[0]]
         self.step += 1
+        if along is not None:
+            self._stop_at_the_side(time_now)
+
+    def _stop_at_the_side(self, time_now: float) -> None:
+        """The box does not follow the sphere along the wall: a sphere that has slid to within far_field / 2 D of its
+        side is stopped there (the run completes, its stop_reason says why)."""
+        x, s = self.bodies_now.along[0], self.settings
+        if abs(x) + self.radius > self.half_width - 0.5 * s.far_field * self.diameter and not self.bodies_now.done:
+            self.bodies_now.done = True
+            self.bodies_now.stop_reason = (
+                f"the sphere has slid x = {x / self.diameter:.3g} D along the wall at t = {time_now:.4g} s, within "
+                f"far_field / 2 = {0.5 * s.far_field:g} D of the fd3d box's side ({s.far_field:g} D from the "
+                "release); a larger numerics.fd3d.far_field gives it more room")
 
     # -- checkpoints and fields -------------------------------------------------------------
     def checkpoint_state(self) -> tuple[dict, dict]:
