@@ -16,8 +16,8 @@ tangential motion reads the normal one's gap, velocity and contact force.
   (the wall raises it by O((a/h)^3)); the history force along the wall, -sum_i c_i(Re_t) z_i, with the normal
   motion's kernel (theory.TheoryForces: Mei & Adrian's, as an exponential sum) and its own modes
   z_i' = dU/dt - z_i / T_i, the free sphere's (no wall factor), as the normal history's default (contact.history
-  "mei-adrian" carries it, "off" leaves it out).  Without it a sphere sliding from rest onto an inclined wall
-  arrived 11 % too fast along the wall against the 3-D resolved flow (docs/validation.md section 14).  The spin's
+  "mei-adrian" carries it, "off" leaves it out); the 3-D resolved flow showed it needed (docs/validation.md
+  section 14).  The spin's
   history torque likewise, -(8/3) pi mu a^3 sum_i w_i zeta_i with zeta_i' = dOmega/dt - zeta_i / T_i, the unsteady
   Stokes kernel of a spinning sphere (theory.rotation_kernel, no finite-Re correction): the friction spins the
   sphere up within the contact, and the boundary layer it leaves slows the spin after it.

@@ -43,8 +43,8 @@ One fluid step of length dt (the run's CoupledStep):
    ALE reference's held hole does and as the near-wall correction's approach term assumes (docs/physics.md 3.3).
    An oblique sphere's jet into the gap, swept along the wall, twisted it against the rolling sense, so in an
    oblique collision the mesh velocity along z is the sphere's own while it is held: the liquid then meets a solid
-   sphere approaching through a gap frozen at the hold.  Head-on that variant moves case 3's e_1 by +0.4 % and its
-   Re_II by +1.6 % (docs/validation.md section 14), the hold's own uncertainty; head-on keeps the reference's;
+   sphere approaching through a gap frozen at the hold.  Head-on that variant moves case 3's rebound by the hold's
+   own uncertainty (docs/validation.md section 14), so a head-on scene keeps the reference's hold;
 3. assemble the step's matrix, factorise it (fixed mesh; moving: when the kept factors are stale) and solve for the
    flow affine in the rigid amplitudes, u(s) = x_0 + sum_j s_j x_j, in one pass over the factors;
 4. hand the body integrator the force linearised in the accelerations, exactly as the axisymmetric implicit
