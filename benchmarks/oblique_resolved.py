@@ -4,6 +4,8 @@ wet steel), to 5 ms after the rebound has crossed delta_sl D.
 
     mpiexec -n 2 python benchmarks/oblique_resolved.py --angles 30,60 --out results/oblique-resolved   # ~11 min
     python benchmarks/oblique_resolved.py --angles 30,60 --out results/oblique-resolved --reuse         # the table
+    mpiexec -n 2 python benchmarks/oblique_resolved.py --angles 30 --set numerics.fd3d.box=whole \
+        --out results/oblique-resolved-whole --record oblique_resolved_whole                          # the check
 
 A fall from rest, not a launch: a resolved model starts its launched sphere in liquid at rest (the sphere gives the
 liquid its added mass's momentum at once), the reduced model with its added mass moving with it, so that a launched
@@ -14,13 +16,16 @@ the 3-D box does not follow the sphere along the wall, and a run stops within fa
 fd3d run at its defaults on every rank of the communicator (`--reuse`: a finished run in OUT/fd3d-ANGLE is read, not
 run again).  Printed, and written to benchmarks/history/oblique_resolved.json: per angle, at both stations of
 summary.json's oblique_impacts (delta_sl D and the contact gap), psi_in, psi_out, e_n, e_t, the effective friction and
-the spin after, each model's and their difference, with the fd3d run's cost.
+the spin after, each model's and their difference, with the fd3d run's cost.  `--set KEY=VALUE` changes the fd3d
+run's scene (numerics.fd3d.box = "whole": the half box's symmetry check, its out_of_plane force and torque recorded);
+`--record NAME` writes benchmarks/history/NAME.json instead.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +36,7 @@ from fem_bounce.run import simulate
 
 QUANTITIES = ("incidence_deg", "psi_in", "psi_out", "normal_restitution", "tangential_restitution",
               "effective_friction", "spin_out")
-HISTORY = Path(__file__).parent / "history" / "oblique_resolved.json"
+HISTORY = Path(__file__).parent / "history"
 
 
 def inclined(angle: float, **changes) -> scene.Scene:
@@ -67,13 +72,17 @@ def main() -> None:
     parser.add_argument("--angles", default="30,60")
     parser.add_argument("--out", default="results/oblique-resolved")
     parser.add_argument("--reuse", action="store_true", help="read a finished fd3d run instead of running it")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                        help="a change to the fd3d run's scene, e.g. numerics.fd3d.box=whole (repeatable)")
+    parser.add_argument("--record", default="oblique_resolved", help="the record's name in benchmarks/history")
     args = parser.parse_args()
+    changes = dict(scene.parse_override(text) for text in args.overrides)
     out, comm = Path(args.out), MPI.COMM_WORLD
     records = []
     for angle in (float(a) for a in args.angles.split(",")):
         ode = plan(angle, out)
         run_dir = out / f"fd3d-{angle:g}"
-        settings = {"run.end_time": ode["end_time"], "numerics.fd3d.far_field": ode["far_field"]}
+        settings = {"run.end_time": ode["end_time"], "numerics.fd3d.far_field": ode["far_field"], **changes}
         if args.reuse and (run_dir / "summary.json").is_file():
             resolved = json.loads((run_dir / "summary.json").read_text())
         else:
@@ -86,7 +95,8 @@ def main() -> None:
                         "fd3d_cost": {"wall_time_s": resolved["wall_time_s"], "ranks": resolved["ranks"],
                                       "steps": resolved["steps"], "unknowns": resolved["sizes"]["unknowns"],
                                       "peak_memory_bytes": resolved["fd3d"]["peak_memory_bytes"],
-                                      "cross_coupling": resolved["fd3d"].get("cross_coupling")}})
+                                      "cross_coupling": resolved["fd3d"].get("cross_coupling"),
+                                      "out_of_plane": resolved["fd3d"].get("out_of_plane")}})
     if comm.rank != 0:
         return
     for record in records:
@@ -97,8 +107,10 @@ def main() -> None:
             cells = [f"{k} {record['fd3d'][station][k]:.4g} / {record['ode'][station][k]:.4g} "
                      f"({100 * record['difference'][station][k]:+.1f} %)" for k in QUANTITIES]
             print(f"  {station} (fd3d / ode, ode against fd3d): " + "; ".join(cells))
-    HISTORY.write_text(json.dumps({"command": "benchmarks/oblique_resolved.py", "runs": records}, indent=1) + "\n")
-    print(f"written to {HISTORY}")
+    record = HISTORY / f"{args.record}.json"
+    command = " ".join(["benchmarks/oblique_resolved.py", *sys.argv[1:]])
+    record.write_text(json.dumps({"command": command, "runs": records}, indent=1) + "\n")
+    print(f"written to {record}")
 
 
 if __name__ == "__main__":

@@ -44,6 +44,11 @@ class FdNumerics:
     # refused with it (models/fd/moving.py FIXED_MESH_ONLY).  "fixed": one mesh the spheres move through (patches or
     # the whole path); the one-shot penalty and steady_stokes run on it only
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
+    # "half": the half box y >= 0 of a flow symmetric about the plane of incidence y = 0 (half the unknowns);
+    # "whole": the whole box, the sphere still moving in that plane, and the flow's force across the plane and its
+    # torque about the axes in it reported (summary.json's fd3d.out_of_plane): the check that the half box's symmetry
+    # holds
+    box: str = field(default="half", metadata={"choices": ("half", "whole")})
     # moving mesh, as numerics.ale's: the surface's triangles this many times finer than the path's (the error
     # lives in the surface's triangles, the rebound more than the impact); remeshing below min_quality; a remeshed
     # gap keeps min_gap_cells triangles across; the mesh stops following a moving sphere at the gap hold_delta D (only
@@ -188,8 +193,8 @@ class AleNumerics:
 
 @dataclass(frozen=True)
 class Fd3dNumerics:
-    """The three-dimensional fictitious-domain model (fem_bounce.models.fd3d): a head-on sphere in the half box
-    y >= 0 of tetrahedra.  Sizes are per sphere diameter D."""
+    """The three-dimensional fictitious-domain model (fem_bounce.models.fd3d): one sphere, head-on or oblique, in a
+    box of tetrahedra (the half y >= 0 of it by default).  Sizes are per sphere diameter D."""
 
     # tetrahedra D / this on the sphere's surface (on the fixed mesh wherever the patch lets it lie), and in the gap
     cells_per_diameter: float = _setting(6.0, 2.0, 100.0)
@@ -199,6 +204,11 @@ class Fd3dNumerics:
     # rigidly), so the penalty stays on the same cells and the step's factors are kept over many steps; "fixed": the
     # sphere moves through a mesh fine in a patch around it
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
+    # "half": the half box y >= 0 of a flow symmetric about the plane of incidence y = 0 (half the unknowns);
+    # "whole": the whole box, the sphere still moving in that plane, and the flow's force across the plane and its
+    # torque about the axes in it reported (summary.json's fd3d.out_of_plane): the check that the half box's symmetry
+    # holds
+    box: str = field(default="half", metadata={"choices": ("half", "whole")})
     # moving mesh: the sphere's surface's tetrahedra this many times finer than cells_per_diameter's (the gap below
     # and the rest keep those): the rebound's error lives in the surface's cells
     surface_refinement: float = _setting(3.0, 1.0, 8.0)

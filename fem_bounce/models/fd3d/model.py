@@ -1,16 +1,19 @@
 """The three-dimensional fictitious-domain model (`--model fd3d`): one sphere and a wall, head-on or oblique, as a
 FlowModel (fem_bounce.flow_model).
 
-The flow is flow.PenalisedFlow3D on the half box y >= 0: the motion stays in the plane of incidence x-z, so the flow
-is symmetric about the plane y = 0 through the path (for the steady wake of a sphere below Re ~210, which the
-scenes here are: docs/validation.md section 14).  A head-on bounce moves the sphere along z only (the rigid mode
-U_z; the box also keeps x -> -x, so U_x and Omega_y stay unexcited); an oblique one (Scene.oblique: a tangential
-velocity, a spin or gravity's tilt) also along the wall and about y (U_x, Omega_y), its force along the wall and
-torque handed to the body integrator's tangential equations (oblique.TangentialMotion) with the whole added mass
-over the three (kinematics.PlaneForce).  The box is numerics.fd3d.far_field D wide on each side of the release and
-as high above the release's top; it does not follow the sphere along the wall (a run is stopped when the sphere
-has slid within far_field / 2 D of its side).  The wall is no-slip (slip when wall.present is false), the other
-sides slip, as the axisymmetric models' unbounded domain.
+The flow is flow.PenalisedFlow3D on the half box y >= 0: the motion stays in the plane of incidence x-z, so the flow is
+symmetric about the plane y = 0 through the path (for the steady wake of a sphere below Re ~210, which the scenes here
+are: docs/validation.md section 14).  numerics.fd3d.box = "whole" meshes the whole box instead: the sphere still moves
+in the plane (the body integrator's equations are the plane's), and the flow's force across the plane (F_y) and its
+torque about the axes in it (T_x, T_z), which the half box holds at zero, are measured at each step against the in-plane
+force (`report`'s out_of_plane): the check that the symmetry holds.  A head-on bounce moves the sphere along z only (the
+rigid mode U_z; the box also keeps x -> -x, so U_x and Omega_y stay unexcited); an oblique one (Scene.oblique: a
+tangential velocity, a spin or gravity's tilt) also along the wall and about y (U_x, Omega_y), its force along the wall
+and torque handed to the body integrator's tangential equations (oblique.TangentialMotion) with the whole added mass
+over the three (kinematics.PlaneForce).  The box is numerics.fd3d.far_field D wide on each side of the release and as
+high above the release's top; it does not follow the sphere along the wall (a run is stopped when the sphere has slid
+within far_field / 2 D of its side).  The wall is no-slip (slip when wall.present is false), the other sides slip, as
+the axisymmetric models' unbounded domain.
 
 Two meshes (numerics.fd3d.mesh; mesh.create_box_mesh), fine only in a patch around the sphere and in the gap below:
 
@@ -163,6 +166,8 @@ class FictitiousDomain3DModel(FlowModel):
         self.diameter, self.radius = sphere.diameter, sphere.radius
         self.fine_size = self.diameter / s.cells_per_diameter
         self.moving = s.mesh == "moving"
+        self.mirrored = s.box == "half"
+        self.out_of_plane = {"force": 0.0, "torque": 0.0, "in_plane": 0.0}  # peaks over the run (whole box) [N, N m]
         self.surface_size = self.fine_size / (s.surface_refinement if self.moving else 1.0)
         self.coarse_size = max(self.diameter / s.coarse_cells_per_diameter, self.fine_size)
         self.travel = 0.5 * s.patch_margin * self.diameter  # the patch covers the centre within this of its own
@@ -254,7 +259,7 @@ class FictitiousDomain3DModel(FlowModel):
                        center=(float(self.patch[0]), 0.0, float(self.patch[2])),
                        radius=self.radius, surface_size=self.surface_size, coarse_size=self.coarse_size,
                        gap_size=None if self.surface_size == self.fine_size else self.fine_size,
-                       grading=s.grading, gap_cells=s.gap_cells, mirrored=True,
+                       grading=s.grading, gap_cells=s.gap_cells, mirrored=self.mirrored,
                        travel=0.0 if self.moving else self.travel, conforming=self.moving)
 
     def _make_flow(self, center) -> None:
@@ -273,9 +278,10 @@ class FictitiousDomain3DModel(FlowModel):
         else:
             velocity, solver = None, "direct"
             sphere = SphereIndicator(self.mesh, self.radius, s.interface_width * self.fine_size, center)
-        self.flow = PenalisedFlow3D(Cartesian(self.mesh, mirrored=True), facet_tags, self.sides, liquid.density,
-                                    liquid.viscosity, sphere, self.penalty_rate, prefix="fd3d_", moving=self.mode_names,
-                                    step_solver=solver, mesh_velocity=velocity)
+        geometry = Cartesian(self.mesh, mirrored=self.mirrored)
+        self.flow = PenalisedFlow3D(geometry, facet_tags, self.sides, liquid.density, liquid.viscosity, sphere,
+                                    self.penalty_rate, prefix="fd3d_", moving=self.mode_names, step_solver=solver,
+                                    mesh_velocity=velocity)
         self.flow.set_time_step(self.dt)
         self.modes = [self.flow.geometry.mode_names.index(name) for name in self.mode_names]
 
@@ -387,7 +393,7 @@ class FictitiousDomain3DModel(FlowModel):
             self.motion.set_rate(rate)
         flow.sphere.place(center)
         self._center = center
-        response = flow.step()
+        response = self._response = flow.step()
         self.last_force = self._linearised(response, flow.c)
         self._integrator_start = time.perf_counter()
         return self.last_force
@@ -424,6 +430,8 @@ class FictitiousDomain3DModel(FlowModel):
         amplitudes = np.zeros(len(self.flow.modes))
         amplitudes[self.modes] = moved
         self.flow.commit(amplitudes)
+        if not self.mirrored:
+            self._measure_out_of_plane(amplitudes, moved)
         if not math.isfinite(self.flow.states[0].x.petsc_vec.norm()):
             raise FloatingPointError(f"the flow field became non-finite at t = {self.next_time():.6g} s")
         self.ended_short = self._length < self.dt * (1.0 - 1e-12)
@@ -438,6 +446,21 @@ class FictitiousDomain3DModel(FlowModel):
         self.step += 1
         if along is not None:
             self._stop_at_the_side(time_now)
+
+    def _measure_out_of_plane(self, amplitudes: np.ndarray, moved: np.ndarray) -> None:
+        """The whole box: the step's force across the plane of incidence |F_y| [N] and torque about the axes in it
+        |(T_x, T_z)| [N m] (the penalty's reaction; the held ball's momentum has no such part), and the in-plane
+        force |(F_x, F_z)| with that momentum's rate, each kept at its peak over the run."""
+        loads = self._response.penalty_force(amplitudes)
+        names = self.flow.geometry.mode_names
+        plane = loads[self.modes] + self.scene.liquid.density * self.flow.c * (
+            self._ball * moved - self.history.momentum_history)
+        forces = [plane[self.mode_names.index(name)] for name in ("U_z", "U_x") if name in self.mode_names]
+        peaks = self.out_of_plane
+        peaks["force"] = max(peaks["force"], abs(float(loads[names.index("U_y")])))
+        peaks["torque"] = max(peaks["torque"], float(np.hypot(loads[names.index("Omega_x")],
+                                                             loads[names.index("Omega_z")])))
+        peaks["in_plane"] = max(peaks["in_plane"], float(np.hypot(*forces)) if len(forces) > 1 else abs(forces[0]))
 
     def _stop_at_the_side(self, time_now: float) -> None:
         """The box does not follow the sphere along the wall: a sphere that has slid to within far_field / 2 D of its
@@ -549,7 +572,17 @@ class FictitiousDomain3DModel(FlowModel):
                 "cross_coupling": self.cross_coupling} if last is not None and last.plane is not None else {}),
             **({"shortest_step_s": self.step_range[0], "longest_step_s": self.step_range[1]} if self.adaptive
                and self.step_range[1] else {}),
+            **({} if self.mirrored else {"out_of_plane": self._out_of_plane_report()}),
         }
+
+    def _out_of_plane_report(self) -> dict:
+        """The whole box's symmetry check: the peak force across the plane of incidence over the peak in-plane force,
+        and the peak torque about the axes in the plane over the radius times that force (this run's steps)."""
+        peaks, scale = self.out_of_plane, self.out_of_plane["in_plane"]
+        return {"peak_force_n": peaks["force"], "peak_torque_n_m": peaks["torque"],
+                "peak_in_plane_force_n": float(scale),
+                "force_ratio": float(peaks["force"] / scale) if scale else None,
+                "torque_ratio": float(peaks["torque"] / (self.radius * scale)) if scale else None}
 
     def destroy(self) -> None:
         if self.flow is not None:
