@@ -16,9 +16,15 @@ the 3-D box does not follow the sphere along the wall, and a run stops within fa
 fd3d run at its defaults on every rank of the communicator (`--reuse`: a finished run in OUT/fd3d-ANGLE is read, not
 run again).  Printed, and written to benchmarks/history/oblique_resolved.json: per angle, at both stations of
 summary.json's oblique_impacts (delta_sl D and the contact gap), psi_in, psi_out, e_n, e_t, the effective friction and
-the spin after, each model's and their difference, with the fd3d run's cost.  `--set KEY=VALUE` changes the fd3d
-run's scene (numerics.fd3d.box = "whole": the half box's symmetry check, its out_of_plane force and torque recorded);
-`--record NAME` writes benchmarks/history/NAME.json instead.
+the spin after, each model's and their difference, with the fd3d run's cost.  `--set KEY=VALUE` changes both models'
+scenes (numerics.fd3d.box = "whole": the half box's symmetry check, its out_of_plane force and torque recorded;
+contact.inertial_speed = "whole": the reduced model's drag at the whole speed's Re);
+`--record NAME` writes benchmarks/history/NAME.json instead.  `--resolved-from RECORD` takes each angle's fd3d stations
+and cost from an earlier record instead of running fd3d (the reduced model re-measured against the same 3-D runs):
+
+    python benchmarks/oblique_resolved.py --resolved-from benchmarks/history/oblique_resolved.json   # seconds
+    python benchmarks/oblique_resolved.py --resolved-from benchmarks/history/oblique_resolved.json \
+        --set contact.inertial_speed=whole --record oblique_resolved_whole_speed
 """
 from __future__ import annotations
 
@@ -43,13 +49,13 @@ def inclined(angle: float, **changes) -> scene.Scene:
     return scene.load("li2011-case3", {"gravity_angle": angle, "contact.friction": 0.02, **changes})
 
 
-def plan(angle: float, out: Path) -> dict:
+def plan(angle: float, out: Path, changes: dict) -> dict:
     """The ode run (rank 0) and the fd3d run's end time and box from its path."""
     comm = MPI.COMM_WORLD
     found = None
     if comm.rank == 0:
         run_dir = out / f"ode-{angle:g}"
-        summary = simulate(inclined(angle, **{"run.bounces": 1}), "ode", MPI.COMM_SELF, run_dir, force=True,
+        summary = simulate(inclined(angle, **{"run.bounces": 1, **changes}), "ode", MPI.COMM_SELF, run_dir, force=True,
                            progress=False, plots=False)
         trajectory = output.read_trajectory(run_dir)
         diameter = 0.0127
@@ -73,30 +79,40 @@ def main() -> None:
     parser.add_argument("--out", default="results/oblique-resolved")
     parser.add_argument("--reuse", action="store_true", help="read a finished fd3d run instead of running it")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                        help="a change to the fd3d run's scene, e.g. numerics.fd3d.box=whole (repeatable)")
+                        help="a change to both models' scenes, e.g. numerics.fd3d.box=whole (repeatable)")
     parser.add_argument("--record", default="oblique_resolved", help="the record's name in benchmarks/history")
+    parser.add_argument("--resolved-from", type=Path, help="a record whose fd3d runs are taken, not run again")
     args = parser.parse_args()
     changes = dict(scene.parse_override(text) for text in args.overrides)
     out, comm = Path(args.out), MPI.COMM_WORLD
+    earlier = ({run["angle_deg"]: run for run in json.loads(args.resolved_from.read_text())["runs"]}
+               if args.resolved_from else {})
     records = []
     for angle in (float(a) for a in args.angles.split(",")):
-        ode = plan(angle, out)
-        run_dir = out / f"fd3d-{angle:g}"
-        settings = {"run.end_time": ode["end_time"], "numerics.fd3d.far_field": ode["far_field"], **changes}
-        if args.reuse and (run_dir / "summary.json").is_file():
-            resolved = json.loads((run_dir / "summary.json").read_text())
+        ode = plan(angle, out, changes)
+        b = stations(ode["summary"])
+        if earlier:  # the 3-D run as recorded (its settings: the end time and box its own ode run gave)
+            if angle not in earlier:
+                raise SystemExit(f"{args.resolved_from} has no run at {angle:g} degrees")
+            settings, a, cost = (earlier[angle][key] for key in ("settings", "fd3d", "fd3d_cost"))
         else:
-            resolved = simulate(inclined(angle, **settings), "fd3d", comm, run_dir, force=True, progress=comm.rank == 0,
-                                plots=False)
-        a, b = stations(resolved), stations(ode["summary"])
+            run_dir = out / f"fd3d-{angle:g}"
+            settings = {"run.end_time": ode["end_time"], "numerics.fd3d.far_field": ode["far_field"], **changes}
+            if args.reuse and (run_dir / "summary.json").is_file():
+                resolved = json.loads((run_dir / "summary.json").read_text())
+            else:
+                resolved = simulate(inclined(angle, **settings), "fd3d", comm, run_dir, force=True,
+                                    progress=comm.rank == 0, plots=False)
+            a = stations(resolved)
+            cost = {"wall_time_s": resolved["wall_time_s"], "ranks": resolved["ranks"], "steps": resolved["steps"],
+                    "unknowns": resolved["sizes"]["unknowns"],
+                    "peak_memory_bytes": resolved["fd3d"]["peak_memory_bytes"],
+                    "cross_coupling": resolved["fd3d"].get("cross_coupling"),
+                    "out_of_plane": resolved["fd3d"].get("out_of_plane")}
         records.append({"angle_deg": angle, "settings": settings, "fd3d": a, "ode": b,
                         "difference": {s: {k: b[s][k] / a[s][k] - 1.0 if a[s][k] else None for k in QUANTITIES}
                                        for s in a},
-                        "fd3d_cost": {"wall_time_s": resolved["wall_time_s"], "ranks": resolved["ranks"],
-                                      "steps": resolved["steps"], "unknowns": resolved["sizes"]["unknowns"],
-                                      "peak_memory_bytes": resolved["fd3d"]["peak_memory_bytes"],
-                                      "cross_coupling": resolved["fd3d"].get("cross_coupling"),
-                                      "out_of_plane": resolved["fd3d"].get("out_of_plane")}})
+                        "fd3d_cost": cost})
     if comm.rank != 0:
         return
     for record in records:

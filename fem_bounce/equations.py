@@ -102,6 +102,7 @@ class ForceTerms:
         self.blend_slopes: list[tuple[int, int, float]] = []
         self.theory_mass_slopes: list[tuple[int, int, int, float]] = []
         self.correction_mass_slopes: list[tuple[int, int, float]] = []
+        self.across, self.drag_across_slope = 0.0, 0.0  # sphere 1's velocity along the wall, d f_D,1 / d it
 
 
 class BodyEquations:
@@ -148,6 +149,8 @@ class BodyEquations:
             body = self.bodies[0]
             self.tangential = TangentialMotion(scene, self.contact.law, body.mass, body.displaced_mass,
                                                self.contact.hold_gap if resolved else None)
+        # the normal drag's inertia at the whole speed's Re (contact.inertial_speed; theory.TheoryForces.drag_slopes)
+        self._whole_speed = self.tangential is not None and scene.contact.inertial_speed == "whole"
         start = layout.size + sum(self.n_history)
         self.tangential_slice = slice(start, start + (self.tangential.size if self.tangential else 0))
         # what the force terms and the residual reuse at every call (ForceTerms, forces, residual)
@@ -218,8 +221,11 @@ class BodyEquations:
             self._wall_films[k] = film
             gap, share, gap_slope, share_slope = film
             velocity = layout.velocity_index(k)
-            drag, d_gap, d_share, d_velocity = theory.drag_slopes(gap, v[k], share)
+            across = float(y[self.tangential_slice.start + 1]) if k == 0 and self._whole_speed else 0.0
+            drag, d_gap, d_share, d_velocity, d_across = theory.drag_slopes(gap, v[k], share, across)
             f.drag[k] = drag
+            if across:  # the drag's inertia is the whole speed's (theory.TheoryForces.drag_slopes)
+                f.across, f.drag_across_slope = across, d_across
             d_height = d_gap * gap_slope + d_share * share_slope
             slopes.append((k, velocity, d_velocity))
             added_mass = theory.added_mass_slopes(gap)
@@ -434,6 +440,8 @@ class BodyEquations:
                                                    wall.record.engaged_now, shift)
             jac[along, along] = own
             jac[along, [wall.gap_index, layout.velocity_index(0)]] = normal
+            if self.free[0]:  # the normal drag's inertia through the speed along the wall
+                jac[layout.velocity_index(0), along.start + 1] -= blend[0] * f.drag_across_slope
             if self.fluid.plane is not None:
                 jac[layout.velocity_index(0), along.start + 1:along.start + 3] += shift * self.fluid.plane.mass[0, 1:]
         return jac
@@ -463,8 +471,8 @@ class BodyEquations:
             sim = sim - across @ along_accelerations
         correction = np.array(f.correction) - np.array(f.correction_mass) * accel
         per_sphere = dict(gap=f.heights, velocity=f.velocities, acceleration=accel, f_drag=drag,
-                          f_lubrication=[d - sphere.free_drag(u) for d, sphere, u in
-                                         zip(drag, self.theories, f.velocities)],
+                          f_lubrication=[d - sphere.free_drag(u, f.across if k == 0 else 0.0) for k, (d, sphere, u)
+                                         in enumerate(zip(drag, self.theories, f.velocities))],
                           f_history=history, f_pair=pair, f_added_mass=added_mass, f_theory=theory,
                           f_sim=sim, blend=blend, f_liquid=blend * theory + (1.0 - blend) * sim + correction,
                           f_elastic=f.elastic, f_correction=correction)

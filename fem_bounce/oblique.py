@@ -5,22 +5,24 @@ point nearest the wall moves at the slip s = U - a Omega) and the stretch xi of 
     dx/dt = U,   (m + m_l / 2) dU/dt = F_liquid + F_friction + (m - m_l) g sin(theta),
     I dOmega/dt = T_liquid - a F_friction,   dxi/dt = the spring's rate (tangential_contact),
 
-I = (2/5) m a^2.  The normal motion (equations.BodyEquations) is that of a head-on collision: nothing here acts
+I = (2/5) m a^2.  The normal motion (equations.BodyEquations) is that of a head-on collision (with
+contact.inertial_speed = "whole" but for its drag's inertial factor, the whole speed's: below): nothing else acts
 back on it (the lift of a sphere sliding near a wall is left out: docs/physics.md, "Oblique collisions"), while the
 tangential motion reads the normal one's gap, velocity and contact force.
 
 - The liquid: [F, T] = -R(h) [U, Omega], the Stokes resistance of a sphere sliding and spinning near the wall, one
-  symmetric matrix (wall_tangential), at the gap where the normal film is evaluated (its contact gap inside a
-  Hertz contact); the free sphere's inertial excess -3 pi mu D (phi(Re_t) - 1) U with Schiller & Naumann's (1933)
-  phi at Re_t = rho_l |U| D / mu, as the normal drag takes it; the added mass m_l / 2 of a sphere far from walls
-  (the wall raises it by O((a/h)^3)); the history force along the wall, -sum_i c_i(Re_t) z_i, with the normal
-  motion's kernel (theory.TheoryForces: Mei & Adrian's, as an exponential sum) and its own modes
-  z_i' = dU/dt - z_i / T_i, the free sphere's (no wall factor), as the normal history's default (contact.history
-  "mei-adrian" carries it, "off" leaves it out); the 3-D resolved flow showed it needed (docs/validation.md
-  section 14).  The spin's
-  history torque likewise, -(8/3) pi mu a^3 sum_i w_i zeta_i with zeta_i' = dOmega/dt - zeta_i / T_i, the unsteady
-  Stokes kernel of a spinning sphere (theory.rotation_kernel, no finite-Re correction): the friction spins the
-  sphere up within the contact, and the boundary layer it leaves slows the spin after it.
+  symmetric matrix (wall_tangential), at the gap where the normal film is evaluated (its contact gap inside a Hertz
+  contact); the free sphere's inertial excess -3 pi mu D (phi(Re) - 1) U with Schiller & Naumann's (1933) phi at Re =
+  rho_l |U| D / mu, as the normal drag takes it at its own speed (contact.inertial_speed = "whole": both at the whole
+  speed's Re, rho_l |(U, V)| D / mu, theory.TheoryForces.drag_slopes; docs/validation.md section 14 measures both
+  against the 3-D model); the added mass m_l / 2 of a sphere far from walls (the wall raises it by O((a/h)^3)); the
+  history force along the wall, -sum_i c_i(Re_t) z_i, with the normal motion's kernel (theory.TheoryForces: Mei &
+  Adrian's, as an exponential sum) and its own modes z_i' = dU/dt - z_i / T_i, the free sphere's (no wall factor), as
+  the normal history's default (contact.history "mei-adrian" carries it, "off" leaves it out); the 3-D resolved flow
+  showed it needed (docs/validation.md section 14).  The spin's history torque likewise, -(8/3) pi mu a^3 sum_i w_i
+  zeta_i with zeta_i' = dOmega/dt - zeta_i / T_i, the unsteady Stokes kernel of a spinning sphere
+  (theory.rotation_kernel, no finite-Re correction): the friction spins the sphere up within the contact, and the
+  boundary layer it leaves slows the spin after it.
 - The contact: Coulomb friction mu F_n with a tangential spring of Mindlin's stiffness k_t = kappa (3/2) k x^(1/2)
   (x the Hertz overlap, k its constant, kappa = 4 G*/E*) and a damper with the normal one's damping ratio
   (tangential_contact.TangentialContact, matched_damping); the spring starts unstretched at each contact.  The
@@ -93,15 +95,21 @@ class TangentialMotion:
         self.rotation = slice(self.translation.stop, self.translation.stop + spinning)
         self.size = self.rotation.stop  # the tangential unknowns
         self.start = (0.0, scene.tangential_velocity, scene.spin, 0.0, *np.zeros(self.size - len(self.names)))
+        self.whole_speed = scene.contact.inertial_speed == "whole"  # the drag's inertia at |(U, V)|'s Re
 
-    def _drag_excess(self, velocity: float) -> tuple[float, float]:
-        """(-3 pi mu D (phi - 1) U [N], its derivative in U [N s/m]): the free sphere's inertial excess."""
-        reynolds = self.density * abs(velocity) * self.diameter / self.viscosity
+    def _drag_excess(self, velocity: float, normal: float) -> tuple[float, float, float]:
+        """(-3 pi mu D (phi - 1) U [N], its derivatives in U and in the normal velocity V [N s/m]): the free sphere's
+        inertial excess, phi at |U|, or at the whole speed |(U, V)| (contact.inertial_speed = "whole")."""
+        if not self.whole_speed:
+            normal = 0.0
+        speed = math.hypot(velocity, normal)
+        reynolds = self.density * speed * self.diameter / self.viscosity
         if reynolds == 0.0:
-            return 0.0, 0.0
+            return 0.0, 0.0, 0.0
         stokes = 3.0 * math.pi * self.viscosity * self.diameter
         excess = 0.15 * reynolds**0.687
-        return -stokes * excess * velocity, -stokes * 1.687 * excess
+        growth = -stokes * 0.687 * excess * velocity / speed**2  # d(-3 pi mu D (phi - 1) U)/d|u| / |u|, less U's
+        return -stokes * excess * velocity, -stokes * excess + growth * velocity, growth * normal
 
     def _contact_inputs(self, gap: float, rate: float, engaged: float | None, slip: float,
                         stretch: float) -> tuple | None:
@@ -131,12 +139,12 @@ class TangentialMotion:
         return (float(state.force), float(state.stretch_rate), float(force["slip"][0, 0]),
                 float(force["stretch"][0, 0]), float(spring["slip"][0, 0]), float(spring["stretch"][0, 0]))
 
-    def free_resistance(self, state) -> tuple[float, float]:
-        """(F [N], T [N m]) of the free sphere (far from walls) at the tangential `state`: the drag
-        -3 pi mu D phi(Re_t) U and the torque -8 pi mu a^3 Omega with their history terms, the far field the loss
-        audit tells apart from the wall's film (R(h) less the steady part)."""
+    def free_resistance(self, state, normal: float) -> tuple[float, float]:
+        """(F [N], T [N m]) of the free sphere (far from walls) at the tangential `state` and the normal velocity
+        `normal` [m/s]: the drag -3 pi mu D phi(Re) U and the torque -8 pi mu a^3 Omega with their history terms,
+        the far field the loss audit tells apart from the wall's film (R(h) less the steady part)."""
         velocity, spin = state[1], state[2]
-        excess, _ = self._drag_excess(velocity)
+        excess, _, _ = self._drag_excess(velocity, normal)
         history, _ = self._history(state)
         return (-3.0 * math.pi * self.viscosity * self.diameter * velocity + excess + history,
                 -8.0 * math.pi * self.viscosity * self.radius**3 * spin + self._spin_history(state))
@@ -152,24 +160,25 @@ class TangentialMotion:
         """T_H = -(8/3) pi mu a^3 sum_i w_i zeta_i [N m] of the spin's modes."""
         return -float(self.spin_weights @ np.asarray(state[self.rotation], dtype=float))
 
-    def _liquid(self, film_gap: float, state):
-        """(F, T, R, dR/d gap, d (excess + history)/dU) of the liquid at the film's gap and the tangential `state`;
-        with a resolved flow F and T are the flow's explicit part and what the held flow misses, R the film's
-        resistance below the hold less the hold's."""
+    def _liquid(self, film_gap: float, state, normal: float):
+        """(F, T, R, dR/d gap, d (excess + history)/dU, d excess/dV) of the liquid at the film's gap, the tangential
+        `state` and the normal velocity `normal` [m/s]; with a resolved flow F and T are the flow's explicit part and
+        what the held flow misses, R the film's resistance below the hold less the hold's."""
         velocity, spin = state[1], state[2]
         if self.resolved:
             explicit = self.fluid.explicit if self.fluid is not None else np.zeros(2)
             if film_gap >= self.hold_gap:
-                return float(explicit[0]), float(explicit[1]), np.zeros((2, 2)), np.zeros((2, 2)), 0.0
+                return float(explicit[0]), float(explicit[1]), np.zeros((2, 2)), np.zeros((2, 2)), 0.0, 0.0
             resistance, slope = wall_tangential_resistance(self.radius, self.viscosity, film_gap)
             missed = resistance - self._held
             force, torque = explicit - missed @ np.array([velocity, spin])
-            return float(force), float(torque), missed, slope, 0.0
+            return float(force), float(torque), missed, slope, 0.0, 0.0
         resistance, slope = wall_tangential_resistance(self.radius, self.viscosity, film_gap)
-        excess, d_excess = self._drag_excess(velocity)
+        excess, d_excess, d_normal = self._drag_excess(velocity, normal)
         history, d_history = self._history(state)
         force, torque = -resistance @ np.array([velocity, spin])
-        return force + excess + history, torque + self._spin_history(state), resistance, slope, d_excess + d_history
+        return (force + excess + history, torque + self._spin_history(state), resistance, slope, d_excess + d_history,
+                d_normal)
 
     def terms(self, state, gap: float, rate: float, film_gap: float, engaged: float | None) -> dict:
         """The forces along the wall [N], the liquid's torque [N m] and the spring's rate [m/s] at the tangential
@@ -177,7 +186,7 @@ class TangentialMotion:
         gap (the trajectory's columns f_tangential_liquid, f_friction, torque_liquid, and stretch_rate)."""
         velocity, spin, stretch = state[1], state[2], state[self.STRETCH]
         friction, stretch_rate, *_ = self._friction(gap, rate, engaged, velocity - self.radius * spin, stretch)
-        force, torque, _, _, _ = self._liquid(film_gap, state)
+        force, torque, *_ = self._liquid(film_gap, state, rate)
         return {"f_tangential_liquid": force, "f_friction": friction, "torque_liquid": torque,
                 "stretch_rate": stretch_rate}
 
@@ -191,7 +200,7 @@ class TangentialMotion:
         dOmega/dt, which a resolved flow's added mass needs)."""
         velocity, spin, stretch = state[1], state[2], state[self.STRETCH]
         found = self.terms(state, gap, rate, film_gap, engaged)
-        drag, torque = self.free_resistance(state)
+        drag, torque = self.free_resistance(state, rate)
         if self.resolved and self.fluid is not None:  # the flow's whole force: its explicit part less its added mass's
             held = self.fluid.mass[1:] @ np.r_[acceleration, along_accelerations]
             drag, torque = self.fluid.explicit - held  # the flow's part (the correction below the hold apart)
@@ -233,7 +242,7 @@ class TangentialMotion:
         a, n = self.radius, len(self.names)
         slip = velocity - a * spin
         _, _, f_slip, f_stretch, r_slip, r_stretch = self._friction(gap, rate, engaged, slip, stretch)
-        _, _, resistance, slope, d_excess = self._liquid(film_gap, state)
+        _, _, resistance, slope, d_excess, d_normal = self._liquid(film_gap, state, rate)
         own = np.zeros((self.size, self.size))
         own[0, 0], own[0, 1] = shift, -1.0
         own[1, 1] = shift * self.mass + resistance[0, 0] - d_excess - f_slip
@@ -250,6 +259,7 @@ class TangentialMotion:
         own[n:, n:] = np.diag(shift + 1.0 / self.mode_times)
         normal = np.zeros((self.size, 2))
         normal[1:3, 0] = film_slope * (slope @ np.array([velocity, spin]))
+        normal[1, 1] = -d_normal  # the drag's inertia through the normal speed (the gap's rate is V)
         if self.resolved and self.fluid is not None:
             own[1:3, 1:3] += shift * self.fluid.mass[1:, 1:]
             normal[1:3, 1] += shift * self.fluid.mass[1:, 0]

@@ -262,6 +262,10 @@ class Contact:
       model uses f_thr everywhere under either.
     inertial_factor: "auto" is "screened" (lubricated-hertz, ehd) or "schiller-naumann" (li2011); "additive" adds
       the inertial excess to the wall's unscreened: theory.py, docs/physics.md 3.7.
+    inertial_speed: in an oblique collision, the speed whose Re sets the drag's inertial factor: "component",
+      the normal drag the normal speed's and the drag along the wall the speed along it; "whole", both the whole
+      speed's |u| (the quasi-steady drag of a free sphere, along its velocity): measured against the 3-D model in
+      docs/validation.md section 14, where it does worse on the rebound.
     delta_ss: the paper's elastic layer, li2011 only.
     "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
       ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)
@@ -286,6 +290,7 @@ class Contact:
                                               "1 is the physical value; others are for sensitivity studies")
     wall_drag: str = _choice("brenner", "simple")
     inertial_factor: str = _choice("auto", "additive", "screened", "schiller-naumann", "none")
+    inertial_speed: str = _choice("component", "whole")
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")

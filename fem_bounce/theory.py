@@ -336,45 +336,60 @@ class TheoryForces:
         excess -= 1.0
         return 1.0 + film * excess, film * slope / self.diameter, excess
 
-    def drag(self, gap: float, velocity: float, film: float = 1.0) -> float:
+    def drag(self, gap: float, velocity: float, film: float = 1.0, across: float = 0.0) -> float:
         """f_D = -6 pi mu a V (lambda(delta) + phi(Re) - 1) when additive, lambda(delta) phi(Re) when
         multiplicative ("schiller-naumann") [N]; only the share `film` of the wall's excess lambda - 1 is
         left inside a Hertz contact (contact.ContactLaw.film); the excess includes the liquid's tension
-        limit on a sphere leaving the wall (tension_relief, drag_slopes)."""
-        return self.drag_slopes(gap, velocity, film)[0]
+        limit on a sphere leaving the wall (tension_relief, drag_slopes).  Re is that of the whole speed
+        |(V, across)|, `across` the velocity along the wall of an oblique collision (drag_slopes)."""
+        return self.drag_slopes(gap, velocity, film, across)[0]
 
-    def drag_slopes(self, gap: float, velocity: float, film: float = 1.0) -> tuple[float, float, float, float]:
-        """(f_D [N], its derivatives d/d gap [N/m], d/d film [N] and d/dV [N s/m]).  The wall's excess
-        includes the liquid's tension limit on a sphere leaving the wall (`tension_relief`), weighed as the
-        lubrication is (by the share `film`, and by phi in the multiplied law)."""
+    def drag_slopes(self, gap: float, velocity: float, film: float = 1.0,
+                    across: float = 0.0) -> tuple[float, float, float, float, float]:
+        """(f_D [N], its derivatives d/d gap [N/m], d/d film [N], d/dV [N s/m] and d/d across [N s/m]).  The
+        wall's excess includes the liquid's tension limit on a sphere leaving the wall (`tension_relief`), weighed
+        as the lubrication is (by the share `film`, and by phi in the multiplied law).  The inertial factor phi is
+        the whole speed's, Re = rho_l |u| D / mu with |u| = |(V, across)| (the free sphere's drag is
+        -3 pi mu D phi(Re_|u|) u, along u: Clift, Grace & Weber 1978, ch. 5), as oblique.TangentialMotion's along
+        the wall; head-on (across = 0) it is V's."""
         wall, wall_gap, wall_film = self.wall_factor_slopes(gap, film)
-        inertia, inertia_growth = self._inertia(self.reynolds(velocity))  # phi, V dphi/dV
+        speed = math.hypot(velocity, across) if across else velocity
+        inertia, speed_growth = self._inertia(self.reynolds(speed))  # phi, |u| dphi/d|u|
+        # V dphi/dV and dphi/d across: |u| dphi/d|u| times V^2 / |u|^2 and across / |u|^2
+        inertia_growth, cross_growth = ((speed_growth * velocity**2 / speed**2, speed_growth * across / speed**2)
+                                        if across else (speed_growth, 0.0))
         scale = -self.stokes_drag * velocity
         if self._additive:
             taken, taken_gap, taken_growth = (wall_screening(inertia, inertia_growth, gap / self.diameter)
                                               if self._screened else (0.0, 0.0, 0.0))
+            taken_across = (wall_screening(inertia, cross_growth, gap / self.diameter)[2] if self._screened
+                            and across else 0.0)  # d Delta / d across (linear in the growth)
             # the wall's take fades with its excess inside a Hertz contact (the share `film`)
             factor = wall + inertia - 1.0 - film * taken
             force, d_film = scale * factor, scale * (wall_film - taken)
             d_gap = scale * (wall_gap - film * taken_gap / self.diameter)
             d_velocity = -self.stokes_drag * (factor + inertia_growth - film * taken_growth)
-            weight, weight_slope = 1.0, 0.0
+            d_across = scale * (cross_growth - film * taken_across)
+            weight, weight_slope, weight_across = 1.0, 0.0, 0.0
         else:
             force, d_gap, d_film = scale * (wall * inertia), scale * inertia * wall_gap, scale * inertia * wall_film
             d_velocity = -self.stokes_drag * wall * (inertia + inertia_growth)
-            weight, weight_slope = inertia, inertia_growth / velocity if velocity else 0.0
+            d_across = scale * wall * cross_growth
+            weight, weight_slope, weight_across = inertia, inertia_growth / velocity if velocity else 0.0, cross_growth
         relief, relief_gap, relief_velocity = self.tension_relief(gap, velocity)
         if relief:
             force += film * weight * relief
             d_gap += film * weight * relief_gap
             d_film += weight * relief
             d_velocity += film * (weight * relief_velocity + weight_slope * relief)
-        return force, d_gap, d_film, d_velocity
+            d_across += film * weight_across * relief
+        return force, d_gap, d_film, d_velocity, d_across
 
-    def free_drag(self, velocity: float) -> float:
-        """The free sphere's quasi-steady drag -6 pi mu a V phi(Re) [N]; f_D less it is what the wall adds, the
-        lubrication (the loss audit's term, fem_bounce.losses)."""
-        return -self.stokes_drag * velocity * self._inertia(self.reynolds(velocity))[0]
+    def free_drag(self, velocity: float, across: float = 0.0) -> float:
+        """The free sphere's quasi-steady drag -6 pi mu a V phi(Re_|u|) [N] (`across`: drag_slopes); f_D less it is
+        what the wall adds, the lubrication (the loss audit's term, fem_bounce.losses)."""
+        speed = math.hypot(velocity, across) if across else velocity
+        return -self.stokes_drag * velocity * self._inertia(self.reynolds(speed))[0]
 
     def tension_relief(self, gap: float, velocity: float) -> tuple[float, float, float]:
         """What the liquid's tension limit takes off the film's suction on a sphere leaving the wall at the gap

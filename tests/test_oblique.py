@@ -105,7 +105,9 @@ def test_a_dry_collision_creates_no_energy(psi_in):
 
 def test_a_wet_oblique_impact_slows_and_spins_the_sphere():
     """Case 3's sphere at 30 degrees: the film and the friction slow its sliding contact point and spin it up in
-    the rolling sense; the normal rebound is the head-on one's (the tangential motion does not act back)."""
+    the rolling sense.  The normal rebound is the head-on one's (the tangential motion does not act back), but with
+    contact.inertial_speed = "whole", whose drag's inertial factor is the whole speed's: the approach is then slower
+    than head-on."""
     found = impact(case3_oblique(30.0), "outer")
     assert 0.0 < found["psi_out"] < found["psi_in"]
     assert found["spin_out"] > 0.0
@@ -118,6 +120,8 @@ def test_a_wet_oblique_impact_slows_and_spins_the_sphere():
     speeds = {c["direction"]: abs(c["speed"]) for c in head_on["blend_crossings"]}
     assert found["normal_speed_in"] == pytest.approx(speeds["in"], rel=1e-4)
     assert found["normal_restitution"] == pytest.approx(speeds["out"] / speeds["in"], rel=1e-4)
+    whole = impact(case3_oblique(30.0).replace(**{"contact.inertial_speed": "whole"}), "outer")
+    assert 0.0 < 1.0 - whole["normal_speed_in"] / speeds["in"] < 0.02
 
 
 def test_the_normal_motion_is_the_head_on_one():
@@ -172,6 +176,32 @@ def test_the_tangential_block_of_the_jacobian(engaged, slip, stretch):
             assert np.all(np.abs(exact[:, column] - derivative) <= allowed), (column, exact[:, column], derivative)
     finally:
         integrator.destroy()
+
+
+def test_the_whole_speeds_drag_couples_the_normal_and_tangential_rows_exactly():
+    """contact.inertial_speed = "whole", the drag's inertial factor at the whole speed's Re (oblique.py,
+    theory.TheoryForces.drag_slopes): the normal velocity's row's derivative in the velocity along the wall and the
+    tangential rows' in the normal velocity are exact, in the film (no contact: the friction's dependence on the
+    normal state is left out, oblique.py), with the default screened law and the paper's multiplied one."""
+    for law in ("screened", "schiller-naumann"):
+        integrator = BodyIntegrator(case3_oblique(30.0).replace(**{"contact.inertial_factor": law,
+                                                                   "contact.inertial_speed": "whole"}))
+        try:
+            y = np.array(integrator.y.array_r)
+            along = integrator.tangential_slice
+            y[0], y[1] = 0.3 * 0.0127, -0.3  # a gap of 0.3 D: the screening's share varies there
+            y[along.start + 1], y[along.start + 2] = 0.2, 5.0
+            ydot = np.zeros(len(y))
+            t, velocity, sliding = 0.01, 1, along.start + 1
+            exact = integrator.jacobian(t, y, ydot, 0.0)
+            for row, column in ((velocity, sliding), (along, velocity)):
+                derivative = central(integrator, t, y, ydot, column, 1e-7)[row]
+                terms = np.abs(integrator.residual(t, y, ydot)[row]) + 1e-30
+                assert np.all(np.abs(exact[row, column] - derivative) <= 1e-6 * np.abs(derivative) + 1e-12 * terms
+                              / 1e-7), (law, row, exact[row, column], derivative)
+            assert abs(exact[velocity, sliding]) > 1e-6  # the coupling is there (N s/m; the drag's scale 1e-4 N s/m)
+        finally:
+            integrator.destroy()
 
 
 # -- a resolved flow's force along the wall (the fd3d model's, kinematics.PlaneForce) ------------------------------
