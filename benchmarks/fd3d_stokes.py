@@ -6,6 +6,7 @@ Re 100 and 200 and its wake's loss of axisymmetry, and its step's solver.
     python benchmarks/fd3d_stokes.py solver --cells 16 --steps 10 --tag _c16        # 124 s, 1.6 GB
     python benchmarks/fd3d_stokes.py drag --cells 12 --steps 14 --picard-dt 10 --tag _c12   # 85 s, 1.4 GB
     python benchmarks/fd3d_stokes.py drag --cells 12 --steps 14 --picard-dt 10 --re 100,200 --tag _c12_re200  # 87 s
+    python benchmarks/fd3d_stokes.py drag --cells 20 --steps 14 --picard-dt 10 --re 200 --tag _c20_re200  # 238 s
     python benchmarks/fd3d_stokes.py drag --cells 12 --steps 14 --picard-dt 10 --re 200,230 --symmetric-base \
         --wake-time 40 --wake-dt 0.5 --tag _c12_wake_sym                                  # 526 s, 1.5 GB
     python benchmarks/fd3d_stokes.py growth --record benchmarks/history/fd3d_stokes_drag_c12_wake_sym.json \
