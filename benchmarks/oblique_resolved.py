@@ -10,17 +10,16 @@ wet steel), to 5 ms after the rebound has crossed delta_sl D.
 A fall from rest, not a launch: a resolved model starts its launched sphere in liquid at rest (the sphere gives the
 liquid its added mass's momentum at once), the reduced model with its added mass moving with it, so that a launched
 sphere reaches the wall 12 % slower in the resolved models (docs/validation.md section 14); from rest both start alike.
-For each angle the ode run comes first (a second): its path gives the end time (its outward crossing of delta_sl D
-plus 5 ms, rounded up to a millisecond) and the box (numerics.fd3d.far_field = max(6, 2 (x_end / D + 1)), rounded up:
-the 3-D box does not follow the sphere along the wall, and a run stops within far_field / 2 D of its side).  Then the
-fd3d run at its defaults on every rank of the communicator (`--reuse`: a finished run in OUT/fd3d-ANGLE is read, not
-run again).  Printed, and written to benchmarks/history/oblique_resolved.json: per angle, at both stations of
-summary.json's oblique_impacts (delta_sl D and the contact gap), psi_in, psi_out, e_n, e_t, the effective friction and
-the spin after, each model's and their difference, with the fd3d run's cost.  `--set KEY=VALUE` changes both models'
-scenes (numerics.fd3d.box = "whole": the half box's symmetry check, its out_of_plane force and torque recorded;
-contact.inertial_speed = "whole": the reduced model's drag at the whole speed's Re);
-`--record NAME` writes benchmarks/history/NAME.json instead.  `--resolved-from RECORD` takes each angle's fd3d stations
-and cost from an earlier record instead of running fd3d (the reduced model re-measured against the same 3-D runs):
+For each angle the ode run comes first (a second): its path gives the end time (its outward crossing of delta_sl D plus
+5 ms, rounded up to a millisecond).  Then the fd3d run at its defaults (its box follows the sphere along the wall) on
+every rank of the communicator (`--reuse`: a finished run in OUT/fd3d-ANGLE is read, not run again).  Printed, and
+written to benchmarks/history/oblique_resolved.json: per angle, at both stations of summary.json's oblique_impacts
+(delta_sl D and the contact gap), psi_in, psi_out, e_n, e_t, the effective friction and the spin after, each model's and
+their difference, with the fd3d run's cost.  `--set KEY=VALUE` changes both models' scenes (numerics.fd3d.box = "whole":
+the half box's symmetry check, its out_of_plane force and torque recorded; contact.inertial_speed = "whole": the reduced
+model's drag at the whole speed's Re); `--record NAME` writes benchmarks/history/NAME.json instead.  `--resolved-from
+RECORD` takes each angle's fd3d stations and cost from an earlier record instead of running fd3d (the reduced model
+re-measured against the same 3-D runs):
 
     python benchmarks/oblique_resolved.py --resolved-from benchmarks/history/oblique_resolved.json   # seconds
     python benchmarks/oblique_resolved.py --resolved-from benchmarks/history/oblique_resolved.json \
@@ -50,7 +49,7 @@ def inclined(angle: float, **changes) -> scene.Scene:
 
 
 def plan(angle: float, out: Path, changes: dict) -> dict:
-    """The ode run (rank 0) and the fd3d run's end time and box from its path."""
+    """The ode run (rank 0) and the fd3d run's end time from its path."""
     comm = MPI.COMM_WORLD
     found = None
     if comm.rank == 0:
@@ -62,9 +61,7 @@ def plan(angle: float, out: Path, changes: dict) -> dict:
         rising = (trajectory["velocity"] > 0.0) & (trajectory["gap"] > 0.2 * diameter)
         leaves = float(trajectory["t"][np.argmax(rising)])
         end = math.ceil((leaves + 0.005) * 1000.0) / 1000.0
-        x_end = float(np.interp(end, trajectory["t"], trajectory["x"]))
-        found = {"summary": summary, "end_time": end,
-                 "far_field": float(max(6, math.ceil(2.0 * (x_end / diameter + 1.0))))}
+        found = {"summary": summary, "end_time": end}
     return comm.bcast(found, root=0)
 
 
@@ -97,7 +94,7 @@ def main() -> None:
             settings, a, cost = (earlier[angle][key] for key in ("settings", "fd3d", "fd3d_cost"))
         else:
             run_dir = out / f"fd3d-{angle:g}"
-            settings = {"run.end_time": ode["end_time"], "numerics.fd3d.far_field": ode["far_field"], **changes}
+            settings = {"run.end_time": ode["end_time"], **changes}
             if args.reuse and (run_dir / "summary.json").is_file():
                 resolved = json.loads((run_dir / "summary.json").read_text())
             else:

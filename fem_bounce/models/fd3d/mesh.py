@@ -4,7 +4,8 @@
                    coarse_size=H_c, grading=0.3, mirrored=True)
     mesh, cell_tags, facet_tags = create_box_mesh(comm, spec)
 
-The box is x in [-L, L], y in [-L, L] (y in [0, L] when `mirrored`: the half of a flow symmetric about the plane
+The box is x in [x_b - L, x_b + L] (x_b = `box_center`, 0 unless the box follows a sphere along the wall), y in
+[-L, L] (y in [0, L] when `mirrored`: the half of a flow symmetric about the plane
 y = 0 through the sphere's centre, for a motion in the x-z plane), z in [0, H], the wall at z = 0.  The sphere
 is not cut out (the fictitious-domain model holds it by a penalty on a mesh that fills it); the mesh is fine
 only where the flow needs it:
@@ -20,7 +21,7 @@ With `travel` > 0 the sphere may sit anywhere with its centre within `travel` of
 fd3d model moves it through, model.py): |d_S| is then the distance from the nearest of those spheres' surfaces
 (zero in the shell they sweep), and the gap rule takes the lowest of them.  One gmsh MathEval field evaluates
 the law (`size_at` is the same in numpy, for checks and for estimates).  The faces carry physical groups: WALL
-(z = 0), TOP (z = H), SIDE_X (x = +-L), SIDE_Y (y = +-L, or y = L in the half box) and SYMMETRY (y = 0 in the
+(z = 0), TOP (z = H), SIDE_X (x = x_b +- L), SIDE_Y (y = +-L, or y = L in the half box) and SYMMETRY (y = 0 in the
 half box).  With `conforming` (the moving mesh's) the sphere is cut out of the box and put back (gmsh's OCC
 fragment), so its surface is a surface of the mesh (facet group SURFACE) and its inside the cell group BALL;
 gmsh puts the surface's vertices on the sphere, and `restore_ball_volume` moves them out to give the polyhedron
@@ -74,9 +75,11 @@ class BoxSpec:
     mirrored: bool = False
     travel: float = 0.0  # the centre may lie within this of `center` along z (module docstring) [m]
     conforming: bool = False  # the sphere's surface a surface of the mesh (module docstring)
+    box_center: float = 0.0  # x_b, the box's middle along x [m]
 
     def __post_init__(self):
         x, y, z = self.center
+        x -= self.box_center
         a = self.radius
         if not 0.0 <= self.travel < z - a:
             raise ValueError(f"travel must lie in [0, gap = {z - a}), not {self.travel}")
@@ -107,8 +110,9 @@ class BoxSpec:
     def key(self) -> str:
         """A short hash of everything that shapes the mesh (the cache file's name)."""
         data = dataclasses.asdict(self) | {"format": MESH_FORMAT_VERSION, "gmsh": _gmsh_version()}
-        if not self.conforming:  # the keys of the meshes made before the option
-            del data["conforming"]
+        for option in ("conforming", "box_center"):  # the keys of the meshes made before the options
+            if not data[option]:
+                del data[option]
         text = json.dumps(data, sort_keys=True, default=lambda value: round(value, 15))
         return hashlib.sha1(text.encode()).hexdigest()[:16]
 
@@ -167,7 +171,7 @@ class BoxSpec:
             return np.unique(np.clip(np.r_[start, stop, around - offsets, around + offsets,
                                            np.linspace(start, stop, samples)], start, stop))
 
-        xs = nodes(-self.half_width, self.half_width, self.center[0])
+        xs = nodes(self.box_center - self.half_width, self.box_center + self.half_width, self.center[0])
         ys = nodes(low, self.half_width, self.center[1])
         zs = nodes(0.0, self.height, self.center[2])
         mid = [0.5 * (n[1:] + n[:-1]) for n in (xs, ys, zs)]
@@ -206,9 +210,9 @@ class _Handlers:
 
 def _build_model(gmsh, spec: BoxSpec) -> None:
     """The box, its physical groups and its size field in the current gmsh model, meshed."""
-    L, H = spec.half_width, spec.height
+    L, H, x_b = spec.half_width, spec.height, spec.box_center
     y_low = 0.0 if spec.mirrored else -L
-    box = gmsh.model.occ.addBox(-L, y_low, 0.0, 2.0 * L, L - y_low, H)
+    box = gmsh.model.occ.addBox(x_b - L, y_low, 0.0, 2.0 * L, L - y_low, H)
     ball_volumes: list[int] = []
     if spec.conforming:  # the ball cut out of the box and put back: two volumes sharing the sphere's surface
         ball = gmsh.model.occ.addSphere(*spec.center, spec.radius)
@@ -231,7 +235,7 @@ def _build_model(gmsh, spec: BoxSpec) -> None:
             group = WALL
         elif abs(z - H) < tolerance:
             group = TOP
-        elif abs(abs(x) - L) < tolerance:
+        elif abs(abs(x - x_b) - L) < tolerance:
             group = SIDE_X
         elif spec.mirrored and abs(y) < tolerance:
             group = SYMMETRY

@@ -10,9 +10,9 @@ force (`report`'s out_of_plane): the check that the symmetry holds.  A head-on b
 rigid mode U_z; the box also keeps x -> -x, so U_x and Omega_y stay unexcited); an oblique one (Scene.oblique: a
 tangential velocity, a spin or gravity's tilt) also along the wall and about y (U_x, Omega_y), its force along the wall
 and torque handed to the body integrator's tangential equations (oblique.TangentialMotion) with the whole added mass
-over the three (kinematics.PlaneForce).  The box is numerics.fd3d.far_field D wide on each side of the release and as
-high above the release's top; it does not follow the sphere along the wall (a run is stopped when the sphere has slid
-within far_field / 2 D of its side).  The wall is no-slip (slip when wall.present is false), the other sides slip, as
+over the three (kinematics.PlaneForce).  The box is numerics.fd3d.far_field D wide on each side of the sphere and as
+high above the release's top; each new mesh centres it on the sphere along the wall (the liquid beyond the old box
+taken at rest: transfer.py).  The wall is no-slip (slip when wall.present is false), the other sides slip, as
 the axisymmetric models' unbounded domain.
 
 Two meshes (numerics.fd3d.mesh; mesh.create_box_mesh), fine only in a patch around the sphere and in the gap below:
@@ -260,7 +260,8 @@ class FictitiousDomain3DModel(FlowModel):
                        radius=self.radius, surface_size=self.surface_size, coarse_size=self.coarse_size,
                        gap_size=None if self.surface_size == self.fine_size else self.fine_size,
                        grading=s.grading, gap_cells=s.gap_cells, mirrored=self.mirrored,
-                       travel=0.0 if self.moving else self.travel, conforming=self.moving)
+                       travel=0.0 if self.moving else self.travel, conforming=self.moving,
+                       box_center=float(self.patch[0]))
 
     def _make_flow(self, center) -> None:
         """The patch's mesh, its penalised flow at rest and the indicator at `center` [m] (a 3-vector; the moving
@@ -444,8 +445,6 @@ class FictitiousDomain3DModel(FlowModel):
         self.history.push(moved, moved * self._ball)  # the held ball's momentum and angular momentum / rho
         self.placed = [self._center, self.placed[0]]
         self.step += 1
-        if along is not None:
-            self._stop_at_the_side(time_now)
 
     def _measure_out_of_plane(self, amplitudes: np.ndarray, moved: np.ndarray) -> None:
         """The whole box: the step's force across the plane of incidence |F_y| [N] and torque about the axes in it
@@ -461,17 +460,6 @@ class FictitiousDomain3DModel(FlowModel):
         peaks["torque"] = max(peaks["torque"], float(np.hypot(loads[names.index("Omega_x")],
                                                              loads[names.index("Omega_z")])))
         peaks["in_plane"] = max(peaks["in_plane"], float(np.hypot(*forces)) if len(forces) > 1 else abs(forces[0]))
-
-    def _stop_at_the_side(self, time_now: float) -> None:
-        """The box does not follow the sphere along the wall: a sphere that has slid to within far_field / 2 D of its
-        side is stopped there (the run completes, its stop_reason says why)."""
-        x, s = self.bodies_now.along[0], self.settings
-        if abs(x) + self.radius > self.half_width - 0.5 * s.far_field * self.diameter and not self.bodies_now.done:
-            self.bodies_now.done = True
-            self.bodies_now.stop_reason = (
-                f"the sphere has slid x = {x / self.diameter:.3g} D along the wall at t = {time_now:.4g} s, within "
-                f"far_field / 2 = {0.5 * s.far_field:g} D of the fd3d box's side ({s.far_field:g} D from the "
-                "release); a larger numerics.fd3d.far_field gives it more room")
 
     # -- checkpoints and fields -------------------------------------------------------------
     def checkpoint_state(self) -> tuple[dict, dict]:

@@ -3,8 +3,10 @@
 Each part of the mixed (u, p) state (the P2 velocity, the P1 pressure) is interpolated at the new mesh's
 degrees of freedom from the old mesh by dolfinx's non-matching interpolation (`create_interpolation_data`,
 `Function.interpolate_nonmatching`: the points are located in the old mesh across the ranks, so both meshes may
-be distributed differently).  Both meshes fill the same box exactly (gmsh meshes its planar faces, so no point of
-the new mesh lies outside the old one beyond round-off, which the bounding boxes' padding takes).  The 2-D
+be distributed differently).  Both meshes fill the same box (gmsh meshes its planar faces, so no point of the new
+mesh lies outside the old one beyond round-off, which the bounding boxes' padding takes), or the new box has moved
+along the wall with the sphere (model.py): the new mesh's points beyond the old box, far from the sphere and beside
+a slip side, take the liquid at rest (the interpolation sets a point it does not find to zero).  The 2-D
 models' transfer (fem/transfer.py) gathers the old mesh on every rank instead, which a 3-D mesh is too large for.
 
 The interpolated velocity is not discretely divergence-free on the new mesh: model.py projects it as the 2-D
