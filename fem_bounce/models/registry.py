@@ -46,6 +46,7 @@ class ModelInfo:
     stepper: str = "coupled"  # how time advances (fem_bounce.steppers.STEPPERS); a held steady model: "steady"
     max_initial_gap: float | None = None  # [diameters] the highest release it meshes (None: no limit)
     containers: bool = True  # it runs a sphere in a cylindrical container (scene.container), not only unbounded
+    three_d: bool = False  # it solves the flow in three dimensions (the others on the axis, or none)
     chooser: str | None = None  # a function of the module that picks the class for a scene (else class_name)
 
     @property
@@ -167,13 +168,13 @@ MODELS: dict[str, ModelInfo] = {
     "fd3d": ModelInfo(
         name="fd3d", module="fem_bounce.models.fd3d.model", class_name="FictitiousDomain3DModel",
         liquid="3-D Taylor-Hood Navier-Stokes on tetrahedra (half box), the sphere's cells held by a penalty on a "
-               "mesh that moves with it, head-on",
+               "mesh that moves with it, head-on or oblique",
         # with the default surface three times finer: 64k unknowns at 6 cells/D, about 100k at 8
         resolved=True, resolution_key="numerics.fd3d.cells_per_diameter", resolution_unit="cells/D",
         ladder=(4.0, 6.0, 8.0), time_step_key="numerics.fd3d.peak_cfl",
         checkpoint_every_key="numerics.fd3d.checkpoint_every", checkpoint_files=("flow.npz",),
         fields_key="numerics.fd3d.output_every", colour="C4",
-        sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP, oblique=True,
+        sources=("models/fd3d", "models/fd", "fem"), max_initial_gap=RESOLVED_MAX_GAP, oblique=True, three_d=True,
         containers=False),
 }
 

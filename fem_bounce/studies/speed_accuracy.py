@@ -36,7 +36,6 @@ REFERENCE_STEP = 0.25  # the reference run's time step, as a fraction of its mod
 # second fall, and judges both: in the case-3 study of 2026-11-26 every run's errors in e_1 and Re_II were
 # smaller than its error in apex_gap (docs/performance.md, "Speed against accuracy")
 SECONDARY = ("restitution", "re_second")
-THREE_D = ("fd3d",)  # the models that solve the flow in three dimensions (the others axisymmetric): own marker
 
 
 @dataclass(frozen=True)
@@ -218,7 +217,7 @@ def figure(result: dict, path: Path) -> None:
 def series_style(model: str) -> tuple[str, str]:
     """(marker, legend label) of a model's points: a 3-D model's diamonds and "fd3d (3-D)" beside the axisymmetric
     models' circles, in the registry's colour of each."""
-    return ("D", f"{model} (3-D)") if model in THREE_D else ("o", model)
+    return ("D", f"{model} (3-D)") if MODELS[model].three_d else ("o", model)
 
 
 # -- recorded recommendations, for `fem-bounce run --accuracy` ------------------------------------
