@@ -46,8 +46,8 @@ class FdNumerics:
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
     # "half": the half box y >= 0 of a flow symmetric about the plane of incidence y = 0 (half the unknowns);
     # "whole": the whole box, the sphere still moving in that plane, and the flow's force across the plane and its
-    # torque about the axes in it reported (summary.json's fd3d.out_of_plane): the check that the half box's symmetry
-    # holds
+    # torque about the axes in it reported (summary.json's fd3d.out_of_plane, with the velocity across the plane and
+    # the spin they would have given the sphere): the check that the half box's symmetry holds
     box: str = field(default="half", metadata={"choices": ("half", "whole")})
     # moving mesh, as numerics.ale's: the surface's triangles this many times finer than the path's (the error
     # lives in the surface's triangles, the rebound more than the impact); remeshing below min_quality; a remeshed
@@ -206,8 +206,8 @@ class Fd3dNumerics:
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
     # "half": the half box y >= 0 of a flow symmetric about the plane of incidence y = 0 (half the unknowns);
     # "whole": the whole box, the sphere still moving in that plane, and the flow's force across the plane and its
-    # torque about the axes in it reported (summary.json's fd3d.out_of_plane): the check that the half box's symmetry
-    # holds
+    # torque about the axes in it reported (summary.json's fd3d.out_of_plane, with the velocity across the plane and
+    # the spin they would have given the sphere): the check that the half box's symmetry holds
     box: str = field(default="half", metadata={"choices": ("half", "whole")})
     # moving mesh: the sphere's surface's tetrahedra this many times finer than cells_per_diameter's (the gap below
     # and the rest keep those): the rebound's error lives in the surface's cells
