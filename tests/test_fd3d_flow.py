@@ -5,7 +5,8 @@ tests/test_fem_forms.py); a Stokes flow the Taylor-Hood space holds (quadratic v
 pressure), penalty included, reproduced to round-off; the penalised sphere's interior moving rigidly within
 1e-3 of its speed in each mode, in the steady solve and in a BDF2 step; the step's affine response against a
 direct solve and its penalty force against the integral it stands for; the half box (symmetry plane y = 0)
-against the full box.  Meshes of a few thousand unknowns; the whole file runs in well under a minute.
+against the full box; a mesh velocity carried by an amplitude (the oblique hold's) as its mode's forcing.  Meshes
+of a few thousand unknowns; the whole file runs in well under a minute.
 """
 from __future__ import annotations
 
@@ -258,3 +259,48 @@ def test_bdf2_step_is_affine_in_the_rigid_amplitudes():
                        atol=1e-10 * np.abs(direct_force).max())
     assert flow.factorisations == 1
     flow.destroy()
+
+
+@pytest.mark.mpi
+def test_a_carried_mesh_velocity_joins_its_modes_forcing():
+    """flow.PenalisedFlow3D's `carried` (the oblique hold's mesh velocity along z, moving with the amplitude U_z):
+    its load is the convection term a matrix with that mesh velocity has, taken about u* (A_w u* - A u* = -load,
+    off the boundary rows), and the step stays affine: field(s) solves A u = b + sum_j s_j rho c_B b_j + s_z load."""
+    spec, domain, facets = _box(True, 0.4)
+    x = ufl.SpatialCoordinate(domain)
+    carried = ufl.as_vector((0.0, 0.0, ufl.exp(-(x[0] ** 2 + x[1] ** 2 + (x[2] - spec.center[2]) ** 2))))
+
+    def flow(**extra):
+        sphere = SphereIndicator(domain, RADIUS, 0.8, spec.center)
+        return PenalisedFlow3D(Cartesian(domain, mirrored=True), facets, CLOSED, DENSITY, VISCOSITY, sphere,
+                               1e4 * VISCOSITY / (DENSITY * 0.4**2), prefix="test_fd3d_carried_", **extra)
+
+    plain, moved = flow(carried=("U_z", carried)), flow(mesh_velocity=carried)
+    for each in (plain, moved):
+        each.steady()
+        each.set_state(each.field([0.3, 1.0, 0.2]))  # u* of the step: the steady flow of a moving sphere
+        each.set_time_step(0.05, order=1)
+    plain.carrying = True
+    plain.step()
+    moved.step()
+    amplitudes = np.array([0.8, -0.3, 0.5])
+    load = plain._carried[2]
+    star = plain.states[0].x.petsc_vec
+    product, reference = star.duplicate(), star.duplicate()
+    moved.step_matrix.mult(star, product)
+    plain.step_matrix.mult(star, reference)
+    product.axpy(-1.0, reference)  # A_w u* - A u*
+    product.axpy(1.0, load)
+    assert load.norm() > 1e-3 and product.norm() < 1e-10 * load.norm()
+    rhs = plain.step_rhs().copy()
+    for s, unit in zip(amplitudes, plain.units):
+        rhs.axpy(float(s), unit)
+    rhs.axpy(float(amplitudes[plain.geometry.mode_names.index("U_z")]), load)
+    operator = FactorizedOperator(plain.step_matrix, "test_fd3d_carried_direct_")
+    direct = rhs.duplicate()
+    operator.solve(rhs, direct)
+    direct.axpy(-1.0, plain.field(amplitudes))
+    assert direct.norm() < 1e-9 * rhs.norm()
+    operator.destroy()
+    for each in (plain, moved):
+        each.destroy()

@@ -195,8 +195,9 @@ def test_an_oblique_impact_slides_spins_and_closes_its_energy_account(tmp_path):
     contact = summary["oblique_impacts"][0]["contact"]
     assert 0.0 < contact["psi_out"] < contact["psi_in"]
     assert contact["spin_out"] > contact["spin_in"] and contact["spin_out"] > 0.0
-    # it slides throughout (psi_in above 7/2 mu (1 + e_n)): the Coulomb friction 0.02 and the liquid's share
-    assert 0.02 * (1.0 - 1e-3) < contact["effective_friction"] < 0.03
+    # it slides throughout (psi_in above 7/2 mu (1 + e_n)): the Coulomb friction 0.02 and the liquid's share, which
+    # may take a little of it back (the added mass's reaction pushes a sphere the friction slows)
+    assert 0.9 * 0.02 < contact["effective_friction"] < 0.03
     assert 0.8 < summary["fd3d"]["tangential_added_mass_over_displaced"] / summary["fd3d"][
         "added_mass_over_displaced"] < 1.25  # parallel and normal at a gap of 0.4 D: both near 1/2 and the wall's
     losses = summary["impacts"][0]["losses"]

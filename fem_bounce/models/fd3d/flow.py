@@ -24,6 +24,11 @@ I_i(w) = b_i . w, G_ij = int phi m_i . m_j, is then affine in s too (`response.R
 integrator adds the rate of the held ball's momentum (its `ball_mass`) to have the liquid's whole force.
 Every integral is the geometry's (its weight doubles the half box's), so the forces are the whole sphere's.
 
+A mesh velocity may carry a part that moves with one rigid amplitude, w = w_0 + s_k w_k (`carried` = (the mode's
+name, w_k), switched on by `carrying`): its convection -rho s_k ((w_k . grad) u) is taken about u*, a term linear in
+s_k, so it joins mode k's forcing, x_k = A^-1 (rho c_B b_k + rho int ((w_k . grad) u*) . v), and the step stays affine
+in s with the mesh velocity's part implicit in the force (the fd3d model's oblique hold, model.py).
+
 Sides (by the mesh's facet groups, mesh.py): "no-slip" (u = 0), "slip" (zero normal velocity), "inflow"
 (u = `inflow`, a vector or a function of x), "outflow" (do nothing); the half box's symmetry plane always has
 u_y = 0.  Without an outflow side the pressure is pinned at the box's top far corner.  Each PETSc solver has
@@ -73,7 +78,8 @@ class PenalisedFlow3D:
 
     def __init__(self, geometry, facet_tags, sides: dict[int, str], density: float, viscosity: float,
                  sphere: SphereIndicator, penalty_rate: float, inflow=(0.0, 0.0, 0.0), prefix: str = "fd3d_",
-                 step_solver: str = "direct", moving: tuple[str, ...] | None = None, mesh_velocity=None):
+                 step_solver: str = "direct", moving: tuple[str, ...] | None = None, mesh_velocity=None,
+                 carried=None):
         if step_solver not in STEP_SOLVERS:
             raise ValueError(f"step_solver must be one of {STEP_SOLVERS}, not {step_solver!r}")
         for kind in sides.values():
@@ -87,6 +93,7 @@ class PenalisedFlow3D:
         # "reuse": a factorisation's cost in Krylov iterations (fem.solver.ReusedFactorOperator's renewal rule)
         self.factorisation_cost = 40.0
         self.mesh_velocity = mesh_velocity  # w of a moving mesh (UFL; motion.MeshMotion3D), None on a fixed one
+        self.carried, self.carrying = carried, False  # (mode name, w_k) of the module docstring; on when set
         self.W = taylor_hood_space(self.mesh)
         self.bcs = self._boundary_conditions(facet_tags, sides, inflow)
         (self.u, self.p), (self.v, self.q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
@@ -112,6 +119,7 @@ class PenalisedFlow3D:
         self.weights = fem.Constant(self.mesh, np.zeros(2))  # the extrapolation's
         self.c = 0.0
         self._step = None  # (FormMatrix, its solver, the compiled bilinear and linear forms), made at the first step
+        self._carried = None  # (mode index, compiled load, its vector, the forcing's vector), made at the first step
         self.factorisations = 0
         self.assembly_s = self.factorise_s = self.solve_s = 0.0  # [s] of the steps
         self._modes_at = None
@@ -181,6 +189,28 @@ class PenalisedFlow3D:
              + rho * g.convection(self.convecting(extrapolated), self.u, self.v) + self.penalty(self.u, self.v))
         return a, g.source(history, self.v)
 
+    def _carried_forcing(self):
+        """(mode index, the load rho int ((w_k . grad) u*) . v compiled, its vector, mode k's whole forcing vector)."""
+        name, w = self.carried
+        past = [ufl.split(state)[0] for state in self.states]
+        extrapolated = self.weights[0] * past[0] + self.weights[1] * past[1]
+        load = fem.form(self.density * self.geometry.convection(w, extrapolated, self.v))
+        return self.geometry.mode_names.index(name), load, create_vector(self.W), create_vector(self.W)
+
+    def _forcing(self, j: int) -> PETSc.Vec:
+        """Mode j's forcing of the step: rho c_B b_j, with the carried mesh velocity's load when it is on."""
+        if not self.carrying or self._carried is None or self._carried[0] != j:
+            return self.units[j]
+        _, load, vector, forcing = self._carried
+        with vector.localForm() as local:
+            local.set(0.0)
+        assemble_vector(vector, load)
+        vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        set_bc(vector, self.bcs, alpha=0.0)
+        self.units[j].copy(forcing)
+        forcing.axpy(1.0, vector)
+        return forcing
+
     def convecting(self, extrapolated):
         """The velocity that convects: u* on a fixed mesh, u* - w on a moving one (the non-conservative ALE form)."""
         return extrapolated if self.mesh_velocity is None else extrapolated - self.mesh_velocity
@@ -214,7 +244,7 @@ class PenalisedFlow3D:
         force (without the responses its slopes are NaN: only the held sphere's force, s = 0, is known)."""
         active = self.moving if responses else []
         solved = [self.responses[j] for j in active]
-        operator.solve_many([rhs, *(self.units[j] for j in active)],
+        operator.solve_many([rhs, *(self._forcing(j) for j in active)],
                             [self.x0.x.petsc_vec, *(x.x.petsc_vec for x in solved)])
         for x in (self.x0, *solved):
             x.x.scatter_forward()
@@ -289,6 +319,8 @@ class PenalisedFlow3D:
                 operator = FactorizedOperator(matrix.petsc, f"{self.prefix}step_")
                 self.factorisations += 1
             self._step = (matrix, operator, a, L)
+            if self.carried is not None:
+                self._carried = self._carried_forcing()
         else:
             matrix, operator, a, L = self._step
             matrix.assemble()
@@ -375,5 +407,5 @@ class PenalisedFlow3D:
             operator.destroy()
             matrix.destroy()
             self._step = None
-        for vector in (*self.mode_vectors, *self.units, self.rhs):
+        for vector in (*self.mode_vectors, *self.units, self.rhs, *(self._carried or ())[2:]):
             vector.destroy()

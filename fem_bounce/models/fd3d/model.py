@@ -42,13 +42,16 @@ One fluid step of length dt (the run's CoupledStep):
 1. place the sphere where the AB2 prediction puts its centre at t_{n+1}, no lower than the contact model's
    hold gap above the wall (flow_model.flow_gaps: below delta_sl the near-wall correction adds what the flow
    misses, as in every resolved model);
-2. (moving mesh) move the mesh there, its velocity the BDF rate of the centre.  While the hold stops the flow's
-   sphere the mesh is at rest along z and the penalised ball, moving at V, lets liquid through its surface, as the
-   ALE reference's held hole does and as the near-wall correction's approach term assumes (docs/physics.md 3.3).
-   An oblique sphere's jet into the gap, swept along the wall, twisted it against the rolling sense, so in an
-   oblique collision the mesh velocity along z is the sphere's own while it is held: the liquid then meets a solid
-   sphere approaching through a gap frozen at the hold.  Head-on that variant moves case 3's rebound by the hold's
-   own uncertainty (docs/validation.md section 14), so a head-on scene keeps the reference's hold;
+2. (moving mesh) move the mesh there, its velocity the BDF rate of the centre.  While the hold stops the flow's sphere
+   the mesh is at rest along z and the penalised ball, moving at V, lets liquid through its surface, as the ALE
+   reference's held hole does and as the near-wall correction's approach term assumes (docs/physics.md 3.3).  An oblique
+   sphere's jet into the gap, swept along the wall, twisted it against the rolling sense, so in an oblique collision the
+   mesh velocity along z is the sphere's own while it is held: the liquid then meets a solid sphere approaching through
+   a gap frozen at the hold.  That velocity is the step's unknown normal amplitude V, not a prediction of it
+   (flow.PenalisedFlow3D's `carried`: its convection, taken about u*, joins V's forcing), so the step stays implicit in
+   it: taken from the AB2 prediction, the force along the normal and the wall oscillated from step to step after the
+   contact and grew until the run diverged (case 3 at 30 degrees).  Head-on that variant moves case 3's rebound by the
+   hold's own uncertainty (docs/validation.md section 14), so a head-on scene keeps the reference's hold;
 3. assemble the step's matrix, factorise it (fixed mesh; moving: when the kept factors are stale) and solve for the
    flow affine in the rigid amplitudes, u(s) = x_0 + sum_j s_j x_j, in one pass over the factors;
 4. hand the body integrator the force linearised in the accelerations, exactly as the axisymmetric implicit
@@ -277,14 +280,16 @@ class FictitiousDomain3DModel(FlowModel):
             self.motion = MeshMotion3D(self.mesh, facet_tags, spec.center, rigid)
             self.motion.move_to(center)
             velocity, solver = self.motion.velocity, "reuse"
+            # an oblique collision's hold: the mesh moves along z with the sphere's normal amplitude (module docstring)
+            carried = ("U_z", self.motion.psi * ufl.as_vector((0.0, 0.0, 1.0))) if self.scene.oblique else None
             sphere = ConformingBall(self.mesh, cell_tags.find(BALL), self.radius, self.surface_size, center)
         else:
-            velocity, solver = None, "direct"
+            velocity, solver, carried = None, "direct", None
             sphere = SphereIndicator(self.mesh, self.radius, s.interface_width * self.fine_size, center)
         geometry = Cartesian(self.mesh, mirrored=self.mirrored)
         self.flow = PenalisedFlow3D(geometry, facet_tags, self.sides, liquid.density, liquid.viscosity, sphere,
                                     self.penalty_rate, prefix="fd3d_", moving=self.mode_names, step_solver=solver,
-                                    mesh_velocity=velocity)
+                                    mesh_velocity=velocity, carried=carried)
         self.flow.set_time_step(self.dt)
         self.modes = [self.flow.geometry.mode_names.index(name) for name in self.mode_names]
 
@@ -391,8 +396,10 @@ class FictitiousDomain3DModel(FlowModel):
             self.motion.move_to(center)
             b = flow.bdf
             rate = (b[0] * center + b[1] * self.placed[0] + b[2] * self.placed[1]) / length
-            if self.scene.oblique and center[2] > float(prediction.gaps[0]) + self.radius:  # (module docstring)
-                rate[2] = float(prediction.mean_velocities[0])
+            held = self.scene.oblique and center[2] > float(prediction.gaps[0]) + self.radius  # (module docstring)
+            if held:  # the mesh's velocity along z is the sphere's own, implicit in the step (flow's `carried`)
+                rate[2] = 0.0
+            flow.carrying = held
             self.motion.set_rate(rate)
         flow.sphere.place(center)
         self._center = center
