@@ -7,14 +7,14 @@ are: docs/validation.md section 14).  numerics.fd3d.box = "whole" meshes the who
 in the plane (the body integrator's equations are the plane's), and the flow's force across the plane (F_y) and its
 torque about the axes in it (T_x, T_z), which the half box holds at zero, are measured at each step (`report`'s
 out_of_plane: their peaks, and the velocity across the plane and the spin their impulses would have given the sphere):
-the check that the symmetry holds.  A head-on bounce moves the sphere along z only (the
-rigid mode U_z; the box also keeps x -> -x, so U_x and Omega_y stay unexcited); an oblique one (Scene.oblique: a
-tangential velocity, a spin or gravity's tilt) also along the wall and about y (U_x, Omega_y), its force along the wall
-and torque handed to the body integrator's tangential equations (oblique.TangentialMotion) with the whole added mass
-over the three (kinematics.PlaneForce).  The box is numerics.fd3d.far_field D wide on each side of the sphere and as
-high above the release's top; each new mesh centres it on the sphere along the wall (the liquid beyond the old box
-taken at rest: transfer.py).  The wall is no-slip (slip when wall.present is false), the other sides slip, as
-the axisymmetric models' unbounded domain.
+the check that the symmetry holds.  A head-on bounce moves the sphere along z only (the rigid mode U_z; the box also
+keeps x -> -x, so U_x and Omega_y stay unexcited); an oblique one (Scene.oblique: a tangential velocity, a spin or
+gravity's tilt) also along the wall and about y (U_x, Omega_y), its force along the wall and torque handed to the body
+integrator's tangential equations (oblique.TangentialMotion) with the whole added mass over the three
+(kinematics.PlaneForce).  The box is numerics.fd3d.far_field D wide on each side of the sphere and as high above the
+release's top; each new mesh centres it on the sphere along the wall (the liquid beyond the old box taken at rest:
+transfer.py).  The wall is no-slip (slip when wall.present is false), the other sides slip, as the axisymmetric models'
+unbounded domain.
 
 Two meshes (numerics.fd3d.mesh; mesh.create_box_mesh), fine only in a patch around the sphere and in the gap below:
 
