@@ -183,18 +183,21 @@ class PenalisedFlow3D:
         """The BDF2 step's matrix (convection linearised about u*, the penalty) and its history's form."""
         g, rho = self.geometry, self.density
         past = [ufl.split(state)[0] for state in self.states]
-        extrapolated = self.weights[0] * past[0] + self.weights[1] * past[1]
+        extrapolated = self.extrapolated()
         history = rho * (self.rates[1] * past[0] + self.rates[2] * past[1])
         a = (g.stokes_operator(self.u, self.p, self.v, self.q, rho * self.rates[0], self.viscosity)
              + rho * g.convection(self.convecting(extrapolated), self.u, self.v) + self.penalty(self.u, self.v))
         return a, g.source(history, self.v)
 
+    def extrapolated(self):
+        """u* = 2 u^n - u^{n-1} (the variable step's weights), the velocity the step's convection is taken about."""
+        past = [ufl.split(state)[0] for state in self.states]
+        return self.weights[0] * past[0] + self.weights[1] * past[1]
+
     def _carried_forcing(self):
         """(mode index, the load rho int ((w_k . grad) u*) . v compiled, its vector, mode k's whole forcing vector)."""
         name, w = self.carried
-        past = [ufl.split(state)[0] for state in self.states]
-        extrapolated = self.weights[0] * past[0] + self.weights[1] * past[1]
-        load = fem.form(self.density * self.geometry.convection(w, extrapolated, self.v))
+        load = fem.form(self.density * self.geometry.convection(w, self.extrapolated(), self.v))
         return self.geometry.mode_names.index(name), load, create_vector(self.W), create_vector(self.W)
 
     def _forcing(self, j: int) -> PETSc.Vec:
