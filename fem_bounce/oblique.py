@@ -108,7 +108,8 @@ class TangentialMotion:
             return 0.0, 0.0, 0.0
         stokes = 3.0 * math.pi * self.viscosity * self.diameter
         excess = 0.15 * reynolds**0.687
-        growth = -stokes * 0.687 * excess * velocity / speed**2  # d(-3 pi mu D (phi - 1) U)/d|u| / |u|, less U's
+        # -3 pi mu D U d(phi - 1)/d|u| / |u|: times U or V, the excess's derivative through |u|
+        growth = -stokes * 0.687 * excess * velocity / speed**2
         return -stokes * excess * velocity, -stokes * excess + growth * velocity, growth * normal
 
     def _contact_inputs(self, gap: float, rate: float, engaged: float | None, slip: float,
