@@ -44,12 +44,6 @@ class FdNumerics:
     # refused with it (models/fd/moving.py FIXED_MESH_ONLY).  "fixed": one mesh the spheres move through (patches or
     # the whole path); the one-shot penalty and steady_stokes run on it only
     mesh: str = field(default="moving", metadata={"choices": ("moving", "fixed")})
-    # "half": the half box y >= 0 of a flow symmetric about the plane of incidence y = 0 (half the unknowns);
-    # "whole": the whole box, the sphere still moving in that plane, and the flow's force across the plane and its
-    # torque about the axes in it reported (summary.json's fd3d.out_of_plane, with the velocity across the plane and
-    # the spin they would have given the sphere): the check that the half box's symmetry holds (run at 4 cells/D; at
-    # the default resolution its held phase has diverged after the contact: docs/validation.md section 14)
-    box: str = field(default="half", metadata={"choices": ("half", "whole")})
     # moving mesh, as numerics.ale's: the surface's triangles this many times finer than the path's (the error
     # lives in the surface's triangles, the rebound more than the impact); remeshing below min_quality; a remeshed
     # gap keeps min_gap_cells triangles across; the mesh stops following a moving sphere at the gap hold_delta D (only
