@@ -269,3 +269,22 @@ def test_a_bounce_through_the_command_line_remeshes_holds_and_writes_moving_fiel
     assert len(snapshots) >= 3
     assert not np.array_equal(snapshots[0].points, snapshots[-1].points)  # the mesh moved
     assert {"velocity", "pressure", "vorticity"} <= set(snapshots[-1].fields)
+
+
+def test_a_launch_with_adaptive_steps_starts_as_the_short_fixed_step_does(tmp_path):
+    """Launched at 0.3 m/s into liquid at rest without gravity, the adaptive steps start at their shortest, the
+    first two BDF1 (the liquid jumps to the surface's velocity in the first step: AleModel.linearised_force): at 1 ms
+    the speed of a run at a quarter of the default's fixed step within 1 % (measured 0.02 %; with BDF2 across the
+    start, +4.0 %)."""
+    base = {"gravity": 0.0, "initial_velocity": -0.3, "initial_gap": 0.03, "run.end_time": 0.0015,
+            "numerics.ale.cells_per_diameter": 6}
+    adaptive = {"numerics.ale.adaptive_step": True, "numerics.ale.min_step_factor": 0.05,
+                "numerics.ale.max_step_factor": 1.0}
+    speeds = []
+    for name, changes in (("fine", {"numerics.ale.cfl": 0.125}), ("adaptive", adaptive)):
+        sc = scenes.load("li2011-case3", {**base, **changes})
+        summary = simulate(sc, "ale", MPI.COMM_WORLD, tmp_path / name, force=True, progress=False, plots=False)
+        assert summary["status"] == "completed"
+        rows = np.genfromtxt(tmp_path / name / "trajectory.csv", delimiter=",", names=True)
+        speeds.append(np.interp(0.001, rows["t"], -rows["velocity"]))
+    assert speeds[1] == pytest.approx(speeds[0], rel=0.01)

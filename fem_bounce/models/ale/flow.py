@@ -103,6 +103,7 @@ class SphereFlow:
         self._direct_factorisations = 0
         self.mesh, self.density, self.viscosity = mesh, density, viscosity
         self.order = order
+        self.cold_start = False  # the coming step is BDF1 (set_time_step)
         self.prefix = prefix
         self.inflow_speed = inflow_speed
         self.sphere_tags = tuple(sphere_tags)
@@ -154,9 +155,14 @@ class SphereFlow:
 
     def set_time_step(self, dt: float, previous: float | None = None) -> None:
         """The coming step's length dt [s] and the one before it (default dt): the BDF and extrapolation
-        coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ)."""
+        coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ), BDF1
+        when `cold_start` is set (the older level then weighs 0): while a past level in the formula holds the
+        liquid at rest around a sphere launched into it (AleModel.linearised_force)."""
         self.dt = dt
-        self.bdf, self.ext = step_coefficients(self.order, dt / (previous or dt))
+        order = 1 if self.cold_start else self.order
+        bdf, ext = step_coefficients(order, dt / (previous or dt))
+        padding = (0.0,) * (self.order - order)
+        self.bdf, self.ext = bdf + padding, ext + padding
         self.c = self.bdf[0] / dt  # du/dt ~ c (u^{n+1} - reference)
         self.numbers.value[2:] = [1.0 / dt, *self.bdf, *self.ext]
 

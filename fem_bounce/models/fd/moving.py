@@ -21,7 +21,6 @@ from dataclasses import fields
 import numpy as np
 import ufl
 
-from ...bodies import scene_bodies
 from ...fem.domain import speed_scale
 from ...fem.mesh import SPHERE_TAGS
 from ...fem.mesh_motion import MeshMotion
@@ -29,7 +28,7 @@ from ...fem.solver import SolverError
 from ...flow_model import StepLimits, approach_for
 from ...kinematics import FluidForce, Prediction
 from ...scene import SceneError
-from ..moving_mesh import MovingMesh, MovingMeshModel, checked_domain
+from ..moving_mesh import MovingMesh, MovingMeshModel, checked_domain, first_step
 from ..unread import FIXED_MESH_ONLY, correction_holds_every_contact, refuse_unread
 from .domain import penalty_rate, time_step
 from .immersed import ImmersedBodies
@@ -145,17 +144,7 @@ class MovingFictitiousDomainModel(MovingMeshModel):
         self.penalty_rate = penalty_rate(scene, domain.surface_size)  # on the surface's triangles
         self.moving = MovingMesh(scene, comm, fd, domain, self.make_flow, self.sphere_volume, cfl_step=cfl_step,
                                  step_limits=limits, adaptive=adaptive,
-                                 first_step=self.first_step(cfl_step, limits, adaptive))
-
-    def first_step(self, cfl_step: float, limits: StepLimits, adaptive: bool) -> float:
-        """The first step [s]: the cfl step, or with adaptive steps the shortest when a free sphere is launched into
-        the liquid at rest: it gives the liquid its added mass's momentum at once and slows fastest at first, and the
-        steps then grow as StepLimits allows (BDF1 while its inside lags: inside_lags).  Started at the cfl step, the
-        default (peak_cfl 0.8) took the first 3 ms of case 3's sphere launched at 0.3 m/s in one step, 1.3 % too fast at
-        2.5 ms (tests/test_fd_moving.py).  The ale model keeps the cfl step: its start has no BDF1 (a short first
-        step there, with BDF2 across the impulsive start, left its launch 3.8 % too fast at 1 ms)."""
-        launched = any(body.start_velocity != 0.0 and not body.held for body in scene_bodies(self.scene))
-        return limits.min_factor * cfl_step if adaptive and launched else cfl_step
+                                 first_step=first_step(scene, cfl_step, limits, adaptive))
 
     def make_flow(self, mesh, facet_tags, motion: MeshMotion, centers, dt: float) -> MovingPenalisedFlow:
         """The penalised flow on a new mesh, its spheres' indicators placed once: the mesh moves rigidly inside them."""
