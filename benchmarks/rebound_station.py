@@ -1,0 +1,63 @@
+"""The first rebound of finished runs seen two ways: the normal speed at gap delta_sl D on the way in and out
+(interpolated in the trajectory's rows; the station of summary.json's oblique_impacts "outer"), and the package's e,
+the mean speed over the 2 ms after the minimum gap over the 2 ms before it (bounces.Rebound).
+
+    mpiexec -n 2 python benchmarks/oblique_resolved.py --angles 2 --out results/oblique-resolved-2 \
+        --record oblique_resolved_2deg
+    fem-bounce run li2011-case3 --model M --set run.bounces=1 --out runs/station-M      # M = ode, fd
+    fem-bounce run li2011-case3 --model ale --set run.bounces=1 --out runs/station-ale \
+        --set numerics.ale.adaptive_step=true --set numerics.ale.min_step_factor=0.05 \
+        --set numerics.ale.max_step_factor=1 --set numerics.ale.cells_per_diameter=8 \
+        --set numerics.ale.surface_refinement=5
+    python benchmarks/rebound_station.py results/oblique-resolved-2/fd3d-2 results/oblique-resolved-2/ode-2 \
+        runs/station-ode runs/station-fd runs/station-ale
+
+docs/validation.md section 14 ("e_n, nearly head-on") has what they gave.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from fem_bounce import output
+
+MEAN_WINDOW = 0.002  # [s] bounces.Rebound's means
+
+
+def station_restitution(trajectory: dict, height: float) -> tuple[float, float]:
+    """(normal speed in, out) [m/s] where the gap passes `height` [m] before and after its minimum."""
+    gap, velocity = trajectory["gap"], trajectory["velocity"]
+    lowest = int(np.argmin(gap))
+    before = np.flatnonzero(gap[:lowest] > height)[-1]  # the last row above it on the way in
+    after = lowest + np.flatnonzero(gap[lowest:] > height)[0]  # the first on the way out
+    speed_in = -np.interp(height, gap[[before + 1, before]], velocity[[before + 1, before]])
+    speed_out = np.interp(height, gap[[after - 1, after]], velocity[[after - 1, after]])
+    return float(speed_in), float(speed_out)
+
+
+def mean_restitution(trajectory: dict) -> float:
+    """The 2 ms means' ratio, from the gap's travel either side of its minimum."""
+    t, gap = trajectory["t"], trajectory["gap"]
+    lowest = float(t[int(np.argmin(gap))])
+    before, bottom, after = np.interp([lowest - MEAN_WINDOW, lowest, lowest + MEAN_WINDOW], t, gap)
+    return float((after - bottom) / (before - bottom))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", nargs="+", type=Path, help="finished run directories")
+    args = parser.parse_args()
+    for run in args.runs:
+        summary = json.loads((run / "summary.json").read_text())
+        height = summary["scene"]["contact"]["delta_sl"] * summary["scene"]["sphere"]["diameter"]
+        trajectory = output.read_trajectory(run)
+        speed_in, speed_out = station_restitution(trajectory, height)
+        print(f"{str(run):45s} {summary['model']:5s} at delta_sl D: in {speed_in:.4f} m/s, out {speed_out:.4f} m/s, "
+              f"e {speed_out / speed_in:.4f};  2 ms means: e {mean_restitution(trajectory):.4f}")
+
+
+if __name__ == "__main__":
+    main()
