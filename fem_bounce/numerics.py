@@ -152,8 +152,10 @@ class IbNumerics:
 class AleNumerics:
     """The boundary-fitted ALE model (fem_bounce.models.ale).  Sizes are per sphere diameter D."""
 
-    cells_per_diameter: float = _setting(16.0, 2.0, 400.0)  # triangle size D / this on the sphere and along its path
-    surface_refinement: float = _setting(1.0, 1.0, 16.0)  # the sphere's surface triangles this many times finer
+    cells_per_diameter: float = _setting(8.0, 2.0, 400.0)  # triangle size D / this on the sphere and along its path
+    # the sphere's surface triangles this many times finer (the rebound's error lives in them, as on the fd model's
+    # moving mesh: the default D / 40 with 8 cells/D along the path, as fd's; docs/validation.md section 12)
+    surface_refinement: float = _setting(5.0, 1.0, 16.0)
     coarse_cells_per_diameter: float = _setting(1.0, 0.02, 400.0)  # largest triangles, far away
     grading: float = _setting(0.1, 0.01, 2.0)  # triangle size growth per unit distance from the fine region
     refined_radius: float = _setting(1.0, 0.5, 100.0)  # fine region r <= this * D along the path
@@ -162,11 +164,13 @@ class AleNumerics:
     cfl: float = _setting(0.5, 0.01, 20.0)  # dt = cfl * fine size / speed scale (convection is implicit)
     time_order: int = _setting(2, 1, 2)  # BDF order of the flow and the mesh motion
     # adaptive_step: each step between min_step_factor and max_step_factor times the cfl step, as short as the
-    # approach to a contact and the changes of the sphere's velocity ask (models/ale/domain.py next_time_step);
-    # false: the cfl step throughout, shortened only where it could close more than the gap (flow_model.Approach)
-    adaptive_step: bool = False
-    min_step_factor: float = _setting(0.125, 0.001, 1.0)
-    max_step_factor: float = _setting(4.0, 1.0, 50.0)
+    # approach to a contact and the changes of the sphere's velocity ask (models/ale/domain.py next_time_step): each
+    # collision resolved in time, as the reference's (benchmarks/near_wall.py reference); false: the cfl step
+    # throughout, shortened only where it could close more than the gap (flow_model.Approach), which spans the
+    # ~50 us contact in one step (case 3's apex +5.1 % at 16 cells/D, section 12)
+    adaptive_step: bool = True
+    min_step_factor: float = _setting(0.05, 0.001, 1.0)
+    max_step_factor: float = _setting(1.0, 1.0, 50.0)
     min_quality: float = _setting(0.3, 0.01, 0.9)  # remesh when a triangle's quality would fall below this
     min_gap_cells: float = _setting(2.0, 0.5, 100.0)  # a remeshed gap has at least this many triangles across
     hold_delta: float = _setting(0.02, 0.0, 0.5)  # the mesh stops following the sphere at this gap / D

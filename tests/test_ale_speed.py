@@ -197,7 +197,7 @@ def test_the_adaptive_step_stays_within_its_bounds_and_shortens_near_the_wall():
     from fem_bounce.flow_model import GROWTH
     from fem_bounce.models.ale.domain import step_limits, time_step
 
-    scene = scenes.load("li2011-case3", {"numerics.ale.adaptive_step": True})
+    scene = scenes.load("li2011-case3", {"numerics.ale.min_step_factor": 0.125, "numerics.ale.max_step_factor": 4.0})
     base, limits = time_step(scene), step_limits(scene)
     far = limits.next(base, gap=0.1, speed=0.01, jerk=0.0)  # slow, far away: grows by GROWTH
     assert far == pytest.approx(GROWTH * base, rel=1e-12)

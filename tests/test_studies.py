@@ -154,8 +154,9 @@ def test_speed_accuracy_reference_is_the_finest_level_at_a_shorter_step(tmp_path
     # five runs: the four levels and the reference, 16 cells/D at a quarter of the scene's step
     assert [task[0].numerics.ale.cfl for task in asked] == pytest.approx([cfl, 0.5 * cfl, cfl, 0.5 * cfl,
                                                                           0.25 * cfl])
-    # only the reference resolves each collision in time (registry.ModelInfo.reference_settings)
-    assert [task[0].numerics.ale.adaptive_step for task in asked] == [False] * 4 + [True]
+    # only the reference takes the reference's own settings (registry.ModelInfo.reference_settings: its surface
+    # three times finer than its path, where the levels keep the default's five)
+    assert [task[0].numerics.ale.surface_refinement for task in asked] == [5.0] * 4 + [3.0]
     collision = {"numerics.ale.adaptive_step": True, "numerics.ale.max_step_factor": 1.0,
                  "numerics.ale.min_step_factor": 0.05, "numerics.ale.surface_refinement": 3.0}
     assert result["reference"]["setting"] == {"numerics.ale.cells_per_diameter": 16.0,
