@@ -167,7 +167,7 @@ class AleNumerics:
     # approach to a contact and the changes of the sphere's velocity ask (models/ale/domain.py next_time_step): each
     # collision resolved in time, as the reference's (benchmarks/near_wall.py reference); false: the cfl step
     # throughout, shortened only where it could close more than the gap (flow_model.Approach), which spans the
-    # ~50 us contact in one step (case 3's apex +5.1 % at 16 cells/D, section 12)
+    # ~50 us contact in one step (docs/validation.md section 12 measures both on case 3)
     adaptive_step: bool = True
     min_step_factor: float = _setting(0.05, 0.001, 1.0)
     max_step_factor: float = _setting(1.0, 1.0, 50.0)

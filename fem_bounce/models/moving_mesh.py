@@ -156,10 +156,10 @@ def launched(scene: Scene) -> bool:
 def first_step(scene: Scene, cfl_step: float, limits: StepLimits, adaptive: bool) -> float:
     """The first step [s]: the cfl step, or with adaptive steps the shortest when a free sphere is launched into the
     liquid at rest: it gives the liquid its added mass's momentum at once and slows fastest at first, and the steps
-    then grow as StepLimits allows, the first ones BDF1 (the flows' cold_start: BDF2 across the liquid's jump rings).
-    Started at the cfl step, the fd default (peak_cfl 0.8) took the first 3 ms of case 3's sphere launched at 0.3 m/s
-    in one step, 1.3 % too fast at 2.5 ms (tests/test_fd_moving.py); the ale model's short first step with BDF2 across
-    the start left it 3.8 % too fast at 1 ms (tests/test_ale.py)."""
+    then grow as StepLimits allows, the first ones BDF1 (MovingMesh.linearise's cold_start: BDF2 across the jump rings).
+    Started at the fd default's cfl step, the first milliseconds of a launch went in one step, too fast
+    (tests/test_fd_moving.py); a short first step with BDF2 across the start left the ale model's launch too fast
+    (tests/test_ale.py)."""
     return limits.min_factor * cfl_step if adaptive and launched(scene) else cfl_step
 
 
@@ -414,9 +414,10 @@ class MovingMesh:
         centers = np.where(stopped, gaps + self.radii, prediction.centers(self.radii))
         return np.where(held, self.domain.initial_centers, centers), bool(np.any(stopped))
 
-    def linearise(self, prediction: Prediction) -> FluidForce:
+    def linearise(self, prediction: Prediction, cold_start: bool = False) -> FluidForce:
         """Move (or remesh) to the predicted centres and make the flow's step: the forces at the reference
-        velocities and the added mass (module docstring, steps 1-4)."""
+        velocities and the added mass (module docstring, steps 1-4); BDF1 with `cold_start` (the older level then
+        weighs 0: the model's call, while a past level holds liquid not moving with a sphere it should follow)."""
         h, settings = self.history, self.settings
         t_next = self.next_time()
         self._short = t_next != self._unclipped_time()  # shortened to end at run.end_time
@@ -439,7 +440,7 @@ class MovingMesh:
                 remeshed = True
         self.stats.held_steps += held
         length = self.step_length()
-        self.flow.set_time_step(length, self.previous_time_step())
+        self.flow.set_time_step(length, self.previous_time_step(), 1 if cold_start else None)
         self.motion.move_to(center)
         self.motion.set_rates(h.rate("centers", center, self.flow.bdf, length))
         self.stats.min_mesh_gap = min(self.stats.min_mesh_gap, gap)

@@ -103,7 +103,6 @@ class SphereFlow:
         self._direct_factorisations = 0
         self.mesh, self.density, self.viscosity = mesh, density, viscosity
         self.order = order
-        self.cold_start = False  # the coming step is BDF1 (set_time_step)
         self.prefix = prefix
         self.inflow_speed = inflow_speed
         self.sphere_tags = tuple(sphere_tags)
@@ -153,13 +152,12 @@ class SphereFlow:
         self.operator: FactorizedOperator | ReusedFactorOperator | None = None
         self.rhs = create_vector(self.W)
 
-    def set_time_step(self, dt: float, previous: float | None = None) -> None:
+    def set_time_step(self, dt: float, previous: float | None = None, order: int | None = None) -> None:
         """The coming step's length dt [s] and the one before it (default dt): the BDF and extrapolation
-        coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ), BDF1
-        when `cold_start` is set (the older level then weighs 0): while a past level in the formula holds the
-        liquid at rest around a sphere launched into it (AleModel.linearised_force)."""
+        coefficients of the step (fem.taylor_hood.step_coefficients; variable-step BDF2 when they differ), of a
+        lower `order` than the flow's for a cold start (the older level then weighs 0)."""
         self.dt = dt
-        order = 1 if self.cold_start else self.order
+        order = order or self.order
         bdf, ext = step_coefficients(order, dt / (previous or dt))
         padding = (0.0,) * (self.order - order)
         self.bdf, self.ext = bdf + padding, ext + padding

@@ -42,20 +42,12 @@ class MovingPenalisedFlow(PenalisedFlow):
 
     def __init__(self, mesh, facet_tags, sides, density, viscosity, dt, penalty_rate, mesh_velocity, **options):
         self.mesh_velocity = mesh_velocity
-        self.cold_start = False  # the coming step is BDF1 (set_time_step)
         super().__init__(mesh, facet_tags, sides, density, viscosity, dt, penalty_rate, **options)
         self.reference = None  # U_ref of the step being made [m/s]
         self.krylov_iterations = 0  # factorised every step (the moving mesh's tallies ask: moving_mesh.TALLIES)
 
     def convecting(self, extrapolated):
         return extrapolated - self.mesh_velocity
-
-    def set_time_step(self, dt: float, previous: float | None = None, order: int | None = None) -> None:
-        """As the flow's, BDF1 when `cold_start` is set: while a past level in the BDF formula holds the liquid
-        inside a sphere not moving with it (MovingFictitiousDomainModel.inside_lags).  That liquid jumps to the
-        sphere's velocity in the first step, and BDF2 across the jump rings: a launch kept 3 % too much of its
-        speed after the first millisecond, against the ale model and BDF1 throughout."""
-        super().set_time_step(dt, previous, 1 if self.cold_start else order)
 
     def step(self, reference_velocity, extrapolated_velocity=None):
         """(F(U_ref) [N], dF/dU [N s/m]) of the step, as models/ale/flow.SphereFlow.step."""
@@ -162,13 +154,13 @@ class MovingFictitiousDomainModel(MovingMeshModel):
         return float(np.sum(flow.bodies.volumes))
 
     def linearised_force(self, prediction: Prediction) -> FluidForce:
-        """The moving mesh's step, BDF1 while the inside lags at the start (MovingPenalisedFlow.set_time_step);
-        numerics.fd.coupling = "explicit" hands the integrator no added mass (the lagged coupling, for comparison:
-        unstable for light spheres)."""
+        """The moving mesh's step, BDF1 while a past level in the BDF formula holds the liquid inside a sphere not
+        moving with it (inside_lags): that liquid jumps to the sphere's velocity in the first step, and BDF2 across
+        the jump rings (a launch kept too much of its speed: tests/test_fd_moving.py).  numerics.fd.coupling =
+        "explicit" hands the integrator no added mass (the lagged coupling, for comparison: unstable for light
+        spheres)."""
         moving = self.moving
-        moving.flow.cold_start = moving.step < self.settings.time_order and self.inside_lags()
-        force = moving.linearise(prediction)
-        moving.flow.cold_start = False
+        force = moving.linearise(prediction, cold_start=moving.step < self.settings.time_order and self.inside_lags())
         if self.settings.coupling == "implicit":
             return force
         return FluidForce(explicit=force.explicit, added_mass=np.zeros_like(force.added_mass))
