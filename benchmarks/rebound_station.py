@@ -9,8 +9,12 @@ the mean speed over the 2 ms after the minimum gap over the 2 ms before it (boun
         --set numerics.ale.adaptive_step=true --set numerics.ale.min_step_factor=0.05 \
         --set numerics.ale.max_step_factor=1 --set numerics.ale.cells_per_diameter=8 \
         --set numerics.ale.surface_refinement=5
+    mpiexec -n 2 fem-bounce run li2011-case3 --model fd3d --set run.bounces=1 --out runs/station-fd3d
+    fem-bounce run li2011-case3 --model fd --set run.bounces=1 --out runs/station-fd-c6sr3 \
+        --set numerics.fd.cells_per_diameter=6 --set numerics.fd.surface_refinement=3   # fd3d's sizes
     python benchmarks/rebound_station.py results/oblique-resolved-2/fd3d-2 results/oblique-resolved-2/ode-2 \
-        runs/station-ode runs/station-fd runs/station-ale
+        runs/station-ode runs/station-fd runs/station-ale runs/station-fd3d runs/station-fd-c6sr3
+    python benchmarks/rebound_station.py --gaps 0.02,0.1,0.2,0.3 RUN...   # the rebound speed through the hold
 
 docs/validation.md section 14 ("e_n, nearly head-on") has what they gave.
 """
@@ -49,11 +53,18 @@ def mean_restitution(trajectory: dict) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="+", type=Path, help="finished run directories")
+    parser.add_argument("--gaps", type=lambda text: [float(g) for g in text.split(",")],
+                        help="also the normal speed on the way out at these gaps [D], comma-separated")
     args = parser.parse_args()
     for run in args.runs:
         summary = json.loads((run / "summary.json").read_text())
-        height = summary["scene"]["contact"]["delta_sl"] * summary["scene"]["sphere"]["diameter"]
+        diameter = summary["scene"]["sphere"]["diameter"]
+        height = summary["scene"]["contact"]["delta_sl"] * diameter
         trajectory = output.read_trajectory(run)
+        if args.gaps:
+            speeds = [station_restitution(trajectory, g * diameter)[1] for g in args.gaps]
+            print(f"{str(run):45s} out at gap/D " + ", ".join(f"{g:g}: {v:.4f}" for g, v in zip(args.gaps, speeds))
+                  + " m/s")
         speed_in, speed_out = station_restitution(trajectory, height)
         print(f"{str(run):45s} {summary['model']:5s} at delta_sl D: in {speed_in:.4f} m/s, out {speed_out:.4f} m/s, "
               f"e {speed_out / speed_in:.4f};  2 ms means: e {mean_restitution(trajectory):.4f}")

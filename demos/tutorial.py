@@ -17,9 +17,9 @@
 # A steel sphere falls through glycerol-water onto a glass wall and bounces: Li, Hunt & Colonius (2011)
 # case 3 (density ratio 6.5, released from rest 1.6 D above the wall).  This tutorial drives fem_bounce
 # from Python the way a study does: it loads the scene, runs it with the reduced ODE model and with a
-# resolved model (the boundary-fitted ALE model at a coarse 6 cells per diameter), compares both with the
-# paper's Table 2, changes one contact parameter, and sweeps the coefficient of restitution e over a few
-# impact Stokes numbers St.
+# resolved model (the fictitious-domain fd model, which a run without `--model` takes for this scene, at a
+# coarse 6 cells per diameter), compares both with the paper's Table 2, changes one contact parameter, and
+# sweeps the coefficient of restitution e over a few impact Stokes numbers St.
 #
 # Run it as a script (about a minute on one core; the restitution sweep's planning is most of it):
 #
@@ -74,12 +74,12 @@ say(f"{scene.description}\ndensity ratio {scene.density_ratio:.2f}, D = {scene.s
 #
 # `fb.simulate(scene, model)` runs one model.  Without `out` the run is kept in memory (nothing is left on
 # the disk); with `out=DIR` it writes the run directory the command line writes.  Numerical settings of the
-# model go by name: `cells_per_diameter=6` is `numerics.ale.cells_per_diameter = 6`.
+# model go by name: `cells_per_diameter=6` is `numerics.fd.cells_per_diameter = 6`.
 
 # %%
 ode = fb.simulate(scene, "ode")
-ale = fb.simulate(scene, "ale", out=out / "case3-ale", force=True, cells_per_diameter=6)
-for result in (ode, ale):
+fd = fb.simulate(scene, "fd", out=out / "case3-fd", force=True, cells_per_diameter=6)
+for result in (ode, fd):
     say(f"{result.model}: {result.status} in {result.wall_time:.1f} s; " + "; ".join(
         f"impact {k}: V_i = {i.impact_speed:.4f} m/s, Re = {i.Re:.1f}, e = {r.restitution:.3f}"
         for k, (i, r) in enumerate(zip(result.impacts, result.rebounds), 1)))
@@ -100,7 +100,7 @@ def versus_table2(result: fb.Result) -> dict:
     return {**found, **{f"{k}_error": found[k] / measured[k] - 1.0 for k in found}}
 
 
-compared = {result.model: versus_table2(result) for result in (ode, ale)}
+compared = {result.model: versus_table2(result) for result in (ode, fd)}
 say(f"{'':10s} {'V_i [m/s]':>16s} {'Re_I':>14s} {'Re_II':>14s}")
 say(f"{'Table 2':10s} {table2.impact_speed:16.3f} {table2.re_first:14.1f} {table2.re_second:14.1f}")
 for name, c in compared.items():
@@ -109,7 +109,7 @@ for name, c in compared.items():
 
 if root:
     fig, ax = plt.subplots(figsize=(7, 4))
-    for result in (ode, ale):
+    for result in (ode, fd):
         ax.plot(result.trajectory["t"], result.trajectory["velocity"], label=f"{result.model} model")
     liquid = scene.liquid
     measured_second = table2.re_second * liquid.viscosity / (liquid.density * scene.sphere.diameter)
@@ -168,21 +168,21 @@ if root:
 # ## Checks
 #
 # What the tutorial must show (a script exits with 1 otherwise): both models' first impact speed within
-# 15 % of Table 2 (a coarse ALE mesh and the ODE model; docs/validation.md has the converged numbers), a
+# 15 % of Table 2 (a coarse fd mesh and the ODE model; docs/validation.md has the converged numbers), a
 # lossier contact gives a smaller e, and the sweep finds no rebound at its smallest St and one at its
 # largest.
 
 # %%
 checks = {
     "ode V_i within 15 % of Table 2": abs(compared["ode"]["impact_speed_error"]) <= 0.15,
-    "ale V_i within 15 % of Table 2": abs(compared["ale"]["impact_speed_error"]) <= 0.15,
+    "fd V_i within 15 % of Table 2": abs(compared["fd"]["impact_speed_error"]) <= 0.15,
     "e_d = 0.6 rebounds less than e_d = 0.97": lossy.rebounds[0].restitution < ode.rebounds[0].restitution,
     "no rebound at the smallest St, one at the largest": e[np.nanargmin(st)] < 0.01 and e[np.nanargmax(st)] > 0.5,
 }
 for name, passed in checks.items():
     say(f"check {'PASS' if passed else 'FAIL'}  {name}")
 if root:
-    (out / "result.json").write_text(json.dumps({"ode": compared["ode"], "ale": compared["ale"],
+    (out / "result.json").write_text(json.dumps({"ode": compared["ode"], "fd": compared["fd"],
                                                   "lossy_restitution": lossy.rebounds[0].restitution,
                                                   "sweep": sweep.summary}, indent=1, default=float))
 passed = MPI.COMM_WORLD.bcast(all(checks.values()), root=0)

@@ -10,6 +10,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from fem_bounce.fem.mesh import AXIS, BOUNDARY_NAMES, SPHERE, SPHERE_2, HalfPlane, SphereHole, create_mesh
+from helpers import ALE_PLAIN_OPTIONS
 
 D = 0.01
 RADIUS = D / 2
@@ -206,12 +207,12 @@ def test_the_pair_force_is_affine_in_both_velocities_and_its_resistance_is_recip
 
 # FREE_PAIR killed and restarted: tests/test_restart.py
 FREE_PAIR = ["yang-hunt2006-pair", "--model", "ale", "--quiet", "--set", "numerics.ale.cells_per_diameter=6",
-             "--set", "numerics.ale.checkpoint_every=12"]  # a checkpoint after the remesh at step 10 of 17
+             *ALE_PLAIN_OPTIONS, "--set", "numerics.ale.checkpoint_every=12"]  # after the remesh at step 10 of 19
 
 
 @pytest.fixture(scope="module")
 def free_pair(tmp_path_factory):
-    """The yang-hunt2006-pair preset at 6 cells/D through the first collision (~20 s on a quiet core)."""
+    """The yang-hunt2006-pair preset at 6 cells/D through the first collision (~5 s on a quiet core)."""
     from fem_bounce import cli
 
     out = tmp_path_factory.mktemp("pair") / "straight"

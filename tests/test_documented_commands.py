@@ -39,6 +39,7 @@ import pytest
 from fem_bounce import api, cli, models, uncertain
 from fem_bounce import scene as scenes
 from fem_bounce.errors import Error
+from helpers import ALE_PLAIN_OPTIONS
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -64,7 +65,7 @@ SKIPPED = {
 # test_study_runner's)
 TOY_END = ["--set", "run.end_time=0.02"]
 TOY_CELLS = {"fd": ["--set", "numerics.fd.cells_per_diameter=4"], "ib": ["--set", "numerics.ib.cells_per_diameter=8"],
-             "ale": ["--set", "numerics.ale.cells_per_diameter=4"]}
+             "ale": ["--set", "numerics.ale.cells_per_diameter=4", *ALE_PLAIN_OPTIONS]}
 ONE_CORE = ["--jobs", "1"]
 SWEEP = ["--points", "2", "--st-min", "100", "--st-max", "200"]  # two Stokes numbers, none of the low-St extras
 

@@ -9,8 +9,9 @@ from mpi4py import MPI
 from fem_bounce import losses, output
 from fem_bounce import scene as scenes
 from fem_bounce.run import simulate
+from helpers import ALE_PLAIN
 
-TOY_ALE = {"numerics.ale.cells_per_diameter": 6, "run.bounces": 1}
+TOY_ALE = {"numerics.ale.cells_per_diameter": 6, **ALE_PLAIN, "run.bounces": 1}
 
 
 def audited_run(tmp_path, model: str, changes: dict) -> dict:
@@ -67,7 +68,7 @@ def test_ode_and_ale_agree_on_a_bounce_at_st_20(tmp_path):
     differ (measured 0.534 against 0.602; benchmarks/impact_history.py)."""
     changes = {"liquid.viscosity": 0.13, "run.bounces": 1}
     ode = audited_run(tmp_path, "ode", changes)
-    ale = audited_run(tmp_path, "ale", {**changes, "numerics.ale.cells_per_diameter": 6})
+    ale = audited_run(tmp_path, "ale", {**changes, **TOY_ALE})
 
     def phases(summary):
         share = summary["impacts"][0]["losses"]["share"]

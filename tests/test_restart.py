@@ -1,7 +1,7 @@
 """Restarts that survive a real kill, for every model that writes checkpoints, with one sphere and (for
 the models that run them) a pair: a run in a subprocess is SIGKILLed after a checkpoint (or stopped with
 Ctrl-C), continued with --restart, and its summary and trajectory (no row lost or doubled) compared with
-an uninterrupted run's.  Toy sizes, seconds each (the ale pair ~20 s a run).  The ode model writes no
+an uninterrupted run's.  Toy sizes, seconds each.  The ode model writes no
 checkpoints: an interrupted ode run says to run it again (tests/test_interruptions.py).  The states a kill
 can leave between a checkpoint's files, and --restart named from inside the run: the end of this file; a restart
 that is refused: tests/test_restart_refusals.py."""
@@ -13,7 +13,7 @@ import pytest
 
 from fem_bounce import cli, fields
 from fem_bounce.models.registry import MODELS
-from helpers import assert_one_line, assert_same_trajectory, messages, run_cli, spawn, wait_for
+from helpers import ALE_PLAIN_OPTIONS, assert_one_line, assert_same_trajectory, messages, run_cli, spawn, wait_for
 from test_ale_pair import FREE_PAIR
 
 CASES = {  # a toy run of each model that writes checkpoints, alone and in a pair
@@ -32,9 +32,11 @@ CASES = {  # a toy run of each model that writes checkpoints, alone and in a pai
            "--set", "numerics.ib.checkpoint_every=10", "--set", "numerics.ib.output_every=7"],
     # no field snapshots: dolfinx's XDMF/HDF5 file of a SIGKILLed segment can be left unreadable (the ib
     # model's own writer flushes every snapshot; fd and ale fields across a restart: test_fd_model.py)
+    # the ale model's adaptive steps (its default) on a surface at the path's size, through the impact: the
+    # checkpoint at step 35 after its remesh at step 33 of 153
     "ale": ["li2011-case3", "--model", "ale", "--set", "numerics.ale.cells_per_diameter=6",
-            "--set", "run.end_time=0.08",
-            "--set", "numerics.ale.checkpoint_every=35"],  # after its remesh at step 31 of 49
+            "--set", "numerics.ale.surface_refinement=1", "--set", "run.end_time=0.08",
+            "--set", "numerics.ale.checkpoint_every=35"],
     # the pair at the fd defaults (the implicit penalisation on the moving mesh, both spheres filled), 8 cells/D
     "fd-pair": ["yang-hunt2006-pair", "--model", "fd", "--set", "numerics.fd.cells_per_diameter=8",
                 "--set", "run.end_time=0.06", "--set", "numerics.fd.checkpoint_every=10"],
@@ -160,7 +162,7 @@ def test_an_ale_checkpoint_from_before_issue_25_with_one_spheres_values_as_numbe
 
 # the ale model at 4 cells/D through one bounce, with its side file ale_forces.csv
 ALE_TOY = ["li2011-case3", "--model", "ale", "--quiet", "--set", "numerics.ale.cells_per_diameter=4",
-           "--set", "run.bounces=1", "--set", "numerics.ale.checkpoint_every=10"]
+           *ALE_PLAIN_OPTIONS, "--set", "run.bounces=1", "--set", "numerics.ale.checkpoint_every=10"]
 
 
 def test_a_side_file_is_restored_with_the_trajectory(tmp_path):
