@@ -21,7 +21,7 @@
 # coarse 6 cells per diameter), compares both with the paper's Table 2, changes one contact parameter, and
 # sweeps the coefficient of restitution e over a few impact Stokes numbers St.
 #
-# Run it as a script (about a minute on one core; the restitution sweep's planning is most of it):
+# Run it as a script (about half a minute on one core; the restitution sweep's planning is most of it):
 #
 #     python demos/tutorial.py --out runs/tutorial
 #     mpiexec -n 2 python demos/tutorial.py --out runs/tutorial

@@ -18,13 +18,13 @@ from fem_bounce import cli, output
 
 ODE = ["--model", "ode", "--quiet"]
 ODE_ONE = ["li2011-case3", *ODE, "--set", "run.bounces=1"]
-# the one-shot penalty along the path of a fixed mesh: its short steps give the checkpoints these tests break (60 of
-# 65 steps)
 # The ale model's toy numerics where a test checks neither its surface refinement nor its adaptive step: the surface
 # at the path's size and the cfl step throughout (the default's finer surface and resolved collisions make a toy run
 # two to five times longer; test_ale.py's command-line bounce and test_ale_speed's adaptive-step tests keep them)
 ALE_PLAIN = {"numerics.ale.surface_refinement": 1.0, "numerics.ale.adaptive_step": False}
 ALE_PLAIN_OPTIONS = ["--set", "numerics.ale.surface_refinement=1", "--set", "numerics.ale.adaptive_step=false"]
+# the one-shot penalty along the path of a fixed mesh: its short steps give the checkpoints these tests break (60 of
+# 65 steps)
 FD_TOY = ["li2011-case3", "--model", "fd", "--quiet", "--set", "numerics.fd.cells_per_diameter=6",
           "--set", "run.end_time=0.03", "--set", "numerics.fd.checkpoint_every=10", "--set", "numerics.fd.mesh=fixed",
           "--set", "numerics.fd.constraint=penalty", "--set", "numerics.fd.patch=false"]
