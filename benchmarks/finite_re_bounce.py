@@ -62,6 +62,9 @@ def main() -> None:
             speed, e = row["impact_speed"], row["restitution"]
             print(f"  {name:5s} V_i {speed:.4f} {relative(speed, reference['impact_speed'])}  "
                   f"e_1 {e:.3f} {relative(e, reference['restitution'])}  {apexes}")
+    if args.viscosities != list(VISCOSITIES):
+        print(f"(other viscosities than the record's: {RECORD} left as it is)")
+        return
     RECORD.write_text(json.dumps({**stamp(), "runs": {str(k): v for k, v in rows.items()}}, indent=1) + "\n")
     print(f"-> {RECORD}")
 

@@ -35,8 +35,12 @@ def station_restitution(trajectory: dict, height: float) -> tuple[float, float]:
     """(normal speed in, out) [m/s] where the gap passes `height` [m] before and after its minimum."""
     gap, velocity = trajectory["gap"], trajectory["velocity"]
     lowest = int(np.argmin(gap))
-    before = np.flatnonzero(gap[:lowest] > height)[-1]  # the last row above it on the way in
-    after = lowest + np.flatnonzero(gap[lowest:] > height)[0]  # the first on the way out
+    falling, rising = np.flatnonzero(gap[:lowest] > height), np.flatnonzero(gap[lowest:] > height)
+    if not (falling.size and rising.size):
+        raise SystemExit(f"rebound_station: the gap does not pass {height:.4g} m both ways (its highest "
+                         f"{gap[:lowest + 1].max():.4g} m before the impact, {gap[lowest:].max():.4g} m after)")
+    before = falling[-1]  # the last row above it on the way in
+    after = lowest + rising[0]  # the first on the way out
     speed_in = -np.interp(height, gap[[before + 1, before]], velocity[[before + 1, before]])
     speed_out = np.interp(height, gap[[after - 1, after]], velocity[[after - 1, after]])
     return float(speed_in), float(speed_out)

@@ -20,9 +20,9 @@ ODE = ["--model", "ode", "--quiet"]
 ODE_ONE = ["li2011-case3", *ODE, "--set", "run.bounces=1"]
 # The ale model's toy numerics where a test checks neither its surface refinement nor its adaptive step: the surface
 # at the path's size and the cfl step throughout (the default's finer surface and resolved collisions make a toy run
-# two to five times longer; test_ale.py's command-line bounce and test_ale_speed's adaptive-step tests keep them)
+# several times longer; test_ale.py's command-line bounce and test_ale_speed's adaptive-step tests keep them)
 ALE_PLAIN = {"numerics.ale.surface_refinement": 1.0, "numerics.ale.adaptive_step": False}
-ALE_PLAIN_OPTIONS = ["--set", "numerics.ale.surface_refinement=1", "--set", "numerics.ale.adaptive_step=false"]
+ALE_PLAIN_OPTIONS = [word for key, value in ALE_PLAIN.items() for word in ("--set", f"{key}={json.dumps(value)}")]
 # the one-shot penalty along the path of a fixed mesh: its short steps give the checkpoints these tests break (60 of
 # 65 steps)
 FD_TOY = ["li2011-case3", "--model", "fd", "--quiet", "--set", "numerics.fd.cells_per_diameter=6",
