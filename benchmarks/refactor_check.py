@@ -53,6 +53,9 @@ CASES = {
     "ale-brenner": ("brenner-approach", "ale", {"numerics.ale.cells_per_diameter": 6}),
     "ode-ehd": ("li2011-case3", "ode", {"contact.model": "ehd", "run.bounces": 1}),
     "ode-pair": ("yang-hunt2006-pair", "ode", {}),
+    # an oblique collision: case 3's sphere launched at the wall 30 degrees off its normal, wet steel's friction
+    "ode-oblique": ("li2011-case3", "ode", {"gravity": 0.0, "initial_gap": 0.00475, "initial_velocity": -0.33775,
+                                            "tangential_velocity": 0.195, "contact.friction": 0.02, "run.bounces": 1}),
     "ode-pair-wall": ("pair-settling-wall", "ode", {}),
     "fd-pair": ("yang-hunt2006-pair", "fd", {"numerics.fd.cells_per_diameter": 12, "numerics.fd.constraint": "penalty",
                                               "numerics.fd.mesh": "fixed",

@@ -41,6 +41,7 @@ from .contact import ContactModel
 from .kinematics import AxisKinematics, FluidForce, pair_name
 from .oblique import TangentialMotion
 from .pair_contact import PairContactModel
+from .pair_oblique import PairTangentialMotion
 from .scene import Scene
 from .theory import TheoryForces
 
@@ -143,12 +144,18 @@ class BodyEquations:
                 layout.gap_index(0)))
         self.wall = self.contacts[-1] if self.contact is not None else None
         self.pair_contacts = [c for c in self.contacts if c.lower is not None]  # bottom up: pair k below sphere k + 1
-        # an oblique collision: sphere 1's motion along the wall, after the history modes (oblique.py)
-        self.tangential = None
-        if scene.oblique:
+        # an oblique collision, after the history modes: sphere 1's motion along the wall (oblique.py), or a pair's
+        # across its line of centres (pair_oblique.py); the contact whose friction and records it has
+        self.tangential: TangentialMotion | PairTangentialMotion | None = None
+        self.oblique_contact = self.pair_frame = None
+        if scene.oblique and self.wall is not None:
             body = self.bodies[0]
             self.tangential = TangentialMotion(scene, self.contact.law, body.mass, body.displaced_mass,
                                                self.contact.hold_gap if resolved else None)
+            self.oblique_contact = self.wall
+        elif scene.oblique:
+            self.oblique_contact = self.pair_frame = self.pair_contacts[0]
+            self.tangential = PairTangentialMotion(scene, self.pair_frame.law, self.bodies, self.theories)
         # the normal drag's inertia at the whole speed's Re (contact.inertial_speed; theory.TheoryForces.drag_slopes)
         self._whole_speed = self.tangential is not None and scene.contact.inertial_speed == "whole"
         start = layout.size + sum(self.n_history)
@@ -368,7 +375,15 @@ class BodyEquations:
         modes = slice(layout.size, self.tangential_slice.start)  # every sphere's, each z' - dV/dt + z / T
         taken_in = accelerations if not self._pause_history else self._remembering() * accelerations
         out[modes] = ydot[modes] - taken_in[self._mode_owners] + y[modes] / self._all_mode_times
-        if self.tangential is not None:
+        if self.pair_frame is not None:  # the pair's rows across its line of centres, and the turning frame's terms
+            along, pair = self.tangential_slice, self.pair_frame
+            gap = y[pair.gap_index]
+            out[along] = self.tangential.residual(y[along], ydot[along], gap, pair.rate(rates), self._pair_films[0][0],
+                                                  pair.record.engaged_now, y[velocities])
+            lack = self.tangential.frame_terms(y[along], gap)[0]  # what dV/dt lacks of the acceleration along n
+            out[velocities] -= mass @ lack
+            out[modes] += (lack if not self._pause_history else self._remembering() * lack)[self._mode_owners]
+        elif self.tangential is not None:
             along, wall = self.tangential_slice, self.wall
             out[along] = self.tangential.residual(y[along], ydot[along], y[wall.gap_index], rates[0],
                                                   self._wall_films[0][0], wall.record.engaged_now, accelerations[0])
@@ -433,7 +448,9 @@ class BodyEquations:
                         f.velocities[k])
                 jac[modes, velocity] = -shift * remember[k]
                 jac[modes, modes] = np.diag(shift + 1.0 / self._mode_times[k])
-        if self.tangential is not None:
+        if self.pair_frame is not None:
+            self._pair_frame_jacobian(jac, y, mass, shift)
+        elif self.tangential is not None:
             along, wall = self.tangential_slice, self.wall
             gap, _, film_slope, _ = self._wall_films[0]
             own, normal = self.tangential.jacobian(y[along], y[wall.gap_index], self._rates(y)[0], gap, film_slope,
@@ -445,6 +462,29 @@ class BodyEquations:
             if self.fluid.plane is not None:
                 jac[layout.velocity_index(0), along.start + 1:along.start + 3] += shift * self.fluid.plane.mass[0, 1:]
         return jac
+
+    def _pair_frame_jacobian(self, jac: np.ndarray, y, mass: np.ndarray, shift: float) -> None:
+        """The pair's rows across its line of centres (pair_oblique.PairTangentialMotion.jacobian) and the turning
+        frame's terms in the normal rows and modes, into `jac`."""
+        layout, along, pair = self.kinematics, self.tangential_slice, self.pair_frame
+        gap = y[pair.gap_index]
+        film, _, film_slope, _ = self._pair_films[0]
+        velocities = layout.velocity_columns
+        own, normal = self.tangential.jacobian(y[along], gap, pair.rate(self._rates(y)), film, film_slope,
+                                               pair.record.engaged_now, shift, y[velocities])
+        jac[along, along] = own
+        jac[along, [pair.gap_index, *velocities]] = normal
+        lack, d_across, d_gap = self.tangential.frame_terms(y[along], gap)
+        across = slice(along.start + 3, along.start + 5)  # U_1, U_2
+        jac[velocities, across] -= mass @ d_across
+        jac[velocities, pair.gap_index] -= mass @ d_gap
+        for k, j, column, slope in self.forces(0.0, y).theory_mass_slopes:  # the pair's added mass in its gap
+            jac[velocities[k], column] -= slope * lack[j]
+        modes = slice(layout.size, along.start)
+        remember = self._remembering() if self._pause_history else np.ones(len(self.bodies))
+        owners = self._mode_owners
+        jac[modes, across] += (remember[:, None] * d_across)[owners]
+        jac[modes, pair.gap_index] += (remember * d_gap)[owners]
 
     def _inertia(self, y) -> np.ndarray:
         """Each sphere's mass and added mass at the state y [kg]."""
@@ -484,7 +524,13 @@ class BodyEquations:
         for contact in self.contacts:
             if contact.lower is not None:
                 row[contact.name.replace("pair", "pair_gap")] = float(y[contact.gap_index])
-        if self.tangential is not None:
+        if self.pair_frame is not None:
+            along, pair = y[self.tangential_slice], self.pair_frame
+            gap = float(y[pair.gap_index])
+            lack = self.tangential.frame_terms(along, gap)[0]
+            row.update(self.tangential.row(along, gap, float(pair.rate(self._rates(y))), self._pair_films[0][0],
+                                           pair.record.engaged_now, float(pair.rate(accel + lack))))
+        elif self.tangential is not None:
             along = y[self.tangential_slice]
             row.update(zip(TangentialMotion.names[:3], (float(v) for v in along[:3])))
             row.update(self.tangential.row(along, y[self.wall.gap_index], self._rates(y)[0], self._wall_films[0][0],

@@ -25,7 +25,7 @@ from typing import Callable
 import numpy as np
 from petsc4py import PETSc
 
-from .bounces import Impact, Rebound, collisions, oblique_record
+from .bounces import Impact, Rebound, collisions
 from .ehd import FilmError
 from .equations import BodyEquations, Contact
 from .errors import RunDiverged
@@ -90,9 +90,15 @@ class BodyIntegrator(BodyEquations):
             velocity = layout.velocity_index(k)
             pattern[velocity, modes] = pattern[modes, velocity] = True
             pattern[modes, modes] = np.eye(modes.stop - modes.start, dtype=bool)
-        if self.tangential is not None:  # the tangential rows read their own unknowns and the wall's gap and speed
-            pattern[along, along] = True
-            pattern[along, self.wall.gap_index] = pattern[along, layout.velocity_index(0)] = True
+        if self.tangential is not None:  # the tangential rows read their own unknowns, their contact's gap and speeds
+            contact = self.oblique_contact
+            pattern[along, along] = pattern[along, contact.gap_index] = True
+            for k in (contact.lower, contact.upper):
+                if k is not None:
+                    pattern[along, layout.velocity_index(k)] = True
+            if self.pair_frame is not None:  # the turning frame's terms in the normal rows and their modes
+                pattern[layout.velocity_columns[:, None], np.arange(along.start, along.stop)] = True
+                pattern[layout.size:along.stop, contact.gap_index] = pattern[layout.size:along.stop, along] = True
             if self.resolved:  # a resolved flow's added mass couples the normal row to U' and Omega'
                 pattern[layout.velocity_index(0), along] = True
         rows, columns = np.nonzero(pattern)
@@ -120,19 +126,10 @@ class BodyIntegrator(BodyEquations):
             sensitivity = theory.history_sensitivity(body.mass + 0.5 * body.displaced_mass, self.scene.time_unit)
             tolerance = (opts.atol + opts.rtol * self.scene.velocity_unit) / (len(sensitivity) * sensitivity)
             atol.setValues(range(modes.start, modes.stop), tolerance)
-        tangential = self.tangential
-        if tangential is not None:  # the modes along the wall alike, on its mass; the spin's on its inertia
-            speed = opts.atol + opts.rtol * self.scene.velocity_unit
-            if tangential.n_history:
-                sensitivity = tangential.theory.history_sensitivity(tangential.mass, self.scene.time_unit)
-                atol.setValues(range(along.start + tangential.translation.start, along.start
-                                     + tangential.translation.stop), speed / (len(sensitivity) * sensitivity))
-            spinning = tangential.rotation
-            if spinning.stop > spinning.start:  # each mode's error dzeta moves Omega by w_i min(T_i, t) dzeta / I
-                times = np.minimum(tangential.mode_times[spinning.start - len(tangential.names):], self.scene.time_unit)
-                sensitivity = np.maximum(tangential.spin_weights * times / tangential.inertia, 1e-30)
-                atol.setValues(range(along.start + spinning.start, along.start + spinning.stop),
-                               speed / tangential.radius / (len(sensitivity) * sensitivity))
+        if self.tangential is not None:  # the modes along the wall or across the line of centres alike
+            modes = slice(along.start + len(self.tangential.names), along.stop)
+            atol.setValues(range(modes.start, modes.stop), self.tangential.mode_tolerances(
+                opts.atol + opts.rtol * self.scene.velocity_unit, self.scene.time_unit))
         atol.assemble()
         self._events = self._event_list()
         self._event_handler = None
@@ -238,13 +235,13 @@ class BodyIntegrator(BodyEquations):
                     self._film_pending = (t, rate)
             elif kind == "contact":
                 record.contact_crossing(gap, rate, landing=rate < 0.0 and self._landing(contact, y, -rate))
-                if self.tangential is not None and contact is self.wall:
+                if contact is self.oblique_contact:
                     self._tangential_crossing(ts, t, rate, "contact")
             elif kind == "turn":
                 record.turning_point(t, gap)
             elif kind == "blend":
                 record.blend_crossing(t, rate, gap)
-                if self.tangential is not None and contact is self.wall:
+                if contact is self.oblique_contact:
                     self._tangential_crossing(ts, t, rate, "outer")
             elif kind == "path":
                 self._path_reaches_wall(t)
@@ -256,17 +253,17 @@ class BodyIntegrator(BodyEquations):
         ("contact": its spring starts unstretched there) or delta_sl D ("outer"), on the way in or out."""
         solution = ts.getSolution()
         along = self.tangential_slice
-        velocity, spin = solution.array_r[along][1:3]
+        found = self.tangential.station(solution.array_r[along])
         if rate < 0.0:
             if station == "contact":
                 solution.setValue(along.start + self.tangential.STRETCH, 0.0)
                 solution.assemble()
-            self._oblique_entries[station] = (t, -rate, float(velocity), float(spin))
+            self._oblique_entries[station] = (t, -rate, *found)
             return
         entry, self._oblique_entries[station] = self._oblique_entries[station], None
         if entry is None:
             return
-        found = oblique_record(*entry, t, rate, float(velocity), float(spin), self.bodies[0].sphere.radius)
+        found = self.tangential.record(entry, t, rate, found)
         if station == "contact":
             self.oblique_impacts.append({"contact": found, "outer": None})
         elif self.oblique_impacts and self.oblique_impacts[-1]["outer"] is None:
@@ -458,6 +455,15 @@ class BodyIntegrator(BodyEquations):
     def along(self) -> np.ndarray | None:
         """An oblique collision's (x [m], U [m/s], Omega [1/s]) of sphere 1 along the wall (oblique.py), else None."""
         return None if self.tangential is None else self._state()[self.tangential_slice][:3].copy()
+
+    @property
+    def across_energy(self) -> float:
+        """A pair off its line of centres: the spheres' kinetic energy across it and in their spins [J]
+        (pair_oblique.PairTangentialMotion.kinetic_energy), which the turning frame trades with the normal one's;
+        else 0."""
+        if self.pair_frame is None:
+            return 0.0
+        return self.tangential.kinetic_energy(self._state()[self.tangential_slice])
 
     def _report(self, t: float, y) -> None:
         """Hand the observers the row of the state y at t."""

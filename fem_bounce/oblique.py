@@ -40,6 +40,7 @@ import math
 
 import numpy as np
 
+from .bounces import oblique_record
 from .contact import ContactLaw
 from .kinematics import PlaneForce
 from .scene import Scene
@@ -58,6 +59,67 @@ def stiffness_ratio(e1: float, nu1: float, e2: float, nu2: float) -> float:
     e_star = 1.0 / ((1.0 - nu1**2) / e1 + (1.0 - nu2**2) / e2)
     g_star = 1.0 / ((2.0 - nu1) * 2.0 * (1.0 + nu1) / e1 + (2.0 - nu2) * 2.0 * (1.0 + nu2) / e2)
     return 4.0 * g_star / e_star
+
+
+def drag_excess(velocity: float, normal: float, density: float, diameter: float,
+                viscosity: float) -> tuple[float, float, float]:
+    """(-3 pi mu D (phi - 1) U [N], its derivatives in U and in the normal velocity V [N s/m]): a free sphere's
+    inertial excess along U, Schiller & Naumann's phi at Re of the speed |(U, V)| (V = 0: at |U| alone)."""
+    speed = math.hypot(velocity, normal)
+    reynolds = density * speed * diameter / viscosity
+    if reynolds == 0.0:
+        return 0.0, 0.0, 0.0
+    stokes = 3.0 * math.pi * viscosity * diameter
+    excess = 0.15 * reynolds**0.687
+    # -3 pi mu D U d(phi - 1)/d|u| / |u|: times U or V, the excess's derivative through |u|
+    growth = -stokes * 0.687 * excess * velocity / speed**2
+    return -stokes * excess * velocity, -stokes * excess + growth * velocity, growth * normal
+
+
+class ContactFriction:
+    """The friction of one Hertz contact (the wall's or a pair's, `law`): tangential_contact.TangentialContact with
+    the contact's normal force, its Mindlin stiffness and the damper matched to the normal one, at the contact's gap
+    and its rate (module docstring)."""
+
+    def __init__(self, law: ContactLaw, friction: float, ratio: float):
+        self.law, self.ratio = law, ratio
+        self.contact = TangentialContact(friction, ratio)
+
+    def _inputs(self, gap: float, rate: float, engaged: float | None, slip: float, stretch: float) -> tuple | None:
+        """TangentialContact.rates's arguments at the gap and its rate, or None while nothing holds the spring."""
+        law = self.law
+        if engaged is None:
+            return None
+        push, d_gap, d_rate = law.force_slopes(gap, rate, engaged)
+        overlap = engaged - gap
+        stiffness, stiffening = self.contact.stiffness(law.stiffness, overlap)
+        if push <= 0.0 or stiffness <= 0.0:
+            return None
+        elastic_rate = 1.5 * law.stiffness * math.sqrt(overlap) * -rate  # d(k x^1.5)/dt
+        damping = matched_damping(-d_rate, self.ratio, INERTIA_FACTOR)
+        return push, elastic_rate, stiffness, stiffening * -rate, slip, stretch, damping
+
+    def slopes(self, gap: float, rate: float, engaged: float | None, slip: float, stretch: float):
+        """(friction force [N], the stretch's rate [m/s], d force/d slip, d force/d stretch, d rate/d slip,
+        d rate/d stretch) at the contact's gap and rate, the contact point's slip [m/s] and the stretch [m]."""
+        arguments = self._inputs(gap, rate, engaged, slip, stretch)
+        if arguments is None:
+            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        state = self.contact.rates(*arguments)
+        slopes = self.contact.jacobian(*arguments)
+        force, spring = slopes["force"], slopes["stretch_rate"]
+        return (float(state.force), float(state.stretch_rate), float(force["slip"][0, 0]),
+                float(force["stretch"][0, 0]), float(spring["slip"][0, 0]), float(spring["stretch"][0, 0]))
+
+    def energy(self, gap: float, rate: float, engaged: float | None, slip: float, stretch: float,
+               acceleration: float) -> tuple[float, float, bool]:
+        """(the spring's stored energy [J], the power the contact dissipates [W], sliding): TangentialContact.energy
+        with the normal force's actual rate from the gap's `acceleration` [m/s^2]."""
+        arguments = self._inputs(gap, rate, engaged, slip, stretch)
+        if arguments is None:
+            return 0.0, 0.0, False
+        _, d_gap, d_rate = self.law.force_slopes(gap, rate, engaged)
+        return self.contact.energy(*arguments, force_rate=d_gap * rate + d_rate * acceleration)
 
 
 class TangentialMotion:
@@ -80,9 +142,8 @@ class TangentialMotion:
         self.inertia = INERTIA_FACTOR * mass * sphere.radius**2
         self.weight = (mass - displaced_mass) * scene.gravity * math.sin(math.radians(scene.gravity_angle))
         self.law = law
-        self.ratio = stiffness_ratio(sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus,
-                                     wall.poisson_ratio)
-        self.contact = TangentialContact(scene.contact.friction, self.ratio)
+        self.friction = ContactFriction(law, scene.contact.friction, stiffness_ratio(
+            sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus, wall.poisson_ratio))
         # the history modes along the wall (none with a resolved flow: its flow carries the history)
         self.theory = TheoryForces(scene)
         self.n_history = 0 if self.resolved else self.theory.n_history
@@ -97,48 +158,32 @@ class TangentialMotion:
         self.start = (0.0, scene.tangential_velocity, scene.spin, 0.0, *np.zeros(self.size - len(self.names)))
         self.whole_speed = scene.contact.inertial_speed == "whole"  # the drag's inertia at |(U, V)|'s Re
 
+    def mode_tolerances(self, speed: float, time_unit: float) -> np.ndarray:
+        """Each history mode's absolute tolerance (integrator._build_ts, as for the normal modes): along the wall on
+        its mass, the spin's on its inertia, each the error that moves U (or a Omega) by `speed` [m/s], shared among
+        the modes."""
+        found = np.zeros(self.size - len(self.names))
+        if self.n_history:
+            sensitivity = self.theory.history_sensitivity(self.mass, time_unit)
+            found[:self.n_history] = speed / (len(sensitivity) * sensitivity)
+        spinning = slice(self.rotation.start - len(self.names), self.rotation.stop - len(self.names))
+        if spinning.stop > spinning.start:  # each mode's error dzeta moves Omega by w_i min(T_i, t) dzeta / I
+            times = np.minimum(self.mode_times[spinning], time_unit)
+            sensitivity = np.maximum(self.spin_weights * times / self.inertia, 1e-30)
+            found[spinning] = speed / self.radius / (len(sensitivity) * sensitivity)
+        return found
+
+    def station(self, state) -> tuple[float, float]:
+        """What an impact's record reads where the collision passes a station: (U, Omega)."""
+        return float(state[1]), float(state[2])
+
+    def record(self, entry: tuple, end: float, rate: float, station: tuple) -> dict:
+        """One impact at one station (bounces.oblique_record), `entry` (t, normal speed, U, Omega) on the way in."""
+        return oblique_record(*entry, end, rate, *station, self.radius)
+
     def _drag_excess(self, velocity: float, normal: float) -> tuple[float, float, float]:
-        """(-3 pi mu D (phi - 1) U [N], its derivatives in U and in the normal velocity V [N s/m]): the free sphere's
-        inertial excess, phi at |U|, or at the whole speed |(U, V)| (contact.inertial_speed = "whole")."""
-        if not self.whole_speed:
-            normal = 0.0
-        speed = math.hypot(velocity, normal)
-        reynolds = self.density * speed * self.diameter / self.viscosity
-        if reynolds == 0.0:
-            return 0.0, 0.0, 0.0
-        stokes = 3.0 * math.pi * self.viscosity * self.diameter
-        excess = 0.15 * reynolds**0.687
-        # -3 pi mu D U d(phi - 1)/d|u| / |u|: times U or V, the excess's derivative through |u|
-        growth = -stokes * 0.687 * excess * velocity / speed**2
-        return -stokes * excess * velocity, -stokes * excess + growth * velocity, growth * normal
-
-    def _contact_inputs(self, gap: float, rate: float, engaged: float | None, slip: float,
-                        stretch: float) -> tuple | None:
-        """The friction's inputs (TangentialContact.rates's arguments) at the wall's gap and rate, or None while
-        nothing holds the spring."""
-        law = self.law
-        if engaged is None:
-            return None
-        push, d_gap, d_rate = law.force_slopes(gap, rate, engaged)
-        overlap = engaged - gap
-        stiffness, stiffening = self.contact.stiffness(law.stiffness, overlap)
-        if push <= 0.0 or stiffness <= 0.0:
-            return None
-        elastic_rate = 1.5 * law.stiffness * math.sqrt(overlap) * -rate  # d(k x^1.5)/dt
-        damping = matched_damping(-d_rate, self.ratio, INERTIA_FACTOR)
-        return push, elastic_rate, stiffness, stiffening * -rate, slip, stretch, damping
-
-    def _friction(self, gap: float, rate: float, engaged: float | None, slip: float, stretch: float):
-        """(friction force [N], the stretch's rate [m/s], d force/d slip, d force/d stretch, d rate/d slip,
-        d rate/d stretch) of the contact at the wall's gap and rate."""
-        arguments = self._contact_inputs(gap, rate, engaged, slip, stretch)
-        if arguments is None:
-            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-        state = self.contact.rates(*arguments)
-        slopes = self.contact.jacobian(*arguments)
-        force, spring = slopes["force"], slopes["stretch_rate"]
-        return (float(state.force), float(state.stretch_rate), float(force["slip"][0, 0]),
-                float(force["stretch"][0, 0]), float(spring["slip"][0, 0]), float(spring["stretch"][0, 0]))
+        """`drag_excess` of this sphere, phi at |U| or, with contact.inertial_speed = "whole", at |(U, V)|."""
+        return drag_excess(velocity, normal if self.whole_speed else 0.0, self.density, self.diameter, self.viscosity)
 
     def free_resistance(self, state, normal: float) -> tuple[float, float]:
         """(F [N], T [N m]) of the free sphere (far from walls) at the tangential `state` and the normal velocity
@@ -186,7 +231,7 @@ class TangentialMotion:
         `state`, the wall's `gap` [m] and its rate [m/s], the gap the film is evaluated at and the contact's engaged
         gap (the trajectory's columns f_tangential_liquid, f_friction, torque_liquid, and stretch_rate)."""
         velocity, spin, stretch = state[1], state[2], state[self.STRETCH]
-        friction, stretch_rate, *_ = self._friction(gap, rate, engaged, velocity - self.radius * spin, stretch)
+        friction, stretch_rate, *_ = self.friction.slopes(gap, rate, engaged, velocity - self.radius * spin, stretch)
         force, torque, *_ = self._liquid(film_gap, state, rate)
         return {"f_tangential_liquid": force, "f_friction": friction, "torque_liquid": torque,
                 "stretch_rate": stretch_rate}
@@ -207,11 +252,8 @@ class TangentialMotion:
             drag, torque = self.fluid.explicit - held  # the flow's part (the correction below the hold apart)
             missed = np.array([found["f_tangential_liquid"], found["torque_liquid"]]) - self.fluid.explicit
             found["f_tangential_liquid"], found["torque_liquid"] = drag + missed[0], torque + missed[1]
-        arguments = self._contact_inputs(gap, rate, engaged, velocity - self.radius * spin, stretch)
-        stored, lost, sliding = 0.0, 0.0, False
-        if arguments is not None:
-            _, d_gap, d_rate = self.law.force_slopes(gap, rate, engaged)
-            stored, lost, sliding = self.contact.energy(*arguments, force_rate=d_gap * rate + d_rate * acceleration)
+        stored, lost, sliding = self.friction.energy(gap, rate, engaged, velocity - self.radius * spin, stretch,
+                                                     acceleration)
         return {"f_tangential_liquid": found["f_tangential_liquid"], "f_friction": found["f_friction"],
                 "torque_liquid": found["torque_liquid"], "f_tangential_drag": drag, "torque_drag": torque,
                 "stretch": float(stretch), "spring_energy": stored, "dissipation_sliding": lost if sliding else 0.0,
@@ -242,7 +284,7 @@ class TangentialMotion:
         velocity, spin, stretch = state[1], state[2], state[self.STRETCH]
         a, n = self.radius, len(self.names)
         slip = velocity - a * spin
-        _, _, f_slip, f_stretch, r_slip, r_stretch = self._friction(gap, rate, engaged, slip, stretch)
+        _, _, f_slip, f_stretch, r_slip, r_stretch = self.friction.slopes(gap, rate, engaged, slip, stretch)
         _, _, resistance, slope, d_excess, d_normal = self._liquid(film_gap, state, rate)
         own = np.zeros((self.size, self.size))
         own[0, 0], own[0, 1] = shift, -1.0

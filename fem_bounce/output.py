@@ -71,12 +71,23 @@ TANGENTIAL_COLUMNS = ("x", "tangential_velocity", "spin", "f_tangential_liquid",
                       "dissipation_sticking")
 
 
+# A pair's off its line of centres (fem_bounce.pair_oblique, PairTangentialMotion.row): the centres in the plane x-z,
+# the angle of the line of centres from z, each sphere's velocity across it and spin, the liquid's force across it and
+# torque on each (the film's on sphere 1 apart), the contact's friction on sphere 1, the spring's stretch and stored
+# energy and the power the contact dissipates.  A pair's gap_k and velocity_k are then along the line of centres.
+PAIR_TANGENTIAL_COLUMNS = ("x_1", "z_1", "x_2", "z_2", "theta", "tangential_velocity_1", "tangential_velocity_2",
+                           "spin_1", "spin_2", "f_tangential_liquid_1", "f_tangential_liquid_2", "torque_liquid_1",
+                           "torque_liquid_2", "f_tangential_film_1", "f_friction", "stretch", "spring_energy",
+                           "dissipation_sliding", "dissipation_sticking")
+
+
 def trajectory_columns(spheres: int, oblique: bool = False) -> tuple:
     """The trajectory's columns for this many spheres (SPHERE_COLUMNS), and an oblique collision's."""
     if spheres == 1:
         return ("t", *(name for name in SPHERE_COLUMNS if name != "f_pair"), *(TANGENTIAL_COLUMNS if oblique else ()))
     gaps = tuple(pair_name(k, spheres).replace("pair", "pair_gap") for k in range(spheres - 1))
-    return ("t", *gaps, *(f"{name}_{k}" for k in range(1, spheres + 1) for name in SPHERE_COLUMNS))
+    return ("t", *gaps, *(f"{name}_{k}" for k in range(1, spheres + 1) for name in SPHERE_COLUMNS),
+            *(PAIR_TANGENTIAL_COLUMNS if oblique else ()))
 
 
 TRAJECTORY_COLUMNS = trajectory_columns(1)  # one sphere's

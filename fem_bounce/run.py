@@ -128,6 +128,9 @@ class _Safeguards:
         v0 = np.array([body.start_velocity for body in bodies]) if self.free else np.zeros(len(bodies))
         h0 = np.array([body.initial_gap for body in bodies])
         launch = 0.5 * (self.masses + displaced) @ v0**2
+        if integrator.pair_frame is not None:  # a pair off its line of centres trades the energy across it with V's
+            tangential = integrator.tangential
+            launch += tangential.kinetic_energy(tangential.start, displaced)
         self.release_energy = self.weights @ h0 + launch
         self.tolerance = ENERGY_TOLERANCE * (np.abs(self.weights) @ h0 + launch)
         # buoyancy lifts them (without gravity nothing does); launched at the wall they may still reach it
@@ -148,7 +151,7 @@ class _Safeguards:
             return
         integrator = self.integrator
         h, v, d = integrator.gaps, integrator.velocities, integrator.bodies[0].diameter
-        excess = 0.5 * self.masses @ (v * v) + self.weights @ h - self.release_energy
+        excess = 0.5 * self.masses @ (v * v) + integrator.across_energy + self.weights @ h - self.release_energy
         if excess > self.tolerance:
             hint = self.info.unstable_hint(self.scene)
             where = ", ".join(f"{x / d:.3g}" for x in h)

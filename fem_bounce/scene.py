@@ -220,6 +220,14 @@ class SecondSphere(Sphere):
     gap: float = _positive(unit="m")
     velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s")
     mode: str = _choice("free", "fixed", "prescribed")
+    # a pair meeting off its line of centres (the ode model; docs/physics.md, "Oblique collisions"): the motion stays
+    # in the plane x-z, the line of centres along z at the start
+    tangential_velocity: float = _between(-100.0, 100.0, 0.0, unit="m/s",
+                                          note="a free second sphere's velocity across the line of centres (x) at "
+                                               "the start")
+    spin: float = _between(-1e6, 1e6, 0.0, unit="1/s",
+                           note="a free second sphere's angular velocity about y at the start (the sign of the "
+                                "scene's spin)")
 
 
 @dataclass(frozen=True)
@@ -423,8 +431,10 @@ class Scene:
     # -- derived quantities (never typed in) --
     @property
     def oblique(self) -> bool:
-        """The sphere moves along the wall or spins, or gravity is tilted: the motion leaves the axis."""
-        return self.tangential_velocity != 0.0 or self.spin != 0.0 or self.gravity_angle != 0.0
+        """The sphere moves along the wall or spins, or gravity is tilted, or a sphere above it moves across the line
+        of centres or spins: the motion leaves the axis."""
+        return (self.tangential_velocity != 0.0 or self.spin != 0.0 or self.gravity_angle != 0.0
+                or any(s.tangential_velocity != 0.0 or s.spin != 0.0 for _, s in self._upper_spheres()))
 
     @property
     def pair(self) -> bool:
@@ -616,11 +626,23 @@ class Scene:
     def _check_oblique(self) -> None:
         """An oblique collision: one free sphere and the wall, the Hertz contact (its overlap carries the friction's
         tangential spring) and a friction coefficient for the material pair."""
+        across = [f"{key}.{name}" for key, sphere in self._upper_spheres() for name in ("tangential_velocity", "spin")
+                  if getattr(sphere, name)]
         what = ("tangential_velocity, spin or gravity_angle" if self.tangential_velocity or self.spin
-                else "gravity_angle")
-        if self.second_sphere is not None or not self.wall.present or self.motion.mode != "free":
-            raise SceneError(f"{what} != 0 (an oblique collision) is modelled for one free sphere and a wall: not with "
-                             "second_sphere, wall.present = false or motion.mode fixed or prescribed")
+                else ", ".join(across) if across else "gravity_angle")
+        where = ("is modelled for one free sphere and a wall, or for two free spheres meeting off their line of "
+                 "centres without a wall or gravity")
+        if self.second_sphere is not None:
+            if (self.further_spheres or self.wall.present or self.gravity != 0.0 or self.motion.mode != "free"
+                    or self.second_sphere.mode != "free"):
+                raise SceneError(f"{what} != 0 (an oblique collision) {where}: not with further_spheres, "
+                                 "wall.present = true, gravity != 0 or a sphere's mode fixed or prescribed")
+            if self.contact.inertial_speed != "component":
+                raise SceneError('contact.inertial_speed = "whole" is modelled for a sphere at a wall: a pair off its '
+                                 'line of centres takes each component\'s drag at its own Re ("component")')
+        elif not self.wall.present or self.motion.mode != "free":
+            raise SceneError(f"{what} != 0 (an oblique collision) {where}: not with wall.present = false or "
+                             "motion.mode fixed or prescribed")
         if self.contact.model != "lubricated-hertz":
             raise SceneError(f'{what} != 0 (an oblique collision) needs contact.model = "lubricated-hertz": its Hertz '
                              f'contact carries the friction (not {self.contact.model!r})')
@@ -836,7 +858,14 @@ NOT_PHYSICS = ("name", "description", "run", "reference", "numerics")
 
 # fields added after digests were recorded, at the values that do what the scene did before them (the oblique
 # fields' head-on values, the drag's inertia per component): left out of the digest there
-LATER = {"tangential_velocity": 0.0, "spin": 0.0, "gravity_angle": 0.0, "contact.inertial_speed": "component"}
+LATER = {"tangential_velocity": 0.0, "spin": 0.0, "gravity_angle": 0.0, "contact.inertial_speed": "component",
+         "second_sphere.tangential_velocity": 0.0, "second_sphere.spin": 0.0,
+         "further_spheres.tangential_velocity": 0.0, "further_spheres.spin": 0.0}
+
+
+def _tables(value) -> list[dict]:
+    """A table, or each table of a list of them."""
+    return [entry for entry in value if isinstance(entry, dict)] if isinstance(value, (list, tuple)) else [value]
 
 
 def physics_digest(scene: Scene) -> str:
@@ -846,11 +875,12 @@ def physics_digest(scene: Scene) -> str:
     physics = {key: value for key, value in to_dict(scene).items() if key not in NOT_PHYSICS}
     for path, value in LATER.items():
         *tables, key = path.split(".")
-        table = physics
-        for name in tables:
-            table = table.get(name, {})
-        if table.get(key, value) == value:
-            table.pop(key, None)
+        found = [physics]
+        for name in tables:  # a list of tables (further_spheres): each of them
+            found = [entry for table in found for entry in _tables(table.get(name, {}))]
+        for table in found:
+            if table.get(key, value) == value:
+                table.pop(key, None)
     return hashlib.sha256(json.dumps(physics, sort_keys=True).encode()).hexdigest()[:16]
 
 

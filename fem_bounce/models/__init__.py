@@ -70,14 +70,17 @@ def check_scene(entry: ModelInfo, scene) -> None:
     """Refuse a scene the model cannot run at all, before anything is written: more spheres than it runs
     (ModelError), or a release above what it meshes (scene.SceneError)."""
     spheres = len(scene.spheres)
+    # off the axis only the models that run it, and as many spheres
+    able = [name for name in registry.running(spheres) if MODELS[name].oblique or not scene.oblique]
     if spheres > entry.max_spheres:
         what = "a pair of spheres ([second_sphere])" if spheres == 2 else f"{spheres} spheres ([[further_spheres]])"
-        raise ModelError(f"the {entry.name} model cannot run {what}: it runs at most {entry.max_spheres}; use one of "
-                         f"{', '.join(registry.running(spheres))}")
+        raise ModelError(f"the {entry.name} model cannot run {what}: it runs at most {entry.max_spheres}; use "
+                         f"{'one of ' * (len(able) > 1)}{', '.join(able)}")
     if scene.oblique and not entry.oblique:
-        raise ModelError(f"the {entry.name} model is axisymmetric: a scene with tangential_velocity, spin or "
-                         f"gravity_angle != 0 leaves the axis; run it with --model "
-                         f"{' or '.join(name for name, info in MODELS.items() if info.oblique)}")
+        what = ("a pair off its line of centres (second_sphere.tangential_velocity or spin != 0)" if spheres > 1 else
+                "a scene with tangential_velocity, spin or gravity_angle != 0")
+        raise ModelError(f"the {entry.name} model is axisymmetric: {what} leaves the axis; run it with --model "
+                         f"{' or '.join(able)}")
     if not entry.containers and not scene.container.unbounded:
         raise SceneError(f'the {entry.name} model meshes a box, not a cylindrical container: give container = '
                          '"unbounded", or use another model')
