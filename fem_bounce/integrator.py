@@ -63,7 +63,8 @@ class BodyIntegrator(BodyEquations):
         self._stall_speed = STALL_FRACTION * scene.launch_speed if scene.gravity == 0.0 else 0.0
         self._turning_offset = TURNING_OFFSET if count > 1 else 0.0
         self.steps = 0
-        self.oblique_impacts: list[dict] = []  # each oblique impact at its two stations (bounces.oblique_record)
+        # each oblique impact at its two stations (tangential_contact.oblique_record)
+        self.oblique_impacts: list[dict] = []
         # each station's (t, normal speed, U, Omega) where the current collision passed it on the way in
         self._oblique_entries: dict[str, tuple | None] = {"contact": None, "outer": None}
         self._build_ts()
@@ -249,7 +250,7 @@ class BodyIntegrator(BodyEquations):
                 self._penetration(contact, t, gap)
 
     def _tangential_crossing(self, ts, t: float, rate: float, station: str) -> None:
-        """An oblique collision passes one of its two stations (bounces.oblique_record): the contact gap
+        """An oblique collision passes one of its two stations (tangential_contact.oblique_record): the contact gap
         ("contact": its spring starts unstretched there) or delta_sl D ("outer"), on the way in or out."""
         solution = ts.getSolution()
         along = self.tangential_slice

@@ -40,11 +40,10 @@ import math
 
 import numpy as np
 
-from .bounces import oblique_record
 from .contact import ContactLaw
 from .kinematics import PlaneForce
 from .scene import Scene
-from .tangential_contact import TangentialContact, matched_damping
+from .tangential_contact import TangentialContact, matched_damping, oblique_record
 from .theory import TheoryForces, rotation_history_modes
 from .wall_tangential import wall_tangential_resistance
 
@@ -178,7 +177,8 @@ class TangentialMotion:
         return float(state[1]), float(state[2])
 
     def record(self, entry: tuple, end: float, rate: float, station: tuple) -> dict:
-        """One impact at one station (bounces.oblique_record), `entry` (t, normal speed, U, Omega) on the way in."""
+        """One impact at one station (tangential_contact.oblique_record), `entry` (t, normal speed, U, Omega) on the
+        way in."""
         return oblique_record(*entry, end, rate, *station, self.radius)
 
     def _drag_excess(self, velocity: float, normal: float) -> tuple[float, float, float]:

@@ -41,10 +41,10 @@ import math
 
 import numpy as np
 
-from .bounces import oblique_record
 from .contact import ContactLaw
 from .oblique import ADDED_MASS, INERTIA_FACTOR, ContactFriction, drag_excess, stiffness_ratio
 from .scene import Scene
+from .tangential_contact import oblique_record
 from .theory import TheoryForces, rotation_history_modes
 
 SLIP = np.array([1.0, -1.0])  # d slip / d(U_1, U_2); the spins' are the radii
@@ -105,7 +105,6 @@ class PairTangentialMotion:
         self.masses = np.array([b.mass for b in bodies]) + ADDED_MASS * self._displaced  # along t
         self.inertias = INERTIA_FACTOR * np.array([b.mass for b in bodies]) * self.radii**2
         self.inertia_diagonal = np.r_[self.masses, self.inertias]
-        self.law = law
         self.friction = ContactFriction(law, scene.contact.friction, stiffness_ratio(
             first.youngs_modulus, first.poisson_ratio, second.youngs_modulus, second.poisson_ratio))
         self.theories = theories
@@ -133,7 +132,11 @@ class PairTangentialMotion:
 
     def slip(self, state) -> float:
         """The slip of sphere 1's contact point over sphere 2's [m/s]."""
-        return float(state[3] - state[4] + self.radii @ state[5:7])
+        return self._slip(state[self.VELOCITIES])
+
+    def _slip(self, velocities) -> float:
+        """`slip` from (U_1, U_2, Omega_1, Omega_2)."""
+        return float(velocities[0] - velocities[1] + self.radii @ np.asarray(velocities[2:4], dtype=float))
 
     def _history(self, state) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
         """(the history forces along t [N], their derivatives in U_k [N s/m], each sphere's coefficients c_i) and
@@ -313,15 +316,15 @@ class PairTangentialMotion:
         return tuple(float(v) for v in state[self.VELOCITIES])
 
     def record(self, entry: tuple, end: float, rate: float, station: tuple) -> dict:
-        """One impact at one station (bounces.oblique_record; `entry` (t, normal speed, *station) on the way in) from
-        sphere 2's view (the projectile of a launched pair), as if sphere 1 were its wall: its velocity along t relative
-        to sphere 1's, U_2 - U_1, as the tangential velocity, the slip of its contact point over sphere 1's (-s) as the
-        contact velocity (v_t of psi = v_t / v_n,in), and each sphere's spin, [Omega_1, Omega_2] (sphere 2's positive
-        in its rolling sense over sphere 1)."""
+        """One impact at one station (tangential_contact.oblique_record; `entry` (t, normal speed, *station) on the
+        way in) from sphere 2's view (the projectile of a launched pair), as if sphere 1 were its wall: its velocity
+        along t relative to sphere 1's, U_2 - U_1, as the tangential velocity, the slip of its contact point over
+        sphere 1's (-s) as the contact velocity (v_t of psi = v_t / v_n,in), and each sphere's spin, [Omega_1,
+        Omega_2] (sphere 2's positive in its rolling sense over sphere 1)."""
         start, speed_in, *before = entry
         found = oblique_record(start, speed_in, before[1] - before[0], 0.0, end, rate, station[1] - station[0], 0.0,
                                0.0)
-        contact_in, contact_out = (-self.slip(np.r_[0.0, 0.0, 0.0, values]) for values in (before, station))
+        contact_in, contact_out = (-self._slip(values) for values in (before, station))
         found.update(spin_in=list(before[2:]), spin_out=list(station[2:]), contact_velocity_in=contact_in,
                      contact_velocity_out=contact_out, psi_in=contact_in / speed_in, psi_out=contact_out / speed_in,
                      tangential_restitution=contact_out / contact_in if contact_in != 0.0 else None)

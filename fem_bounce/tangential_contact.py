@@ -256,3 +256,23 @@ def oblique_rigid_theory(psi_in: float, normal_restitution: float, friction: flo
         psi_out, restitution, sliding = 0.0, 0.0, False
     return ObliqueImpact(sign * psi_out, restitution, sign * impulse / inertia_factor, sign * (size - impulse),
                          sliding)
+
+
+def oblique_record(start: float, speed_in: float, velocity_in: float, spin_in: float, end: float, speed_out: float,
+                   velocity_out: float, spin_out: float, radius: float) -> dict:
+    """One oblique impact seen at one station, from the centre's normal speed, its velocity along the wall and its
+    spin where the collision passes it on the way in and out [s, m/s, 1/s, m]: the contact gap (the collision of the
+    solids within the film) or delta_sl D (the collision with its near-wall layer of liquid, where the package's
+    restitution is taken).  As Joseph & Hunt (2004) give theirs, with the contact point's
+    tangential velocity v_t = U - a Omega, psi = v_t / v_n,in, the normal restitution v_n,out / v_n,in, the
+    tangential v_t,out / v_t,in, and the effective friction |U_in - U_out| / (v_n,in + v_n,out) (the tangential
+    impulse over the normal one, the liquid's share included)."""
+    contact_in, contact_out = velocity_in - radius * spin_in, velocity_out - radius * spin_out
+    return {"time": start, "end": end, "incidence_deg": math.degrees(math.atan2(abs(velocity_in), speed_in)),
+            "normal_speed_in": speed_in, "normal_speed_out": speed_out, "tangential_velocity_in": velocity_in,
+            "tangential_velocity_out": velocity_out, "spin_in": spin_in, "spin_out": spin_out,
+            "contact_velocity_in": contact_in, "contact_velocity_out": contact_out,
+            "psi_in": contact_in / speed_in, "psi_out": contact_out / speed_in,
+            "normal_restitution": speed_out / speed_in,
+            "tangential_restitution": contact_out / contact_in if contact_in != 0.0 else None,
+            "effective_friction": abs(velocity_in - velocity_out) / (speed_in + speed_out)}

@@ -41,6 +41,7 @@ LAYERS = {
     "fem_bounce.wall_tangential": PHYSICS,
     "fem_bounce.tangential_contact": PHYSICS,
     "fem_bounce.oblique": PHYSICS,
+    "fem_bounce.pair_oblique": PHYSICS,
     # the bodies' equations of motion and their bounce records
     "fem_bounce.bounces": INTEGRATOR,
     "fem_bounce.equations": INTEGRATOR,
