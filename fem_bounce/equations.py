@@ -449,7 +449,7 @@ class BodyEquations:
                 jac[modes, velocity] = -shift * remember[k]
                 jac[modes, modes] = np.diag(shift + 1.0 / self._mode_times[k])
         if self.pair_frame is not None:
-            self._pair_frame_jacobian(jac, y, mass, shift)
+            self._pair_frame_jacobian(jac, y, f, mass, shift)
         elif self.tangential is not None:
             along, wall = self.tangential_slice, self.wall
             gap, _, film_slope, _ = self._wall_films[0]
@@ -463,7 +463,7 @@ class BodyEquations:
                 jac[layout.velocity_index(0), along.start + 1:along.start + 3] += shift * self.fluid.plane.mass[0, 1:]
         return jac
 
-    def _pair_frame_jacobian(self, jac: np.ndarray, y, mass: np.ndarray, shift: float) -> None:
+    def _pair_frame_jacobian(self, jac: np.ndarray, y, f: ForceTerms, mass: np.ndarray, shift: float) -> None:
         """The pair's rows across its line of centres (pair_oblique.PairTangentialMotion.jacobian) and the turning
         frame's terms in the normal rows and modes, into `jac`."""
         layout, along, pair = self.kinematics, self.tangential_slice, self.pair_frame
@@ -478,7 +478,7 @@ class BodyEquations:
         across = slice(along.start + 3, along.start + 5)  # U_1, U_2
         jac[velocities, across] -= mass @ d_across
         jac[velocities, pair.gap_index] -= mass @ d_gap
-        for k, j, column, slope in self.forces(0.0, y).theory_mass_slopes:  # the pair's added mass in its gap
+        for k, j, column, slope in f.theory_mass_slopes:  # the pair's added mass in its gap
             jac[velocities[k], column] -= slope * lack[j]
         modes = slice(layout.size, along.start)
         remember = self._remembering() if self._pause_history else np.ones(len(self.bodies))

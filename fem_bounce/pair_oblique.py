@@ -138,18 +138,19 @@ class PairTangentialMotion:
         """`slip` from (U_1, U_2, Omega_1, Omega_2)."""
         return float(velocities[0] - velocities[1] + self.radii @ np.asarray(velocities[2:4], dtype=float))
 
-    def _history(self, state) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
-        """(the history forces along t [N], their derivatives in U_k [N s/m], each sphere's coefficients c_i) and
-        the spins' history torques [N m]."""
-        forces, slopes, coefficients = np.zeros(4), np.zeros(2), []
+    def _history(self, state, coefficients: bool = False) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+        """(the history forces along t and the spins' history torques [N, N m], the forces' derivatives in U_k
+        [N s/m], and with `coefficients` each sphere's c_i, for the Jacobian)."""
+        forces, slopes, found = np.zeros(4), np.zeros(2), []
         for k, theory in enumerate(self.theories):
-            coefficients.append(theory.history_coefficients(float(state[3 + k]))[:self.n_history[k]])
+            if coefficients:
+                found.append(theory.history_coefficients(float(state[3 + k]))[:self.n_history[k]])
             if self.n_history[k]:
                 memory, slope = theory.history_memory(float(state[3 + k]), np.asarray(state[self.modes[k]], float))
                 forces[k], slopes[k] = -memory, -slope
         for k in range(2):
             forces[2 + k] = -float(self.spin_weights[k] @ np.asarray(state[self.modes[2 + k]], dtype=float))
-        return forces, slopes, coefficients
+        return forces, slopes, found
 
     def _drag(self, state) -> tuple[np.ndarray, np.ndarray]:
         """(each sphere alone: drag along t and torque [N, N m], d/d(U_1, U_2, Omega_1, Omega_2) on the diagonal)."""
@@ -211,7 +212,7 @@ class PairTangentialMotion:
                                                                        state[self.STRETCH])[1:]
         film, film_rate = pair_lubrication(*self.radii, self.viscosity, film_gap)
         _, drag_slopes = self._drag(state)
-        _, history_slopes, coefficients = self._history(state)
+        _, history_slopes, coefficients = self._history(state, coefficients=True)
         lever = np.r_[SLIP, self.radii]  # d slip / d velocities, and the friction's share of each row
         own = np.zeros((self.size, self.size))
         np.fill_diagonal(own, shift)
