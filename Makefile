@@ -1,6 +1,7 @@
 # Two commands for a fresh machine (see README.md):
 #   make demo   install everything, then run the default scene (with the front's model: docs/usage.md)
-#   make test   install everything, then lint (ruff) and run the tests serial and under mpiexec -n 2
+#   make test   install everything, then lint (ruff) and run the tests serial (in TEST_WORKERS processes)
+#               and under mpiexec -n 2
 # Everything comes from PyPI as binary wheels (FEniCSx 0.11 with PETSc, MUMPS, OpenBLAS and MPICH:
 # pyproject.toml's extras "stack" and "test") into .venv, made from a Python >= 3.12.
 # Re-running either is fast: the install step is skipped when nothing changed.
@@ -10,6 +11,8 @@ PY      := $(VENV)/bin/python
 # MPICH's launcher from the wheel, beside the Python it starts (an OpenMPI mpiexec cannot start it)
 MPIEXEC := $(VENV)/bin/mpiexec
 PYTEST_ARGS ?=
+# the serial suite's worker processes (pytest-xdist), one per core of the 2-core machines it is measured on
+TEST_WORKERS ?= 2
 # the system libraries gmsh's wheel links (X11 and OpenGL for its unused GUI), installed only if missing
 GMSH_LIBS := libglu1-mesa libgl1 libxrender1 libxcursor1 libxfixes3 libxft2 libxinerama1 libgomp1
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
@@ -28,7 +31,7 @@ FRESH_CACHE = $(if $(CI),rm -rf .ci-cache/$(1) && XDG_CACHE_HOME=$(CURDIR)/.ci-c
 test: install
 	$(VENV)/bin/ruff check --no-cache .
 	$(call FRESH_CACHE,mpi) $(MPIEXEC) -n 2 $(PY) tests/mpi_pytest.py -q --color=no -m mpi $(PYTEST_ARGS)
-	$(call FRESH_CACHE,serial) $(PY) -m pytest -q $(PYTEST_ARGS)
+	$(call FRESH_CACHE,serial) $(PY) -m pytest -q -n $(TEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
 
 install: $(VENV)/.installed
 
