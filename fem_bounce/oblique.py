@@ -75,6 +75,19 @@ def drag_excess(velocity: float, normal: float, density: float, diameter: float,
     return -stokes * excess * velocity, -stokes * excess + growth * velocity, growth * normal
 
 
+def mode_tolerances(speed: float, sensitivity: np.ndarray) -> np.ndarray:
+    """History modes' absolute tolerances (integrator._build_ts, as for the normal modes): the error in each that
+    moves its velocity (or spin) by `speed`, shared among the modes, each mode's `sensitivity` what one unit of its
+    error moves."""
+    sensitivity = np.maximum(np.asarray(sensitivity, dtype=float), 1e-30)
+    return speed / (len(sensitivity) * sensitivity)
+
+
+def spin_sensitivity(weights: np.ndarray, times: np.ndarray, time_unit: float, inertia: float) -> np.ndarray:
+    """The spin [1/s] that one unit of error in each spin history mode moves: w_i min(T_i, t) / I."""
+    return weights * np.minimum(times, time_unit) / inertia
+
+
 class ContactFriction:
     """The friction of one Hertz contact (the wall's or a pair's, `law`): tangential_contact.TangentialContact with
     the contact's normal force, its Mindlin stiffness and the damper matched to the normal one, at the contact's gap
@@ -163,13 +176,11 @@ class TangentialMotion:
         the modes."""
         found = np.zeros(self.size - len(self.names))
         if self.n_history:
-            sensitivity = self.theory.history_sensitivity(self.mass, time_unit)
-            found[:self.n_history] = speed / (len(sensitivity) * sensitivity)
+            found[:self.n_history] = mode_tolerances(speed, self.theory.history_sensitivity(self.mass, time_unit))
         spinning = slice(self.rotation.start - len(self.names), self.rotation.stop - len(self.names))
-        if spinning.stop > spinning.start:  # each mode's error dzeta moves Omega by w_i min(T_i, t) dzeta / I
-            times = np.minimum(self.mode_times[spinning], time_unit)
-            sensitivity = np.maximum(self.spin_weights * times / self.inertia, 1e-30)
-            found[spinning] = speed / self.radius / (len(sensitivity) * sensitivity)
+        if spinning.stop > spinning.start:
+            found[spinning] = mode_tolerances(speed / self.radius, spin_sensitivity(
+                self.spin_weights, self.mode_times[spinning], time_unit, self.inertia))
         return found
 
     def station(self, state) -> tuple[float, float]:

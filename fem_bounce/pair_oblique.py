@@ -42,7 +42,8 @@ import math
 import numpy as np
 
 from .contact import ContactLaw
-from .oblique import ADDED_MASS, INERTIA_FACTOR, ContactFriction, drag_excess, stiffness_ratio
+from .oblique import (ADDED_MASS, INERTIA_FACTOR, ContactFriction, drag_excess, mode_tolerances, spin_sensitivity,
+                      stiffness_ratio)
 from .scene import Scene
 from .tangential_contact import oblique_record
 from .theory import TheoryForces, rotation_history_modes
@@ -265,17 +266,14 @@ class PairTangentialMotion:
         `speed` [m/s], shared among the sphere's modes (integrator._build_ts, as for the normal modes)."""
         found = np.zeros(self.size - len(self.names))
         for k, modes in enumerate(self.modes):
-            count = modes.stop - modes.start
-            if not count:
+            if modes.stop == modes.start:
                 continue
             where = slice(modes.start - len(self.names), modes.stop - len(self.names))
             if k < 2:
-                sensitivity = self.theories[k].history_sensitivity(self.masses[k], time_unit)
-                found[where] = speed / (count * sensitivity)
+                found[where] = mode_tolerances(speed, self.theories[k].history_sensitivity(self.masses[k], time_unit))
             else:
-                times = np.minimum(self.spin_times[k - 2], time_unit)
-                sensitivity = np.maximum(self.spin_weights[k - 2] * times / self.inertias[k - 2], 1e-30)
-                found[where] = speed / self.radii[k - 2] / (count * sensitivity)
+                found[where] = mode_tolerances(speed / self.radii[k - 2], spin_sensitivity(
+                    self.spin_weights[k - 2], self.spin_times[k - 2], time_unit, self.inertias[k - 2]))
         return found
 
     def kinetic_energy(self, state, displaced: np.ndarray | None = None) -> float:
