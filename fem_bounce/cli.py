@@ -459,7 +459,7 @@ def _study(args, comm, runner) -> int:
     elif args.kind == "oblique":
         from .studies import oblique
 
-        angles = numbers(args.angles, "--angles") if args.angles else oblique.ANGLES
+        angles = oblique.ANGLES if args.angles is None else numbers(args.angles, "--angles") or ()
         oblique.run(scenes.load(args.scene, changes), comm, out, angles, runner=runner, model=args.model)
     elif args.kind == "band":
         from . import uncertain

@@ -34,6 +34,10 @@ def test_unknown_study_sweep_is_refused(sweeps, message, tmp_path, capsys):
     (["restitution", "--points", "1000000000"], "--points 1000000000: allowed 2 to 1000"),
     (["restitution", "--set", "initial_gap=5"], "--set initial_gap: the restitution sweep sets initial_gap"),
     (["compare", "li2011-case3", "--models", "ode,ode"], "--models names ode more than once"),
+    (["study", "oblique", "foerster1994-glass", "--angles", ""], "(0, 90) from the wall's normal, got none"),
+    (["study", "oblique", "foerster1994-glass", "--angles", "0"], "--angles '0': expected"),
+    (["study", "oblique", "foerster1994-glass", "--angles", "30,90"], "(0, 90) from the wall's normal, got 90"),
+    (["study", "oblique", "foerster1994-glass", "--angles", "30,10,30"], "--angles names 30 more than once"),
 ])
 def test_study_arguments_are_checked_before_anything_is_written(argv, message, tmp_path, monkeypatch, capsys):
     """--levels nan named numerics.ode.rtol and left an empty directory, --points 0 meant the default,

@@ -52,10 +52,13 @@ def check(base: scenes.Scene, angles) -> None:
                                 f"{base.initial_velocity:g} m/s must be < 0 (its size is the launch speed)")
     if base.contact.friction is None:
         raise scenes.SceneError("the oblique study needs contact.friction, the material pair's Coulomb coefficient")
-    bad = [a for a in angles if not (math.isfinite(a) and 0.0 <= a < 90.0)]
+    bad = [a for a in angles if not (math.isfinite(a) and 0.0 < a < 90.0)]
     if bad or not angles:
-        raise scenes.SceneError(f"--angles: expected degrees in [0, 90) from the wall's normal, got "
+        raise scenes.SceneError(f"--angles: expected degrees in (0, 90) from the wall's normal, got "
                                 f"{', '.join(f'{a:g}' for a in bad) or 'none'}")
+    twice = sorted({a for a in angles if angles.count(a) > 1})
+    if twice:
+        raise scenes.SceneError(f"--angles names {', '.join(f'{a:g}' for a in twice)} more than once")
 
 
 def scene_at(base: scenes.Scene, angle: float) -> scenes.Scene:
