@@ -206,8 +206,8 @@ class Fd3dNumerics:
     # "half": the half box y >= 0 of a flow symmetric about the plane of incidence y = 0 (half the unknowns);
     # "whole": the whole box, the sphere still moving in that plane, and the flow's force across the plane and its
     # torque about the axes in it reported (summary.json's fd3d.out_of_plane, with the velocity across the plane and
-    # the spin they would have given the sphere): the check that the half box's symmetry holds (run at 4 cells/D; at
-    # the default resolution its held phase has diverged after the contact: docs/validation.md section 14)
+    # the spin they would have given the sphere): the check that the half box's symmetry holds (docs/validation.md
+    # section 14)
     box: str = field(default="half", metadata={"choices": ("half", "whole")})
     # moving mesh: the sphere's surface's tetrahedra this many times finer than cells_per_diameter's (the gap below
     # and the rest keep those): the rebound's error lives in the surface's cells

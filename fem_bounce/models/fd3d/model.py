@@ -26,7 +26,10 @@ Two meshes (numerics.fd3d.mesh; mesh.create_box_mesh), fine only in a patch arou
   precondition FGMRES over many steps (flow.PenalisedFlow3D's "reuse", factorised again when the iterations make
   that cheaper: fem.solver.ReusedFactorOperator).  The flow takes the non-conservative ALE form (convection by
   u* - w).  A new mesh is made where the sphere will be when it has moved patch_margin / 2 D from where the mesh
-  was made, or the gap under it has halved or doubled; surface_refinement makes the surface's cells finer;
+  was made, or the gap under it has halved or doubled, or the motion would bring its worst tetrahedron below half
+  the quality of the worst as made (a sphere held near the wall and sliding shears the few cells between its
+  rigid layer and the wall: at 6 cells/D they had turned inside out within 0.17 D); surface_refinement makes the
+  surface's cells finer;
 - "fixed": the sphere moves through the mesh, whose fine shell covers its surface wherever its centre lies within
   patch_margin / 2 D of the patch's centre along z (BoxSpec.travel), and the gap below the lowest of those places;
   a new mesh when the centre strays from the patch (patch centres on a grid of patch_margin / 2 D).  Every step
@@ -107,6 +110,9 @@ HEAD_ON = ("U_z",)  # the rigid mode a head-on bounce moves
 OBLIQUE = ("U_z", "U_x", "Omega_y")  # an oblique one's, in the plane of incidence: the normal first
 RIGID_LAYER = 2.0  # the moving mesh carries the sphere and this many fine cells around it rigidly
 GAP_RATIO = 0.5  # the moving mesh is made again when the gap under the sphere has fallen or grown by this factor
+# ... or when its worst tetrahedron would fall below this fraction of the worst of the mesh as made: sliding along the
+# wall shears the few cells between the rigid layer and the wall, and held there they had turned inside out
+QUALITY_RATIO = 0.5
 
 
 class FieldWriter3D:
@@ -203,6 +209,9 @@ class FictitiousDomain3DModel(FlowModel):
         self.flow: PenalisedFlow3D | None = None
         self.fields: FieldWriter3D | None = None
         self.remeshes, self.remesh_s = 0, 0.0
+        # the moving mesh: new meshes made because the motion sheared the old one (QUALITY_RATIO), and the worst
+        # tetrahedron of the meshes the steps were taken on over that of each mesh as made
+        self.sheared_remeshes, self.worst_quality = 0, 1.0
         self.retired = {"factorisations": 0, "factorise_s": 0.0, "solve_s": 0.0, "assembly_s": 0.0,
                         "krylov_iterations": 0}
         self.timings = {"setup": 0.0, "steps": 0.0, "integrator": 0.0}
@@ -278,6 +287,7 @@ class FictitiousDomain3DModel(FlowModel):
             self.ball_scale = restore_ball_volume(self.mesh, cell_tags, spec)
             rigid = self.radius + RIGID_LAYER * self.surface_size
             self.motion = MeshMotion3D(self.mesh, facet_tags, spec.center, rigid)
+            self.made_quality = self.motion.quality(np.zeros(3))
             self.motion.move_to(center)
             velocity, solver = self.motion.velocity, "reuse"
             # an oblique collision's hold: the mesh moves along z with the sphere's normal amplitude (module docstring)
@@ -296,8 +306,15 @@ class FictitiousDomain3DModel(FlowModel):
     def strays(self, center) -> bool:
         """Whether the sphere centred at `center` [m] (a 3-vector) needs a new patch (module docstring)."""
         travelled = math.hypot(center[0] - self.patch[0], center[2] - self.patch[2]) > self.travel * (1.0 + 1e-9)
+        if travelled or not self.moving:
+            return travelled
         ratio = (center[2] - self.radius) / (self.patch[2] - self.radius)
-        return travelled or (self.moving and not GAP_RATIO <= ratio <= 1.0 / GAP_RATIO)
+        quality = self.motion.quality(center - self.motion.reference_center) / self.made_quality
+        if quality < QUALITY_RATIO:
+            self.sheared_remeshes += 1
+            return True
+        self.worst_quality = min(self.worst_quality, quality)
+        return not GAP_RATIO <= ratio <= 1.0 / GAP_RATIO
 
     def follow(self, center) -> None:
         """A new patch's mesh when the sphere's centre `center` [m] has left the patch, the flow's BDF levels
@@ -557,6 +574,8 @@ class FictitiousDomain3DModel(FlowModel):
             "factorisation_memory_bytes": operator.factor_memory() if operator is not None else None,
             "mesh_key": self.spec().key(),
             "remeshes": self.remeshes,
+            **({"sheared_remeshes": self.sheared_remeshes, "worst_quality_over_made": self.worst_quality}
+               if self.moving else {}),
             "remesh_s": self.remesh_s,
             "penalty_rate_per_s": self.penalty_rate,
             **({"ball_radius_scale": self.ball_scale} if self.moving else {}),
