@@ -44,6 +44,7 @@ from .pair_contact import PairContactModel
 from .pair_oblique import PairTangentialMotion
 from .scene import Scene
 from .theory import TheoryForces
+from .wall_lift import WallLift
 
 
 @dataclass
@@ -103,7 +104,9 @@ class ForceTerms:
         self.blend_slopes: list[tuple[int, int, float]] = []
         self.theory_mass_slopes: list[tuple[int, int, int, float]] = []
         self.correction_mass_slopes: list[tuple[int, int, float]] = []
-        self.across, self.drag_across_slope = 0.0, 0.0  # sphere 1's velocity along the wall, d f_D,1 / d it
+        self.across = 0.0  # sphere 1's velocity along the wall when its drag's inertia reads it
+        self.across_slope = 0.0  # d f_thr,1 / d sphere 1's velocity along the wall (its drag's and lift's)
+        self.lift = 0.0  # sphere 1's lift from sliding along the wall (wall_lift), in its theory force
 
 
 class BodyEquations:
@@ -158,6 +161,10 @@ class BodyEquations:
             self.tangential = PairTangentialMotion(scene, self.pair_frame.law, self.bodies, self.theories)
         # the normal drag's inertia at the whole speed's Re (contact.inertial_speed; theory.TheoryForces.drag_slopes)
         self._whole_speed = self.tangential is not None and scene.contact.inertial_speed == "whole"
+        # the lift of sphere 1 sliding along the wall, in its theory force (contact.lift; wall_lift)
+        self._lift = (WallLift(scene.sphere.diameter, scene.liquid.density, scene.liquid.viscosity)
+                      if self.tangential is not None and self.pair_frame is None and self.uses_theory
+                      and scene.contact.lift == "steady" else None)
         start = layout.size + sum(self.n_history)
         self.tangential_slice = slice(start, start + (self.tangential.size if self.tangential else 0))
         # what the force terms and the residual reuse at every call (ForceTerms, forces, residual)
@@ -232,7 +239,7 @@ class BodyEquations:
             drag, d_gap, d_share, d_velocity, d_across = theory.drag_slopes(gap, v[k], share, across)
             f.drag[k] = drag
             if across:  # the drag's inertia is the whole speed's (theory.TheoryForces.drag_slopes)
-                f.across, f.drag_across_slope = across, d_across
+                f.across, f.across_slope = across, d_across
             d_height = d_gap * gap_slope + d_share * share_slope
             slopes.append((k, velocity, d_velocity))
             added_mass = theory.added_mass_slopes(gap)
@@ -246,6 +253,12 @@ class BodyEquations:
             f.theory_height_slopes[k] += d_height
             f.am_velocity[k] = term
             f.theory[k] += drag + term
+        if self._lift is not None:
+            gap, _, gap_slope, _ = self._wall_films[0]
+            f.lift, d_gap, d_along = self._lift.force_slopes(gap, float(y[self.tangential_slice.start + 1]))
+            f.theory[0] += f.lift
+            f.theory_height_slopes[0] += d_gap * gap_slope
+            f.across_slope += d_along
         for contact in self.pair_contacts:
             self._pair_forces(f, contact, float(y[contact.gap_index]), v, rates)
         for k, modes in enumerate(self._mode_slices):
@@ -457,8 +470,8 @@ class BodyEquations:
                                                    wall.record.engaged_now, shift)
             jac[along, along] = own
             jac[along, [wall.gap_index, layout.velocity_index(0)]] = normal
-            if self.free[0]:  # the normal drag's inertia through the speed along the wall
-                jac[layout.velocity_index(0), along.start + 1] -= blend[0] * f.drag_across_slope
+            if self.free[0]:  # the normal drag's inertia and the lift through the speed along the wall
+                jac[layout.velocity_index(0), along.start + 1] -= blend[0] * f.across_slope
             if self.fluid.plane is not None:
                 jac[layout.velocity_index(0), along.start + 1:along.start + 3] += shift * self.fluid.plane.mass[0, 1:]
         return jac
@@ -505,6 +518,7 @@ class BodyEquations:
         drag, pair, history, blend = (np.array(values) for values in (f.drag, f.pair, f.history, f.blend))
         added_mass = -np.array(f.theory_mass) @ accel + f.am_velocity + f.pair_am_velocity
         theory = drag + pair + added_mass + history
+        theory[0] += f.lift
         count = len(self.bodies)
         sim = self.fluid.explicit - self.fluid.added_mass @ accel if self.resolved else theory
         if along_accelerations is not None:
@@ -535,6 +549,7 @@ class BodyEquations:
             row.update(zip(TangentialMotion.names[:3], (float(v) for v in along[:3])))
             row.update(self.tangential.row(along, y[self.wall.gap_index], self._rates(y)[0], self._wall_films[0][0],
                                            self.wall.record.engaged_now, float(accel[0]), along_accelerations))
+            row["f_lift"] = float(f.lift)
         return row
 
     def _along_accelerations(self, y, mass, rhs) -> tuple:

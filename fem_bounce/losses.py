@@ -71,7 +71,7 @@ PHASES = ("approach", "contact", "rebound")
 # whose sums miss the momentum change by more than this cannot place the losses; every step's rows give 4e-4
 # (ode) to 4e-3 (ale) on case 3.
 AUDIT_TOLERANCE = 0.05
-TERMS = ("drag", "lubrication", "history", "added_mass", "resolved_flow", "correction", "contact", "weight")
+TERMS = ("drag", "lubrication", "history", "added_mass", "lift", "resolved_flow", "correction", "contact", "weight")
 
 
 def force_terms(trajectory: dict, net_weight: float) -> dict[str, np.ndarray]:
@@ -80,6 +80,7 @@ def force_terms(trajectory: dict, net_weight: float) -> dict[str, np.ndarray]:
     lubrication = trajectory.get("f_lubrication", np.zeros_like(blend))
     return {"drag": blend * (trajectory["f_drag"] - lubrication), "lubrication": blend * lubrication,
             "history": blend * trajectory["f_history"], "added_mass": blend * trajectory["f_added_mass"],
+            "lift": blend * trajectory.get("f_lift", np.zeros_like(blend)),
             "resolved_flow": (1.0 - blend) * trajectory["f_sim"], "correction": trajectory["f_correction"],
             "contact": trajectory["f_elastic"], "weight": np.full_like(blend, -net_weight)}
 

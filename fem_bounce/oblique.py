@@ -5,10 +5,10 @@ point nearest the wall moves at the slip s = U - a Omega) and the stretch xi of 
     dx/dt = U,   (m + m_l / 2) dU/dt = F_liquid + F_friction + (m - m_l) g sin(theta),
     I dOmega/dt = T_liquid - a F_friction,   dxi/dt = the spring's rate (tangential_contact),
 
-I = (2/5) m a^2.  The normal motion (equations.BodyEquations) is that of a head-on collision (with
-contact.inertial_speed = "whole" but for its drag's inertial factor, the whole speed's: below): nothing else acts
-back on it (the lift of a sphere sliding near a wall is left out: docs/physics.md, "Oblique collisions"), while the
-tangential motion reads the normal one's gap, velocity and contact force.
+I = (2/5) m a^2.  The normal motion (equations.BodyEquations) is that of a head-on collision but for the lift of
+the sphere sliding along the wall (contact.lift, fem_bounce.wall_lift) and, with contact.inertial_speed = "whole",
+its drag's inertial factor, the whole speed's (below): nothing else acts back on it, while the tangential motion
+reads the normal one's gap, velocity and contact force.
 
 - The liquid: [F, T] = -R(h) [U, Omega], the Stokes resistance of a sphere sliding and spinning near the wall, one
   symmetric matrix (wall_tangential), at the gap where the normal film is evaluated (its contact gap inside a Hertz

@@ -64,11 +64,11 @@ SPHERE_COLUMNS = ("gap", "velocity", "acceleration", "f_drag", "f_lubrication", 
 
 # An oblique collision's (one sphere): its position and velocity along the wall, its spin, the liquid's force and
 # torque along the wall and the contact's friction, the free sphere's part of the liquid's force and torque, the
-# spring's stretch and stored energy, and the power the contact dissipates sliding and sticking (fem_bounce.oblique,
-# TangentialMotion.row; the loss audit's, fem_bounce.losses)
+# spring's stretch and stored energy, the power the contact dissipates sliding and sticking (fem_bounce.oblique,
+# TangentialMotion.row; the loss audit's, fem_bounce.losses) and the lift on the normal motion (fem_bounce.wall_lift)
 TANGENTIAL_COLUMNS = ("x", "tangential_velocity", "spin", "f_tangential_liquid", "f_friction", "torque_liquid",
                       "f_tangential_drag", "torque_drag", "stretch", "spring_energy", "dissipation_sliding",
-                      "dissipation_sticking")
+                      "dissipation_sticking", "f_lift")
 
 
 # A pair's off its line of centres (fem_bounce.pair_oblique, PairTangentialMotion.row): the centres in the plane x-z,

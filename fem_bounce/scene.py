@@ -274,6 +274,9 @@ class Contact:
       the normal drag the normal speed's and the drag along the wall the speed along it; "whole", both the whole
       speed's |u| (the quasi-steady drag of a free sphere, along its velocity): measured against the 3-D model in
       docs/validation.md section 14, where it does worse on the rebound.
+    lift: in an oblique collision at a wall, the lift of the sphere sliding along it (fem_bounce.wall_lift: the
+      3-D model's steady lift on a sphere translating parallel to a wall at finite Re), on the normal motion of the
+      reduced model (and of a resolved model's "blend"): "steady" or "off".
     delta_ss: the paper's elastic layer, li2011 only.
     "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
       ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)
@@ -299,6 +302,7 @@ class Contact:
     wall_drag: str = _choice("brenner", "simple")
     inertial_factor: str = _choice("auto", "additive", "screened", "schiller-naumann", "none")
     inertial_speed: str = _choice("component", "whole")
+    lift: str = _choice("steady", "off")
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")
@@ -857,8 +861,10 @@ NOT_PHYSICS = ("name", "description", "run", "reference", "numerics")
 
 
 # fields added after digests were recorded, at the values that do what the scene did before them (the oblique
-# fields' head-on values, the drag's inertia per component): left out of the digest there
+# fields' head-on values, the drag's inertia per component, the lift, which acts on no head-on scene): left out of
+# the digest there
 LATER = {"tangential_velocity": 0.0, "spin": 0.0, "gravity_angle": 0.0, "contact.inertial_speed": "component",
+         "contact.lift": "steady",
          "second_sphere.tangential_velocity": 0.0, "second_sphere.spin": 0.0,
          "further_spheres.tangential_velocity": 0.0, "further_spheres.spin": 0.0}
 

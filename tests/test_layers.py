@@ -39,6 +39,7 @@ LAYERS = {
     "fem_bounce.contact": PHYSICS,
     "fem_bounce.pair_contact": PHYSICS,
     "fem_bounce.wall_tangential": PHYSICS,
+    "fem_bounce.wall_lift": PHYSICS,
     "fem_bounce.tangential_contact": PHYSICS,
     "fem_bounce.oblique": PHYSICS,
     "fem_bounce.pair_oblique": PHYSICS,
