@@ -7,10 +7,11 @@ liquid's inertia (zero in Stokes flow, by reversibility):
 
 delta the gap, a the radius.  C_L is the 3-D fictitious-domain model's steady lift on a sphere held at the gap and
 seen in its own frame (the wall and the far field moving at -U; `python benchmarks/fd3d_stokes.py lift`, the
-table fem_bounce/data/wall_lift_fd3d.csv with its command): 0.30-0.45 at delta = 0.1 a, falling to 0.01-0.05 at
-2 a, smaller at higher Re (docs/physics.md section 7).  Between the table's points it is interpolated linearly in
-ln Re and in delta / a; it is held at the table's ends in Re (below the lowest Re the force, ~U^2, is small against
-the drag, ~U) and at its smallest gap below it, and falls linearly to zero from the largest gap to twice it.
+table fem_bounce/data/wall_lift_fd3d.csv with its command): 0.30-0.64 at delta = 0.1 a, falling to 0.01-0.15 at
+2 a, smaller at higher Re (Re 150 to 10; docs/physics.md section 7).  Between the table's points it is interpolated
+linearly in ln Re and in delta / a; it is held at the table's ends in Re (below the lowest Re the force, ~U^2, is
+small against the drag, ~U) and at its smallest gap below it, and falls linearly to zero from the largest gap to
+twice it.
 The quasi-steady lift assumes the sphere's wake along the wall is established, as it is for a sphere that slides
 through a bounce at nearly constant speed; the lift of the spin and of the normal motion is left out.
 """
