@@ -60,8 +60,10 @@ of `wall` (--half-width in D), seen in its own frame as in `solver` (the wall an
 sides all given that velocity), the steady state by `drag`'s damped Picard steps (to 2e-4 of Cd): Cd = -F_x, the
 lift C_L = F_z away from the wall and C_T = T_y / a over rho U^2 pi a^2 / 2, with the Stokes drag near the wall
 (O'Neill 1964) beside Cd.  --csv writes the rows as fem_bounce.wall_lift's table.  At gap/a 0.4 C_L is 0.238 /
-0.220 / 0.215 (Re 50) and 0.154 / 0.133 / 0.135 (Re 100) at 8 / 12 / 16 cells/D, and at 12 cells/D 0.140 with the
-sides 25 D away instead of 15 (Re 100): a few per cent; C_T is not converged in the mesh (its sign changes).
+0.220 / 0.216 (Re 50) and 0.154 / 0.133 / 0.135 (Re 100) at 8 / 12 / 16 cells/D (`lift --cells N --gaps 0.4 --re
+50,100 --steps 30 --picard-dt 10 --half-width 15 --tag _cN_gap04`), and at 12 cells/D 0.140 with the sides 25 D
+away instead of 15 (Re 100, `--half-width 25 --tag _c12_gap04_box25`): a few per cent in the mesh, 5 % in the box;
+C_T is not converged in the mesh (its sign changes).
 
 Results are printed and written to benchmarks/history/fd3d_stokes_{case}{tag}.json.  One process; the meshes are
 cached (a second run skips gmsh).  The measurements themselves, with their commands, are in those files.
