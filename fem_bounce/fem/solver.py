@@ -292,10 +292,12 @@ class FieldSplitOperator:
     Schur complement approximated by -B diag(F)^-1 B^T, also by multigrid), for meshes where the direct
     factorisation stops scaling.  The multigrid is hypre's BoomerAMG where PETSc has hypre, PETSc's own
     GAMG otherwise (the PyPI wheel has no hypre).  `velocity`, `pressure`: PETSc index sets of the two
-    fields.  Every option can be changed under `{prefix}` (e.g. -fd_flow_fieldsplit_ksp_rtol 1e-10,
-    -fd_flow_fieldsplit_fieldsplit_u_pc_type gamg)."""
+    fields.  `options`: the caller's defaults in place of these (names without the prefix).  Every option can be
+    changed under `{prefix}` (e.g. -fd_flow_fieldsplit_ksp_rtol 1e-10, -fd_flow_fieldsplit_fieldsplit_u_pc_type
+    gamg)."""
 
-    def __init__(self, A: PETSc.Mat, prefix: str, velocity: PETSc.IS, pressure: PETSc.IS, rtol: float = 1e-9):
+    def __init__(self, A: PETSc.Mat, prefix: str, velocity: PETSc.IS, pressure: PETSc.IS, rtol: float = 1e-9,
+                 options: dict | None = None):
         self.prefix = prefix
         self.operator = A
         defaults = {"ksp_type": "fgmres", "ksp_rtol": rtol, "ksp_atol": 1e-30, "ksp_gmres_restart": 100,
@@ -306,7 +308,7 @@ class FieldSplitOperator:
                else {"pc_type": "gamg"})
         for field in ("u", "p"):
             defaults |= {f"fieldsplit_{field}_{name}": value for name, value in amg.items()}
-        for name, value in defaults.items():
+        for name, value in (defaults | (options or {})).items():
             _default_option(f"{prefix}{name}", value)
         _reproducible_krylov()
         self.ksp = PETSc.KSP().create(A.getComm())

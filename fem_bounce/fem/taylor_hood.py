@@ -97,6 +97,15 @@ def taylor_hood_space(mesh) -> fem.FunctionSpace:
     return fem.functionspace(mesh, basix.ufl.mixed_element([velocity, basix.ufl.element("Lagrange", cell, 1)]))
 
 
+def field_indices(W, field: int) -> PETSc.IS:
+    """The owned global indices of the velocity (0) or pressure (1) dofs of the mixed space W, for a field split."""
+    index_map = W.dofmap.index_map
+    _, dofs = collapse(W.sub(field))
+    dofs = dofs.astype(np.int32)
+    owned = np.sort(dofs[dofs < index_map.size_local])
+    return PETSc.IS().createGeneral(owned + index_map.local_range[0], comm=W.mesh.comm)
+
+
 def owned_dirichlet_rows(bcs) -> np.ndarray:
     """This rank's owned local indices of the rows the Dirichlet conditions `bcs` fix (sorted, unique)."""
     rows = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in bcs]

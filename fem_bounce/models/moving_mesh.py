@@ -317,7 +317,7 @@ class MovingMesh:
                 interpolated = flow.momentum(new_state)
                 flow.set_boundary_values(h.velocities[level])
                 if projection is None:
-                    projection = DivergenceFreeProjection(flow.W, flow.bcs, reuse=reuse,
+                    projection = DivergenceFreeProjection(flow.W, flow.bcs, solver="reuse" if reuse else "direct",
                                                           **({"rtol": self.settings.krylov_rtol} if reuse else {}))
                 else:  # the older level, on the mesh moved there: factorised again or, reuse, the first level's factors
                     projection.reassemble()

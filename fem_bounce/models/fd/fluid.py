@@ -27,7 +27,7 @@ from ...fem.geometry import Axisymmetric
 from ...fem.matrix import FormMatrix
 from ...fem.mesh import AXIS
 from ...fem.solver import FactorizedOperator, FieldSplitOperator
-from ...fem.taylor_hood import (SIDE_KINDS, lifted_rhs, pressure_pin, set_velocity, side_constraints,
+from ...fem.taylor_hood import (SIDE_KINDS, field_indices, lifted_rhs, pressure_pin, set_velocity, side_constraints,
                                 step_coefficients, taylor_hood_space)
 
 
@@ -67,7 +67,7 @@ class FlowSolver:
         self.assembler = FormMatrix(self.a, self.bcs, self.geometry.dirichlet_diagonal)
         A = self.matrix = self.assembler.petsc
         if solver == "fieldsplit":
-            velocity, pressure = (self._field_indices(k) for k in (0, 1))
+            velocity, pressure = (field_indices(self.W, k) for k in (0, 1))
             # its own options prefix: the direct solver's defaults (ksp preonly, pc lu) live under `prefix`
             self.operator = FieldSplitOperator(A, prefix.rstrip("_") + "_fieldsplit_", velocity, pressure)
             velocity.destroy()
@@ -76,14 +76,6 @@ class FlowSolver:
             self.operator = FactorizedOperator(A, prefix)
         self.rhs = create_vector(self.W)
         self.work = self.rhs.duplicate()
-
-    def _field_indices(self, field: int) -> PETSc.IS:
-        """The owned global indices of the velocity (0) or pressure (1) dofs of W, for a field split."""
-        index_map = self.W.dofmap.index_map
-        _, dofs = collapse(self.W.sub(field))
-        dofs = dofs.astype(np.int32)
-        owned = np.sort(dofs[dofs < index_map.size_local])
-        return PETSc.IS().createGeneral(owned + index_map.local_range[0], comm=self.mesh.comm)
 
     def set_time_step(self, dt: float, previous: float | None = None, order: int | None = None) -> None:
         """The coming step's length dt [s] and the one before it (default dt): the BDF and extrapolation

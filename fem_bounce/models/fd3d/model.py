@@ -37,8 +37,9 @@ Two meshes (numerics.fd3d.mesh; mesh.create_box_mesh), fine only in a patch arou
   long: docs/validation.md section 14's solver check).
 
 Either way a restart makes its run's meshes again (gmsh's cache gives them bit for bit), and a new mesh takes the
-flow's two BDF levels interpolated onto it (transfer.py: on the moving mesh at the sphere's place at t_n) and made
-discretely divergence-free (fem.transfer.DivergenceFreeProjection).
+flow's two BDF levels interpolated onto it (transfer.py: on the moving mesh at the sphere's place at t_n; the points
+located once for both) and made discretely divergence-free (fem.transfer.DivergenceFreeProjection by its field
+split: a factorisation for each new mesh cost more than the two projections' iterations).
 
 One fluid step of length dt (the run's CoupledStep):
 
@@ -104,7 +105,7 @@ from .flow import PenalisedFlow3D
 from .indicator import ConformingBall, SphereIndicator
 from .mesh import BALL, SIDE_X, SIDE_Y, TOP, WALL, BoxSpec, create_box_mesh, restore_ball_volume
 from .motion import MeshMotion3D
-from .transfer import interpolate_state
+from .transfer import interpolate_states
 
 HEAD_ON = ("U_z",)  # the rigid mode a head-on bounce moves
 OBLIQUE = ("U_z", "U_x", "Omega_y")  # an oblique one's, in the plane of incidence: the normal first
@@ -326,11 +327,11 @@ class FictitiousDomain3DModel(FlowModel):
         self.patch = self.patch_center(center)
         self._make_flow(self.placed[0])  # a moving mesh where the fields are, at t_n
         projection = DivergenceFreeProjection(self.flow.W, self.flow.bcs, prefix="fd3d_projection_",
-                                              geometry=self.flow.geometry)
+                                              solver="fieldsplit", geometry=self.flow.geometry)
         try:
-            for before, after in zip(old.states, self.flow.states):
-                interpolate_state(before, after, padding=1e-6 * self.fine_size)
-                projection.project(after)
+            interpolate_states(old.states, self.flow.states, padding=1e-6 * self.fine_size)
+            for state in self.flow.states:
+                projection.project(state)
         finally:
             projection.destroy()
         self._retire(old)
