@@ -60,6 +60,14 @@ def stiffness_ratio(e1: float, nu1: float, e2: float, nu2: float) -> float:
     return 4.0 * g_star / e_star
 
 
+def contact_stiffness_ratio(scene: Scene, first, second) -> float:
+    """kappa of the contact between the solids `first` and `second` (a Sphere or the Wall): the scene's
+    contact.tangential_stiffness if set, else Mindlin's (`stiffness_ratio`)."""
+    if scene.contact.tangential_stiffness is not None:
+        return scene.contact.tangential_stiffness
+    return stiffness_ratio(first.youngs_modulus, first.poisson_ratio, second.youngs_modulus, second.poisson_ratio)
+
+
 def drag_excess(velocity: float, normal: float, density: float, diameter: float,
                 viscosity: float) -> tuple[float, float, float]:
     """(-3 pi mu D (phi - 1) U [N], its derivatives in U and in the normal velocity V [N s/m]): a free sphere's
@@ -154,8 +162,7 @@ class TangentialMotion:
         self.inertia = INERTIA_FACTOR * mass * sphere.radius**2
         self.weight = (mass - displaced_mass) * scene.gravity * math.sin(math.radians(scene.gravity_angle))
         self.law = law
-        self.friction = ContactFriction(law, scene.contact.friction, stiffness_ratio(
-            sphere.youngs_modulus, sphere.poisson_ratio, wall.youngs_modulus, wall.poisson_ratio))
+        self.friction = ContactFriction(law, scene.contact.friction, contact_stiffness_ratio(scene, sphere, wall))
         # the history modes along the wall (none with a resolved flow: its flow carries the history)
         self.theory = TheoryForces(scene)
         self.n_history = 0 if self.resolved else self.theory.n_history

@@ -42,8 +42,8 @@ import math
 import numpy as np
 
 from .contact import ContactLaw
-from .oblique import (ADDED_MASS, INERTIA_FACTOR, ContactFriction, drag_excess, mode_tolerances, spin_sensitivity,
-                      stiffness_ratio)
+from .oblique import (ADDED_MASS, INERTIA_FACTOR, ContactFriction, contact_stiffness_ratio, drag_excess,
+                      mode_tolerances, spin_sensitivity)
 from .scene import Scene
 from .tangential_contact import oblique_record
 from .theory import TheoryForces, rotation_history_modes
@@ -106,8 +106,7 @@ class PairTangentialMotion:
         self.masses = np.array([b.mass for b in bodies]) + ADDED_MASS * self._displaced  # along t
         self.inertias = INERTIA_FACTOR * np.array([b.mass for b in bodies]) * self.radii**2
         self.inertia_diagonal = np.r_[self.masses, self.inertias]
-        self.friction = ContactFriction(law, scene.contact.friction, stiffness_ratio(
-            first.youngs_modulus, first.poisson_ratio, second.youngs_modulus, second.poisson_ratio))
+        self.friction = ContactFriction(law, scene.contact.friction, contact_stiffness_ratio(scene, first, second))
         self.theories = theories
         self.n_history = tuple(th.n_history for th in theories)
         theta, weights = rotation_history_modes(scene.numerics.ode.history_modes_per_decade)

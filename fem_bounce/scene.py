@@ -278,6 +278,10 @@ class Contact:
       3-D model's steady lift on a sphere translating parallel to a wall at finite Re), on the normal motion of the
       reduced model (and of a resolved model's "blend"): "steady" or "off".
     delta_ss: the paper's elastic layer, li2011 only.
+    tangential_stiffness: in an oblique collision, the ratio k_t / k_n of the sticking contact's tangential spring
+      to the Hertz contact's normal stiffness (fem_bounce.tangential_contact); unset (the default): Mindlin's
+      4 G*/E* from the materials (0.80-0.88 for the package's solids); 1e3 and above: the contact point stops
+      dead while it sticks, the rigid-body theory's rolling (docs/validation.md section 13).
     "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
       ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)
       (fem_bounce.ehd, docs/ehd.md) takes the sphere to its rebound at the same gap, or to rest.
@@ -314,6 +318,9 @@ class Contact:
     cavitation_pressure: str | float = field(default="auto", metadata={"allowed": CAVITATION_ALLOWED})
     friction: float | None = _between(0.0, 2.0, None, note="the sphere-wall pair's Coulomb coefficient, for an "
                                       "oblique collision (Scene.oblique)")
+    tangential_stiffness: float | None = _between(0.0, 1e6, None, open_low=True,
+                                                  note="k_t / k_n of the friction's tangential spring; unset: "
+                                                       "Mindlin's 4 G*/E* from the two solids' E and nu")
 
     @property
     def paper(self) -> bool:

@@ -32,3 +32,14 @@ def test_a_sweep_writes_its_table_and_figure(tmp_path):
     assert steep["psi_in_contact"] > sliding_threshold(0.83, 0.125)
     assert steep["effective_friction_contact"] == pytest.approx(0.125, rel=0.01)
     assert rows[0]["effective_friction_contact"] < 0.125  # the shallow one sticks: less than mu's impulse
+
+
+def test_the_study_says_how_far_each_branch_is_from_the_rigid_theory():
+    """rigid_agreement: a sliding run against psi_in - (7/2) mu (1 + e_n), a rolling one against 0 over psi_in."""
+    theory = {"friction": 0.125, "normal_restitution": 0.83}
+    threshold = sliding_threshold(0.83, 0.125)
+    rows = [{"psi_in_contact": 0.5, "psi_out_contact": -0.05, "normal_restitution_contact": 0.83},
+            {"psi_in_contact": threshold + 0.4, "psi_out_contact": 0.404, "normal_restitution_contact": 0.83},
+            {"psi_in_contact": None, "psi_out_contact": None, "normal_restitution_contact": None}]
+    line = oblique.rigid_agreement(rows, theory)
+    assert "psi_out within 0.01 of it" in line and "within 0.1 psi_in of 0" in line

@@ -105,12 +105,33 @@ def run(base: scenes.Scene, comm, out: Path, angles=ANGLES, runner: Runner | Non
     study.write_csv("oblique.csv", rows)
     contact_e = [r["normal_restitution_contact"] for r in rows if r["normal_restitution_contact"] is not None]
     theory = {"friction": base.contact.friction, "normal_restitution": float(np.mean(contact_e)) if contact_e else None}
+    if contact_e:
+        study.log(rigid_agreement(rows, theory))
     study.write_json("oblique.json", {"scene": base.name, "model": model, "launch_speed": launch_speed(base),
                                       "rigid_theory": theory, "runs": rows})
     if comm.rank == 0:
         figure(rows, theory, f"{base.name} ({model})", out / "oblique.png",
                "delta_sl 2a*" if base.second_sphere is not None else "delta_sl D")
     return rows
+
+
+def rigid_agreement(rows: list[dict], theory: dict) -> str:
+    """One line: the contact station against the rigid theory with each run's own e_n, the largest relative
+    difference in psi_out of the runs it says slide and the largest |psi_out| / psi_in of those it says roll (0
+    in the theory; Mindlin's spring reverses the contact point there, a stiff one stops it: docs/validation.md
+    section 13)."""
+    worst = {True: None, False: None}
+    for row in rows:
+        psi_in, psi_out = row["psi_in_contact"], row["psi_out_contact"]
+        if psi_in is None or psi_in == 0.0:
+            continue
+        rigid = oblique_rigid_theory(psi_in, row["normal_restitution_contact"], theory["friction"])
+        error = abs(psi_out - rigid.psi_out) / abs(rigid.psi_out if rigid.sliding else psi_in)
+        worst[rigid.sliding] = max(error, worst[rigid.sliding] or 0.0)
+    said = [text.format(worst[key]) for key, text in ((True, "sliding, psi_out within {:.2g} of it (relative)"),
+                                                     (False, "rolling, |psi_out| within {:.2g} psi_in of 0"))
+            if worst[key] is not None]
+    return f"against the rigid theory (mu {theory['friction']:g}) at the contact: " + (", ".join(said) or "no runs")
 
 
 def figure(rows: list[dict], theory: dict, scene_name: str, path: Path, outer: str = "delta_sl D") -> None:
