@@ -280,8 +280,8 @@ class Contact:
     delta_ss: the paper's elastic layer, li2011 only.
     tangential_stiffness: in an oblique collision, the ratio k_t / k_n of the sticking contact's tangential spring
       to the Hertz contact's normal stiffness (fem_bounce.tangential_contact); unset (the default): Mindlin's
-      4 G*/E* from the materials (0.80-0.88 for the package's solids); 1e3 and above: the contact point stops
-      dead while it sticks, the rigid-body theory's rolling (docs/validation.md section 13).
+      4 G*/E* from the materials (0.74-0.88 for the presets' solids); 1e4: the contact point stops dead while it
+      sticks, the rigid-body theory's rolling (docs/validation.md section 13).
     "ehd" (one sphere and a wall): lubricated-hertz's lubrication down to the handover gap
       ehd_handover [m], where the elastohydrodynamic film collision of Davis, Serayssol & Hinch (1986)
       (fem_bounce.ehd, docs/ehd.md) takes the sphere to its rebound at the same gap, or to rest.
