@@ -13,6 +13,10 @@ Re 100 and 200 and its wake's loss of axisymmetry, its step's solver, and the li
         --window 5,20                                                                     # reads the record, 2 s
     python benchmarks/fd3d_stokes.py lift --cells 12 --gaps 0.1,0.2,0.4,0.6,1,2,4 --re 10,25,50,100,150 --steps 30 \
         --picard-dt 10 --half-width 15 --tag _c12 --csv fem_bounce/data/wall_lift_fd3d.csv    # 740 s, 1.6 GB
+    mpiexec -n 2 python benchmarks/fd3d_stokes.py lift --cells 24 --gaps 0.1,0.2,0.4,0.6,1,2,4 --re 10,25,50,100,150 \
+        --steps 30 --picard-dt 10 --half-width 15 --tag _c24 --csv fem_bounce/data/wall_torque_fd3d.csv  # 1,188 s
+    mpiexec -n 2 python benchmarks/fd3d_stokes.py lift --cells 32 --gaps 0.2,0.4 --re 10,50,100 --steps 30 \
+        --picard-dt 10 --half-width 15 --tag _c32_check                                   # the torque's mesh check
 
 (one process on a 2-core machine shared with other jobs, so the times are rough: /usr/bin/time -f "%e s %M kB".)
 
@@ -62,8 +66,10 @@ lift C_L = F_z away from the wall and C_T = T_y / a over rho U^2 pi a^2 / 2, wit
 (O'Neill 1964) beside Cd.  --csv writes the rows as fem_bounce.wall_lift's table.  At gap/a 0.4 C_L is 0.238 /
 0.220 / 0.216 (Re 50) and 0.154 / 0.133 / 0.135 (Re 100) at 8 / 12 / 16 cells/D (`lift --cells N --gaps 0.4 --re
 50,100 --steps 30 --picard-dt 10 --half-width 15 --tag _cN_gap04`), and at 12 cells/D 0.140 with the sides 25 D
-away instead of 15 (Re 100, `--half-width 25 --tag _c12_gap04_box25`): a few per cent in the mesh, 5 % in the box;
-C_T is not converged in the mesh (its sign changes).
+away instead of 15 (Re 100, `--half-width 25 --tag _c12_gap04_box25`): a few per cent in the mesh, 5 % in the box.
+C_T, a small difference of the shear on the two sides, needs finer cells: at 12 cells/D it is far off (its sign
+changes with the mesh), at 24 it is within about 0.001-0.003 of 32 cells/D at Re 50-100 and 0.007 at Re 10, and in
+Stokes flow (Re 0.1, gap/a 0.4) 6.61 against the film's exact 7.24 (docs/validation.md section 14).
 
 Results are printed and written to benchmarks/history/fd3d_stokes_{case}{tag}.json.  One process; the meshes are
 cached (a second run skips gmsh).  The measurements themselves, with their commands, are in those files.
@@ -460,7 +466,8 @@ def write_lift_table(path: Path, rows: list[dict], command: str) -> None:
              "# the far field at -U, damped Picard steps to the steady state), written by",
              f"#   {command}",
              "# (benchmarks/fd3d_stokes.py's module docstring; docs/physics.md section 7).  Cd = -F_x and",
-             "# C_T = T_y / a over the same scale, beside it (C_T not converged in the mesh: not used).",
+             "# C_T = T_y / a over the same scale (T_y about y, positive in the rolling sense of the sphere's motion),",
+             "# beside it.",
              "gap_over_a,Re,C_L,Cd,C_T"]
     lines += [f"{row['gap_over_a']:g},{row['reynolds']:g},{row['lift']:.4f},{row['drag']:.4f},{row['torque']:.4f}"
               for row in sorted(rows, key=lambda row: (row["reynolds"], row["gap_over_a"]))]

@@ -22,7 +22,9 @@ reads the normal one's gap, velocity and contact force.
   showed it needed (docs/validation.md section 14).  The spin's history torque likewise, -(8/3) pi mu a^3 sum_i w_i
   zeta_i with zeta_i' = dOmega/dt - zeta_i / T_i, the unsteady Stokes kernel of a spinning sphere
   (theory.rotation_kernel, no finite-Re correction): the friction spins the sphere up within the contact, and the
-  boundary layer it leaves slows the spin after it.
+  boundary layer it leaves slows the spin after it.  And the sliding sphere's torque at finite Re beyond the film's
+  (contact.wall_torque, wall_lift.WallTorque: measured with the 3-D model, against the rolling sense where the
+  film's turns it toward rolling).
 - The contact: Coulomb friction mu F_n with a tangential spring of Mindlin's stiffness k_t = kappa (3/2) k x^(1/2)
   (x the Hertz overlap, k its constant, kappa = 4 G*/E*) and a damper with the normal one's damping ratio
   (tangential_contact.TangentialContact, matched_damping); the spring starts unstretched at each contact.  The
@@ -45,6 +47,7 @@ from .kinematics import PlaneForce
 from .scene import Scene
 from .tangential_contact import TangentialContact, matched_damping, oblique_record
 from .theory import TheoryForces, rotation_history_modes
+from .wall_lift import WallTorque
 from .wall_tangential import wall_tangential_resistance
 
 INERTIA_FACTOR = 0.4  # I / (m a^2) of a solid sphere
@@ -176,6 +179,9 @@ class TangentialMotion:
         self.size = self.rotation.stop  # the tangential unknowns
         self.start = (0.0, scene.tangential_velocity, scene.spin, 0.0, *np.zeros(self.size - len(self.names)))
         self.whole_speed = scene.contact.inertial_speed == "whole"  # the drag's inertia at |(U, V)|'s Re
+        # the sliding sphere's torque at finite Re beyond the film's (contact.wall_torque; none with a resolved flow)
+        self.wall_torque = (WallTorque(sphere.diameter, liquid.density, liquid.viscosity)
+                            if scene.contact.wall_torque == "steady" and not self.resolved else None)
 
     def mode_tolerances(self, speed: float, time_unit: float) -> np.ndarray:
         """Each history mode's absolute tolerance (integrator._build_ts, as for the normal modes): along the wall on
@@ -224,10 +230,17 @@ class TangentialMotion:
         """T_H = -(8/3) pi mu a^3 sum_i w_i zeta_i [N m] of the spin's modes."""
         return -float(self.spin_weights @ np.asarray(state[self.rotation], dtype=float))
 
+    def _torque_excess(self, film_gap: float, velocity: float) -> tuple[float, float, float]:
+        """(T, dT/d gap, dT/dU) of the sliding sphere's torque beyond the film's (wall_lift.WallTorque), or zeros."""
+        if self.wall_torque is None:
+            return 0.0, 0.0, 0.0
+        return self.wall_torque.torque_slopes(film_gap, velocity)
+
     def _liquid(self, film_gap: float, state, normal: float):
         """(F, T, R, dR/d gap, d (excess + history)/dU, d excess/dV) of the liquid at the film's gap, the tangential
         `state` and the normal velocity `normal` [m/s]; with a resolved flow F and T are the flow's explicit part and
-        what the held flow misses, R the film's resistance below the hold less the hold's."""
+        what the held flow misses, R the film's resistance below the hold less the hold's (the slopes of the
+        finite-Re torque are `_torque_excess`'s)."""
         velocity, spin = state[1], state[2]
         if self.resolved:
             explicit = self.fluid.explicit if self.fluid is not None else np.zeros(2)
@@ -241,8 +254,8 @@ class TangentialMotion:
         excess, d_excess, d_normal = self._drag_excess(velocity, normal)
         history, d_history = self._history(state)
         force, torque = -resistance @ np.array([velocity, spin])
-        return (force + excess + history, torque + self._spin_history(state), resistance, slope, d_excess + d_history,
-                d_normal)
+        torque += self._spin_history(state) + self._torque_excess(film_gap, velocity)[0]
+        return force + excess + history, torque, resistance, slope, d_excess + d_history, d_normal
 
     def terms(self, state, gap: float, rate: float, film_gap: float, engaged: float | None) -> dict:
         """The forces along the wall [N], the liquid's torque [N m] and the spring's rate [m/s] at the tangential
@@ -320,6 +333,9 @@ class TangentialMotion:
         own[n:, n:] = np.diag(shift + 1.0 / self.mode_times)
         normal = np.zeros((self.size, 2))
         normal[1:3, 0] = film_slope * (slope @ np.array([velocity, spin]))
+        _, d_gap, d_velocity = self._torque_excess(film_gap, velocity)
+        own[2, 1] -= d_velocity
+        normal[2, 0] -= film_slope * d_gap
         normal[1, 1] = -d_normal  # the drag's inertia through the normal speed (the gap's rate is V)
         if self.resolved and self.fluid is not None:
             own[1:3, 1:3] += shift * self.fluid.mass[1:, 1:]

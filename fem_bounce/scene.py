@@ -277,6 +277,9 @@ class Contact:
     lift: in an oblique collision at a wall, the lift of the sphere sliding along it (fem_bounce.wall_lift: the
       3-D model's steady lift on a sphere translating parallel to a wall at finite Re), on the normal motion of the
       reduced model (and of a resolved model's "blend"): "steady" or "off".
+    wall_torque: in an oblique collision at a wall, the torque of the sphere sliding along it at finite Re beyond
+      the Stokes film's (fem_bounce.wall_lift.WallTorque, measured with the 3-D model as the lift is), on the
+      reduced model's spin: "steady" or "off".
     delta_ss: the paper's elastic layer, li2011 only.
     tangential_stiffness: in an oblique collision, the ratio k_t / k_n of the sticking contact's tangential spring
       to the Hertz contact's normal stiffness (fem_bounce.tangential_contact); unset (the default): Mindlin's
@@ -307,6 +310,7 @@ class Contact:
     inertial_factor: str = _choice("auto", "additive", "screened", "schiller-naumann", "none")
     inertial_speed: str = _choice("component", "whole")
     lift: str = _choice("steady", "off")
+    wall_torque: str = _choice("steady", "off")
     added_mass: str = _choice("first-image", "exact")
     history: str = _choice("mei-adrian", "off")
     history_wall_factor: str = _choice("one", "drag-scaled")
@@ -871,7 +875,7 @@ NOT_PHYSICS = ("name", "description", "run", "reference", "numerics")
 # fields' head-on values, the drag's inertia per component, the lift, which acts on no head-on scene): left out of
 # the digest there
 LATER = {"tangential_velocity": 0.0, "spin": 0.0, "gravity_angle": 0.0, "contact.inertial_speed": "component",
-         "contact.lift": "steady",
+         "contact.lift": "steady", "contact.wall_torque": "steady",
          "second_sphere.tangential_velocity": 0.0, "second_sphere.spin": 0.0,
          "further_spheres.tangential_velocity": 0.0, "further_spheres.spin": 0.0}
 
