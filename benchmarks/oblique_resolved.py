@@ -19,9 +19,10 @@ their difference, with the fd3d run's cost.  `--set KEY=VALUE` changes both mode
 the half box's symmetry check, its out_of_plane force and torque recorded; contact.inertial_speed = "whole": the reduced
 model's drag at the whole speed's Re); `--record NAME` writes benchmarks/history/NAME.json instead.  `--resolved-from
 RECORD` takes each angle's fd3d stations and cost from an earlier record instead of running fd3d (the reduced model
-re-measured against the same 3-D runs):
+re-measured against the same 3-D runs), and writes a record only when `--record` names one (so that it never rewrites
+the record it reads unasked):
 
-    python benchmarks/oblique_resolved.py --resolved-from benchmarks/history/oblique_resolved.json   # seconds
+    python benchmarks/oblique_resolved.py --resolved-from benchmarks/history/oblique_resolved.json   # seconds, printed
     python benchmarks/oblique_resolved.py --resolved-from benchmarks/history/oblique_resolved.json \
         --set contact.inertial_speed=whole --record oblique_resolved_whole_speed
 """
@@ -77,7 +78,8 @@ def main() -> None:
     parser.add_argument("--reuse", action="store_true", help="read a finished fd3d run instead of running it")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                         help="a change to both models' scenes, e.g. numerics.fd3d.box=whole (repeatable)")
-    parser.add_argument("--record", default="oblique_resolved", help="the record's name in benchmarks/history")
+    parser.add_argument("--record", help="the record's name in benchmarks/history (default oblique_resolved; with "
+                        "--resolved-from none is written unless this names one)")
     parser.add_argument("--resolved-from", type=Path, help="a record whose fd3d runs are taken, not run again")
     args = parser.parse_args()
     changes = dict(scene.parse_override(text) for text in args.overrides)
@@ -120,7 +122,11 @@ def main() -> None:
             cells = [f"{k} {record['fd3d'][station][k]:.4g} / {record['ode'][station][k]:.4g} "
                      f"({100 * record['difference'][station][k]:+.1f} %)" for k in QUANTITIES]
             print(f"  {station} (fd3d / ode, ode against fd3d): " + "; ".join(cells))
-    record = HISTORY / f"{args.record}.json"
+    name = args.record or (None if args.resolved_from else "oblique_resolved")
+    if name is None:
+        print("no record written (--resolved-from without --record)")
+        return
+    record = HISTORY / f"{name}.json"
     command = " ".join(["benchmarks/oblique_resolved.py", *sys.argv[1:]])
     record.write_text(json.dumps({"command": command, "runs": records}, indent=1) + "\n")
     print(f"written to {record}")
