@@ -19,7 +19,8 @@ The torque of the same sliding sphere (`WallTorque`, contact.wall_torque).  In S
 sphere and the wall turns a sliding sphere toward rolling, T = 8 pi mu a^2 c_yx U (fem_bounce.wall_tangential); at
 finite Re the outer flow's shear on the far side of the sphere, thinned by inertia, turns it the other way.  The
 3-D model's torque on the held sphere, C_T = T / (rho_l U^2 pi a^3 / 2) (the same benchmark at 24 cells/D, the
-table fem_bounce/data/wall_torque_fd3d.csv), is -0.041 at delta = 0.1 a and Re 100 where Stokes flow gives +0.028.
+table fem_bounce/data/wall_torque_fd3d.csv), has the opposite sign to Stokes flow's near the wall at Re 10-150
+(docs/physics.md section 7 gives its values and checks).
 The reduced model keeps its Stokes coupling and adds the excess
 
     T_excess = [C_T(Re, delta / a) - 32 c_yx(delta / a) / Re] rho_l U |U| pi a^3 / 2,

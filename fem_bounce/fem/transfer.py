@@ -45,9 +45,8 @@ from .taylor_hood import field_indices, lifted_rhs, owned_dirichlet_rows
 
 # The projection's field split (fem.solver.FieldSplitOperator's options): the velocity block is a mass matrix, which
 # its diagonal preconditions well, and the Schur complement's multigrid (on B diag(M)^-1 B^T) smooths with that
-# matrix, not with the complement itself, each of whose products would solve the velocity block again (measured on
-# the fd3d model's 63k-unknown patch on 2 ranks: 48 iterations and 0.4 s a projection, with 0.5 s of set-up, against
-# 4.4-5.7 s for MUMPS's factorisation; with the complement in the smoother 3-8 s a projection)
+# matrix, not with the complement itself, each of whose products would solve the velocity block again (measured
+# against MUMPS's factorisation and against the complement in the smoother: docs/performance.md, "A new mesh's cost")
 FIELD_SPLIT = {"fieldsplit_u_pc_type": "jacobi", "fieldsplit_p_pc_use_amat": False}
 
 
@@ -146,7 +145,8 @@ class DivergenceFreeProjection:
             self.solver = FactorizedOperator(self.matrix, prefix)
 
     def reassemble(self) -> None:
-        """The matrix on the mesh as it is now (moved); factorised again unless `reuse`."""
+        """The matrix on the mesh as it is now (moved): factorised again ("direct"), its field split set up again
+        ("fieldsplit"), or projected with the first factors ("reuse")."""
         self.assembler.assemble()
         if isinstance(self.solver, ReusedFactorOperator):
             self.solver.end_step()  # the next solve starts from the field given, with the old factors

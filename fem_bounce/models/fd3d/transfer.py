@@ -24,8 +24,7 @@ def interpolate_states(sources: list, targets: list, padding: float) -> None:
     """Set each mixed (u, p) function of `targets` to the one of `sources` beside it (the same element on another
     mesh of the same domain, every source on one mesh and every target on another: the BDF levels); `padding` [m]:
     how far outside a cell's bounding box a point may lie and still be found (round-off).  The points are located
-    once per part, for all the levels (the search is most of the cost: about 3 s per level at 64k unknowns on
-    2 ranks)."""
+    once per part, for all the levels (the search is most of the cost: docs/performance.md, "A new mesh's cost")."""
     space, old = targets[0].function_space, sources[0].function_space
     mesh = space.mesh
     cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
