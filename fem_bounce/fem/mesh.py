@@ -257,13 +257,19 @@ def _build_model(gmsh, spec: HalfPlane) -> None:
     if insides:
         gmsh.model.addPhysicalGroup(2, insides, SOLID)
         gmsh.model.setPhysicalName(2, SOLID, "solid")
+    size_everywhere(gmsh, spec._gmsh_size_expression())
+    gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay: well-shaped triangles
+    gmsh.model.mesh.generate(2)
+
+
+def size_everywhere(gmsh, expression: str) -> None:
+    """The size of gmsh's next mesh at every point from `expression` (a MathEval formula of x, y, z) and from
+    nothing else (the boundary, the points and the curvature give none)."""
     field = gmsh.model.mesh.field.add("MathEval")
-    gmsh.model.mesh.field.setString(field, "F", spec._gmsh_size_expression())
+    gmsh.model.mesh.field.setString(field, "F", expression)
     gmsh.model.mesh.field.setAsBackgroundMesh(field)
     for option in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
         gmsh.option.setNumber(option, 0)
-    gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay: well-shaped triangles
-    gmsh.model.mesh.generate(2)
 
 
 def gmsh_version() -> str:

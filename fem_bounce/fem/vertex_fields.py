@@ -1,14 +1,15 @@
-"""A Taylor-Hood state as P1 fields at the mesh's vertices, for the field files of the fd and ale models.
+"""A Taylor-Hood state as P1 fields at the mesh's vertices, for the field files of the fd, ale and fd3d models.
 
     fields = VertexFields(W)
     fields.update(state)          # velocity, pressure and vorticity of the (u, p) `state`, on the mesh as it is
     fields.functions              # (velocity, pressure, vorticity): what an XDMF file writes
 
-The azimuthal vorticity omega = du_r/dz - du_z/dr is the lumped-mass L2 projection of the P2 velocity's curl:
-each vertex gets the area-weighted mean of the curl around it, assembled on the mesh where it is (a moving mesh
-too), without the over- and undershoots a consistent projection spreads from the thin boundary layers into the
-quiet far field, and the same on any number of ranks (sampling the curl at the vertices took each vertex's value
-from one of its triangles, another one on another rank).
+The vorticity (by default the axisymmetric one, omega = du_r/dz - du_z/dr; the 3-D model passes the component
+normal to its plane of motion) is the lumped-mass L2 projection of the P2 velocity's curl: each vertex gets the
+area- (volume-) weighted mean of the curl around it, assembled on the mesh where it is (a moving mesh too), without
+the over- and undershoots a consistent projection spreads from the thin boundary layers into the quiet far field,
+and the same on any number of ranks (sampling the curl at the vertices took each vertex's value from one of its
+cells, another one on another rank).
 """
 from __future__ import annotations
 
@@ -20,20 +21,21 @@ from .geometry import Axisymmetric
 
 
 class VertexFields:
-    """P1 velocity, pressure and vorticity of states of the Taylor-Hood space W."""
+    """P1 velocity, pressure and vorticity of states of the Taylor-Hood space W; `vorticity`: the scalar vorticity of
+    a velocity (a UFL expression; None: the axisymmetric one), written under `vorticity_name`."""
 
-    def __init__(self, W):
+    def __init__(self, W, vorticity=None, vorticity_name: str = "vorticity"):
         mesh = W.mesh
         vectors = basix.ufl.element("Lagrange", mesh.basix_cell(), 1, shape=(mesh.geometry.dim,))
         self.velocity = fem.Function(fem.functionspace(mesh, vectors), name="velocity")
         scalars = fem.functionspace(mesh, ("Lagrange", 1))
         self.pressure = fem.Function(scalars, name="pressure")
-        self.vorticity = fem.Function(scalars, name="vorticity")
+        self.vorticity = fem.Function(scalars, name=vorticity_name)
         self.state = fem.Function(W)
         z = ufl.TestFunction(scalars)
-        vorticity = Axisymmetric(mesh).vorticity(ufl.split(self.state)[0])
+        curl = (vorticity or Axisymmetric(mesh).vorticity)(ufl.split(self.state)[0])
         # plain dx, not the weighted measure: each vertex's value is the area-weighted mean of the curl around it
-        self._forms = (fem.form(z * ufl.dx), fem.form(vorticity * z * ufl.dx))
+        self._forms = (fem.form(z * ufl.dx), fem.form(curl * z * ufl.dx))
 
     @property
     def functions(self) -> tuple:

@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import cachedir
+from ...fem.mesh import size_everywhere
 from ...output import file_digest, sync_file
 
 FLUID, BALL = 1, 2  # the cell groups (BALL: inside a conforming sphere)
@@ -251,11 +252,7 @@ def _build_model(gmsh, spec: BoxSpec) -> None:
     if ball_volumes:
         gmsh.model.addPhysicalGroup(3, ball_volumes, BALL)
         gmsh.model.setPhysicalName(3, BALL, "ball")
-    field = gmsh.model.mesh.field.add("MathEval")
-    gmsh.model.mesh.field.setString(field, "F", spec._gmsh_size_expression())
-    gmsh.model.mesh.field.setAsBackgroundMesh(field)
-    for option in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
-        gmsh.option.setNumber(option, 0)
+    size_everywhere(gmsh, spec._gmsh_size_expression())
     gmsh.model.mesh.generate(3)
 
 

@@ -83,7 +83,7 @@ from pathlib import Path
 
 import numpy as np
 import ufl
-from dolfinx import fem, la
+from dolfinx import fem
 from dolfinx.io import XDMFFile
 
 from ... import numerics
@@ -93,6 +93,7 @@ from ...fem.functions import CheckpointMismatch, gather_history, scatter_history
 from ...fem.geometry import Cartesian
 from ...fem.solver import SolverError
 from ...fem.transfer import DivergenceFreeProjection
+from ...fem.vertex_fields import VertexFields
 from ...flow_model import (FlowModel, StepLimits, approach_for, end_clipped, flow_gaps, mean_velocity, nearest_gap,
                            safe_fixed_step, steps_to)
 from ...kinematics import FluidForce, PlaneForce, Prediction
@@ -125,33 +126,20 @@ class FieldWriter3D:
     (mesh_displacement: ParaView's Warp By Vector puts the mesh where it was)."""
 
     def __init__(self, comm, mesh, W, path: Path, motion: MeshMotion3D | None = None):
-        scalars = fem.functionspace(mesh, ("Lagrange", 1))
-        vectors = fem.functionspace(mesh, ("Lagrange", 1, (3,)))
         self.motion = motion
+        self.fields = VertexFields(W, vorticity=lambda u: u[0].dx(2) - u[2].dx(0), vorticity_name="vorticity_y")
+        if motion is not None:
+            self.displacement = fem.Function(self.fields.velocity.function_space, name="mesh_displacement")
         where = mesh.geometry.x.copy()  # the mesh where the sphere is now
         if motion is not None:
-            self.displacement = fem.Function(vectors, name="mesh_displacement")
             mesh.geometry.x[:] = motion.reference  # the file's mesh as made
-        self.velocity = fem.Function(vectors, name="velocity")
-        self.pressure = fem.Function(scalars, name="pressure")
-        self.vorticity = fem.Function(scalars, name="vorticity_y")
-        self.state = fem.Function(W)
-        u, z = ufl.split(self.state)[0], ufl.TestFunction(scalars)
-        self._forms = (fem.form(z * ufl.dx), fem.form((u[0].dx(2) - u[2].dx(0)) * z * ufl.dx))
         self.file = XDMFFile(comm, str(path), "w")
         self.file.write_mesh(mesh)
         mesh.geometry.x[:] = where
 
     def write(self, state: fem.Function, t: float) -> None:
-        self.state.x.array[:] = state.x.array
-        self.velocity.interpolate(self.state.sub(0))
-        self.pressure.interpolate(self.state.sub(1))
-        lumped, curl = (fem.assemble_vector(form) for form in self._forms)
-        for vector in (lumped, curl):
-            vector.scatter_reverse(la.InsertMode.add)
-            vector.scatter_forward()
-        self.vorticity.x.array[:] = curl.array / lumped.array
-        written = [self.velocity, self.pressure, self.vorticity]
+        self.fields.update(state)
+        written = list(self.fields.functions)
         if self.motion is not None:  # psi s at the vertices (the P1 spaces share their layout)
             self.displacement.x.array[:] = np.outer(self.motion.psi.x.array, self.motion.shift).ravel()
             written.append(self.displacement)
