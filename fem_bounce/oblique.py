@@ -237,25 +237,26 @@ class TangentialMotion:
         return self.wall_torque.torque_slopes(film_gap, velocity)
 
     def _liquid(self, film_gap: float, state, normal: float):
-        """(F, T, R, dR/d gap, d (excess + history)/dU, d excess/dV) of the liquid at the film's gap, the tangential
-        `state` and the normal velocity `normal` [m/s]; with a resolved flow F and T are the flow's explicit part and
-        what the held flow misses, R the film's resistance below the hold less the hold's (the slopes of the
-        finite-Re torque are `_torque_excess`'s)."""
+        """(F, T, R, dR/d gap, d (excess + history)/dU, d excess/dV, (dT/d gap, dT/dU) of the finite-Re torque) of the
+        liquid at the film's gap, the tangential `state` and the normal velocity `normal` [m/s]; with a resolved flow
+        F and T are the flow's explicit part and what the held flow misses, R the film's resistance below the hold
+        less the hold's."""
         velocity, spin = state[1], state[2]
         if self.resolved:
             explicit = self.fluid.explicit if self.fluid is not None else np.zeros(2)
             if film_gap >= self.hold_gap:
-                return float(explicit[0]), float(explicit[1]), np.zeros((2, 2)), np.zeros((2, 2)), 0.0, 0.0
+                return float(explicit[0]), float(explicit[1]), np.zeros((2, 2)), np.zeros((2, 2)), 0.0, 0.0, (0.0, 0.0)
             resistance, slope = wall_tangential_resistance(self.radius, self.viscosity, film_gap)
             missed = resistance - self._held
             force, torque = explicit - missed @ np.array([velocity, spin])
-            return float(force), float(torque), missed, slope, 0.0, 0.0
+            return float(force), float(torque), missed, slope, 0.0, 0.0, (0.0, 0.0)
         resistance, slope = wall_tangential_resistance(self.radius, self.viscosity, film_gap)
         excess, d_excess, d_normal = self._drag_excess(velocity, normal)
         history, d_history = self._history(state)
         force, torque = -resistance @ np.array([velocity, spin])
-        torque += self._spin_history(state) + self._torque_excess(film_gap, velocity)[0]
-        return force + excess + history, torque, resistance, slope, d_excess + d_history, d_normal
+        sliding_torque, *torque_slopes = self._torque_excess(film_gap, velocity)
+        torque += self._spin_history(state) + sliding_torque
+        return force + excess + history, torque, resistance, slope, d_excess + d_history, d_normal, torque_slopes
 
     def terms(self, state, gap: float, rate: float, film_gap: float, engaged: float | None) -> dict:
         """The forces along the wall [N], the liquid's torque [N m] and the spring's rate [m/s] at the tangential
@@ -316,7 +317,7 @@ class TangentialMotion:
         a, n = self.radius, len(self.names)
         slip = velocity - a * spin
         _, _, f_slip, f_stretch, r_slip, r_stretch = self.friction.slopes(gap, rate, engaged, slip, stretch)
-        _, _, resistance, slope, d_excess, d_normal = self._liquid(film_gap, state, rate)
+        _, _, resistance, slope, d_excess, d_normal, (d_gap, d_velocity) = self._liquid(film_gap, state, rate)
         own = np.zeros((self.size, self.size))
         own[0, 0], own[0, 1] = shift, -1.0
         own[1, 1] = shift * self.mass + resistance[0, 0] - d_excess - f_slip
@@ -333,8 +334,7 @@ class TangentialMotion:
         own[n:, n:] = np.diag(shift + 1.0 / self.mode_times)
         normal = np.zeros((self.size, 2))
         normal[1:3, 0] = film_slope * (slope @ np.array([velocity, spin]))
-        _, d_gap, d_velocity = self._torque_excess(film_gap, velocity)
-        own[2, 1] -= d_velocity
+        own[2, 1] -= d_velocity  # the finite-Re torque's
         normal[2, 0] -= film_slope * d_gap
         normal[1, 1] = -d_normal  # the drag's inertia through the normal speed (the gap's rate is V)
         if self.resolved and self.fluid is not None:
