@@ -120,18 +120,17 @@ QUALITY_RATIO = 0.5
 class FieldWriter3D:
     """The velocity, pressure and vorticity component omega_y = du_x/dz - du_z/dx (normal to the symmetry plane y = 0,
     the plane of the motion) of a Taylor-Hood state as P1 fields at the vertices, one XDMF time series per mesh
-    (dolfinx's parallel writer).  omega_y is the lumped-mass L2 projection of the P2 velocity's curl (each vertex
-    the volume-weighted mean around it), as fem.vertex_fields does in 2-D (whose writer is axisymmetric only).
+    (dolfinx's parallel writer; the fields are fem.vertex_fields', omega_y the lumped-mass L2 projection of the P2
+    velocity's curl, each vertex the volume-weighted mean around it).
     On a moving mesh (`motion`) the file holds the mesh as it was made and each snapshot its displacement
     (mesh_displacement: ParaView's Warp By Vector puts the mesh where it was)."""
 
     def __init__(self, comm, mesh, W, path: Path, motion: MeshMotion3D | None = None):
         self.motion = motion
         self.fields = VertexFields(W, vorticity=lambda u: u[0].dx(2) - u[2].dx(0), vorticity_name="vorticity_y")
-        if motion is not None:
-            self.displacement = fem.Function(self.fields.velocity.function_space, name="mesh_displacement")
         where = mesh.geometry.x.copy()  # the mesh where the sphere is now
         if motion is not None:
+            self.displacement = fem.Function(self.fields.velocity.function_space, name="mesh_displacement")
             mesh.geometry.x[:] = motion.reference  # the file's mesh as made
         self.file = XDMFFile(comm, str(path), "w")
         self.file.write_mesh(mesh)
