@@ -18,7 +18,8 @@ plus, for each neighbouring pair, the pair's Stokes interaction and its potentia
 that of the two spheres alone, summed over the pairs, and the wall's is added to sphere 1's, not solved
 as one many-body problem (docs/physics.md section 6).  A resolved model hands in its force for the
 coming fluid step linearised in the accelerations, f_sim,i = explicit_i - sum_j added_mass_ij dV_j/dt
-(FluidForce), so the mass matrix is implicit and the coupling stays stable for light spheres; below
+(FluidForce), so the mass matrix is implicit and the coupling stays stable for light spheres; explicit_i runs
+linearly through the step from the step before's (numerics.ode.flow_force = "linear", FluidForce.ramp); below
 delta_sl its correction (contact.near_wall = "correction") is added per contact, or, for one sphere under
 the paper's blend, f_sl = H f_thr + (1 - H) f_sim.  A held ("fixed") or prescribed sphere follows its
 motion (bodies.Body.prescribed).
@@ -133,7 +134,7 @@ class BodyEquations:
         self._mode_slices = [slice(int(end) - modes, int(end)) for end, modes in zip(ends, self.n_history)]
         self._drag_scaled_history = scene.contact.history_wall_factor == "drag-scaled"
         self._pause_history = scene.contact.history_across_contact == "pause"
-        self.fluid = FluidForce.none(count)
+        self.fluid = self.step_fluid = FluidForce.none(count)  # the flow's force now; over its whole step
         self.contacts: list[Contact] = []
         for k in range(count - 1):
             pair = PairContactModel(scene, resolved, lower=k)
@@ -357,6 +358,14 @@ class BodyEquations:
             if lower is not None:
                 f.other_slopes.append((k, layout.velocity_index(lower), -sign * d_rate * self._rate_slopes[lower]))
 
+    def flow_at(self, t: float) -> None:
+        """The resolved flow's force at t [s] within its fluid step (FluidForce.at), which the balance and the
+        tangential rows read."""
+        if self.step_fluid.ramp is not None:
+            self.fluid = self.step_fluid.at(t)
+            if self.tangential is not None:
+                self.tangential.fluid = self.fluid.plane
+
     def _balance(self, t: float, f: ForceTerms) -> tuple[np.ndarray, np.ndarray]:
         """(M, R): the equations of motion read M dV/dt = R (a held or prescribed sphere's row: its
         acceleration).  The theory force weighs `blend` (1 for the ODE model), the resolved flow's 1 - blend."""
@@ -378,6 +387,7 @@ class BodyEquations:
         M dV/dt - R and the history modes z' - dV/dt + z / T.  Returns the integrator's own array, rewritten by
         the next call."""
         layout = self.kinematics
+        self.flow_at(t)
         mass, rhs = self._balance(t, self.forces(t, y))
         out, rates = self._residual_out, self._rates(y)
         gaps, velocities = layout.gap_slice, layout.velocity_slice
@@ -421,6 +431,7 @@ class BodyEquations:
         equations of motion's are the force terms' own derivatives (ForceTerms) and the added masses'
         d(M dV/dt)/dy.  Dense (n, n); the solver keeps only its nonzero pattern."""
         count, n, layout = len(self.bodies), self.n, self.kinematics
+        self.flow_at(t)
         f = self.forces(t, y)
         mass, _ = self._balance(t, f)
         accelerations = np.asarray(layout.velocities(ydot)).tolist()
@@ -509,6 +520,7 @@ class BodyEquations:
         trajectory's columns (output.trajectory_columns): one sphere's plain, more with suffixes _1, _2,
         ... and the gaps between neighbours.  f_added_mass holds the pairs' added mass too; f_history is
         in f_theory.  Under fixed or prescribed motion the forces are those along the imposed path."""
+        self.flow_at(t)
         f = self.forces(t, y)
         mass, rhs = self._balance(t, f)
         accel = np.linalg.solve(mass, rhs)

@@ -404,9 +404,10 @@ class BodyIntegrator(BodyEquations):
         by a film collision (contact.model = "ehd", `_film_jump`) resumes after the jump, which may carry
         the time past t_end by the film's collision time."""
         if fluid is not None:
-            self.fluid = fluid
+            self.fluid = self.step_fluid = fluid
             if self.tangential is not None:
                 self.tangential.fluid = fluid.plane
+            self.flow_at(self.time)
         if self.done or t_end <= self.time:
             return
         if self.steps == 0:  # the initial state is the first row

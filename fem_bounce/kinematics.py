@@ -14,7 +14,7 @@ entry.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -34,16 +34,40 @@ class PlaneForce:
 class FluidForce:
     """A resolved model's forces on the N bodies over one fluid step [N, kg]:
     f_sim,i = explicit_i - sum_j added_mass_ij dV_j/dt, `explicit` of shape (N,), `added_mass` (N, N);
-    `plane`: the force along the wall and the torque of an oblique collision (None: head-on, or none resolved)."""
+    `plane`: the force along the wall and the torque of an oblique collision (None: head-on, or none resolved).
+
+    `ramp` (t_n, t_n+1, the explicit part at t_n, the plane's at t_n or None): the explicit parts run linearly from
+    their values at the step's start (the step before's end) to this step's at its end, the trapezoidal rule of the
+    flow's force over the step (second order in the step; held at the end's value, the rectangle rule, it is first
+    order: numerics.ode.flow_force).  None: held at the end's value."""
 
     explicit: np.ndarray
     added_mass: np.ndarray
     plane: PlaneForce | None = None
+    ramp: tuple | None = None
 
     @classmethod
     def none(cls, count: int) -> FluidForce:
         """No force from the flow (before a resolved model's first step)."""
         return cls(np.zeros(count), np.zeros((count, count)))
+
+    def ramped(self, before: FluidForce, start: float, end: float) -> FluidForce:
+        """This step's force from t = `start` to `end` [s], its explicit parts running from `before`'s (the step
+        before's, at `start`) to its own; unchanged where `before` has none of the same shape."""
+        if np.shape(before.explicit) != np.shape(self.explicit) or (before.plane is None) != (self.plane is None):
+            return self
+        plane = None if self.plane is None else before.plane.explicit
+        return replace(self, ramp=(start, end, before.explicit, plane))
+
+    def at(self, t: float) -> FluidForce:
+        """The force at time t [s] within its step: the explicit parts interpolated along the ramp (None: itself)."""
+        if self.ramp is None:
+            return self
+        start, end, explicit, plane = self.ramp
+        weight = min(max((t - start) / (end - start), 0.0), 1.0) if end > start else 1.0
+        along = None if self.plane is None else replace(
+            self.plane, explicit=plane + weight * (self.plane.explicit - plane))
+        return FluidForce(explicit + weight * (self.explicit - explicit), self.added_mass, along)
 
 
 @dataclass(frozen=True)

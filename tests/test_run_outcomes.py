@@ -66,7 +66,7 @@ def test_nothing_left_to_do_ends_the_run(bounces, tmp_path, monkeypatch, capsys)
     # the fixed mesh's (on the moving mesh the lagged force at the step's reference velocity carried this sphere up
     # to the lid without gaining energy)
     ("fd", ["numerics.fd.cells_per_diameter=6", "numerics.fd.coupling=explicit", "sphere.density=96",
-            "run.end_time=0.02", "numerics.fd.mesh=fixed"]),
+            "run.end_time=0.02", "numerics.fd.mesh=fixed", "numerics.ode.flow_force=end"]),  # classically held
 ])
 def test_energy_gain_stops_the_run_and_names_the_coupling(model, overrides, tmp_path, capsys):
     """An unstable coupling threw spheres up at several times their impact speed and nothing caught the

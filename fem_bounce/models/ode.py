@@ -11,11 +11,19 @@ run's observers see each of them.
 from __future__ import annotations
 
 from ..flow_model import FlowModel
+from ..scene import SceneError
 
 
 class OdeModel(FlowModel):
     name = "ode"
     resolved = False
+
+    def __init__(self, scene, comm):
+        super().__init__(scene, comm)
+        if scene.numerics.ode.flow_force != "linear":
+            raise SceneError(f'numerics.ode.flow_force = "{scene.numerics.ode.flow_force}" is read nowhere by the ode '
+                             "model: it says how the integrator takes a resolved flow's force through a fluid step "
+                             "(fd, ib, ale, fd3d), and the ode model has no flow: unset it")
 
     def build(self, integrator) -> None:
         self.unknowns = integrator.n
