@@ -21,7 +21,8 @@ class OdeNumerics:
     # a resolved flow's force through its fluid step (its part not from the accelerations, FluidForce.explicit):
     # "linear" from the step before's value at the step's start to the step's own at its end, the trapezoidal rule,
     # second order in the step; "end" the end's value held through the step (the rectangle rule, first order: the
-    # default until 2026-12-08, case 3's first apex +0.7 % at the fd default's steps, docs/validation.md section 12)
+    # default until 2026-12-08; case 3's first apex +2.3 % at the fd default's steps, +0.2 % now: validation.md
+    # section 12)
     flow_force: str = field(default="linear", metadata={"choices": ("linear", "end")})
 
 
