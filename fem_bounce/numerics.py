@@ -20,9 +20,9 @@ class OdeNumerics:
     output_interval: float = _setting(0.0, 0.0, 1.0, "s")  # trajectory rows; 0: every step
     # a resolved flow's force through its fluid step (its part not from the accelerations, FluidForce.explicit):
     # "linear" from the step before's value at the step's start to the step's own at its end, the trapezoidal rule,
-    # second order in the step; "end" the end's value held through the step (the rectangle rule, first order: the
-    # default until 2026-12-08; case 3's first apex +2.3 % at the fd default's steps, +0.2 % now: validation.md
-    # section 12)
+    # second order in the step (the step after a contact holds its own); "end" the end's value held through the step,
+    # the rectangle rule, first order, the default until 2026-12-08 (validation.md section 12, "The flow's force
+    # through a step")
     flow_force: str = field(default="linear", metadata={"choices": ("linear", "end")})
 
 
@@ -126,9 +126,8 @@ class FdNumerics:
     checkpoint_every: int = _setting(200, 0, 10**9)  # 0: no checkpoints
     steady_stokes: bool = False  # held sphere at Re -> 0: solve for the step's steady state, no marching
     # "implicit": the sphere integrator gets F* and the numerical added mass (stable for light spheres);
-    # "explicit": F at the extrapolated velocity only, the classical lagged coupling (for comparison; classically held
-    # through each step, numerics.ode.flow_force = "end": taken linearly, tests/test_fd_model.py's light sphere did not
-    # diverge)
+    # "explicit": F at the extrapolated velocity only, the classical lagged coupling (for comparison; the classical
+    # scheme holds it through each step: numerics.ode.flow_force = "end")
     coupling: str = field(default="implicit", metadata={"choices": ("implicit", "explicit")})
 
 

@@ -76,8 +76,9 @@ class CoupledStep(Stepper):
         integrator.advance(flow_model.next_time(), fluid)
         flow_model.complete(integrator.velocities, integrator.time)
         self.predictor.push(integrator.velocities)
-        # after a step with a contact in it the step's explicit force is the flow's before the reversal: the next
-        # step holds its own (a ramp from it over a long step after the reversal lost 5 % of e at one step length)
+        # after a step with a contact in it the step's explicit force is the flow's before the reversal (the reversal is
+        # in the added mass's part): the next step holds its own (validation.md section 12, "The flow's force through a
+        # step")
         touched = contacts != self._contacts() or any(engaged for engaged, _ in contacts)
         self.before = None if touched else fluid
 
